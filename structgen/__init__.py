@@ -1,0 +1,38 @@
+"""structgen: grow 3D lattice structures with neural cellular automata and judge them in rigid-body physics.
+
+``import structgen`` is light: the Structure type eagerly, the NCA (which needs torch) on first use. It never imports
+the ``physics`` or ``evolution`` packages.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from structgen.structure import Structure, StructureError
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "LocalNCA",
+    "NCAConfig",
+    "Structure",
+    "StructureError",
+    "__version__",
+    "grow",
+    "grow_population",
+    "random_weights",
+]
+
+_NCA_NAMES = {"LocalNCA", "NCAConfig", "grow", "grow_population", "random_weights"}
+
+if TYPE_CHECKING:
+    from structgen.nca import LocalNCA, NCAConfig, grow, grow_population, random_weights
+
+
+def __getattr__(name: str) -> Any:
+    # torch takes a second or two to import; commands that only read structures should not pay for it.
+    if name in _NCA_NAMES:
+        from structgen import nca
+
+        return getattr(nca, name)
+    raise AttributeError(f"module 'structgen' has no attribute {name!r}")

@@ -1,0 +1,5 @@
+import sys
+
+from structgen.cli import main
+
+sys.exit(main())

@@ -1,0 +1,239 @@
+"""The ``structgen`` command line: thin wrappers over library functions that scripts can call directly.
+
+Results go to stdout, logs to stderr. Exit codes: 0 success, 1 runtime failure, 2 bad input or usage (a one-line
+message naming the file and the problem; ``--verbose`` adds the traceback). Nothing is written when input is bad.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import traceback
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from structgen import __version__
+from structgen.structure import Structure, StructureError
+
+log = logging.getLogger("structgen")
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class InputError(Exception):
+    """Bad input from the user (a file, an option value); reported in one line with exit code 2."""
+
+
+# -- shared option groups ---------------------------------------------------------------------------------------------
+def _add_mesh_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("mesh dimensions (mesh formats only; defaults match the physics model)")
+    group.add_argument("--sphere-radius", type=float, metavar="R", help="radius of the vertex spheres (default 0.25)")
+    group.add_argument("--cylinder-radius", type=float, metavar="R", help="radius of the edge cylinders (default 0.08)")
+    group.add_argument("--spacing", type=float, metavar="S", help="world length of one lattice step (default 1.0)")
+
+
+def _mesh_options(args: argparse.Namespace) -> dict[str, float]:
+    names = {"sphere_radius": args.sphere_radius, "cylinder_radius": args.cylinder_radius, "spacing": args.spacing}
+    return {name: value for name, value in names.items() if value is not None}
+
+
+def _add_nca_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("NCA (defaults follow the paper)")
+    group.add_argument("--iterations", type=int, metavar="N", help="growth steps from the seed vertex (default 5)")
+    group.add_argument("--cutoff", type=float, metavar="X", help="an output fires above this sigmoid value (default 0.5)")
+    group.add_argument("--hidden", type=int, metavar="N", help="hidden layer size (default 60)")
+    group.add_argument(
+        "--no-build-down", action="store_true", help="never grow below the seed's level (the paper's special rule)"
+    )
+    group.add_argument("--max-vertices", type=int, metavar="N", help="stop growth before exceeding this (default 10000)")
+    group.add_argument("--max-extent", type=int, metavar="N", help="never build further than N cells from the seed (default 32)")
+
+
+def _nca_config(args: argparse.Namespace):
+    from structgen.nca import NCAConfig
+
+    options = {
+        "iterations": args.iterations,
+        "cutoff": args.cutoff,
+        "hidden": args.hidden,
+        "max_vertices": args.max_vertices,
+        "max_extent": args.max_extent,
+    }
+    settings: dict[str, Any] = {name: value for name, value in options.items() if value is not None}
+    if args.no_build_down:
+        settings["build_down"] = False
+    try:
+        return NCAConfig(**settings)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+
+
+def _load_structure(path: str) -> Structure:
+    source = Path(path)
+    if source.is_dir():
+        raise InputError(f"{source}: is a folder, expected a structure JSON file")
+    return Structure.load(source)
+
+
+def _write(structure: Structure, output: str, mesh: dict[str, float]) -> Path:
+    path = Path(output)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, expected an output file name")
+    if mesh and path.suffix.lower() == ".json":
+        raise InputError(f"{path}: mesh dimensions only apply to mesh formats (.glb, .obj, .stl, .ply)")
+    return structure.export(path, **mesh)
+
+
+def _describe(structure: Structure) -> str:
+    return f"{structure.n_vertices} vertices, {structure.n_edges} edges, height {structure.height}"
+
+
+# -- subcommands --------------------------------------------------------------------------------------------------------
+def cmd_grow(args: argparse.Namespace) -> int:
+    from structgen.nca import LocalNCA, load_weights
+
+    config = _nca_config(args)
+    mesh = _mesh_options(args)
+    if args.weights:
+        try:
+            nca = LocalNCA(load_weights(args.weights, config), config)
+        except ValueError as err:
+            raise InputError(str(err)) from None
+        origin: dict[str, Any] = {"weights_file": str(args.weights)}
+    else:
+        nca = LocalNCA.random(args.seed, config)
+        origin = {"random_seed": args.seed}
+    structure = nca.grow()
+    growth = structure.metadata["growth"]
+    if growth["hit_max_vertices"]:
+        log.warning("growth stopped after %d steps at --max-vertices %d", growth["iterations_run"], config.max_vertices)
+    if growth["hit_max_extent"]:
+        log.warning("some growth was dropped at --max-extent %d", config.max_extent)
+    structure = structure.with_metadata(**origin)
+    path = _write(structure, args.output, mesh)
+    print(f"{path}: {_describe(structure)}")
+    return EXIT_OK
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    output = args.output_option or args.output
+    if not output:
+        raise InputError("export needs an output file: structgen export FILE OUT (or -o OUT)")
+    if args.output_option and args.output:
+        raise InputError("give the output file once, either as OUT or as -o OUT")
+    structure = _load_structure(args.source)
+    path = _write(structure, output, _mesh_options(args))
+    print(f"{path}: {_describe(structure)}")
+    return EXIT_OK
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    structure = _load_structure(args.file)
+    summary = {"file": str(args.file), **structure.summary()}
+    if args.json:
+        print(json.dumps(summary))
+        return EXIT_OK
+    low, high = summary["bounds"]["min"], summary["bounds"]["max"]
+    rows = [
+        ("file", summary["file"]),
+        ("vertices", summary["vertices"]),
+        ("edges", summary["edges"]),
+        ("height", summary["height"]),
+        ("bounds", f"{low} .. {high}"),
+        ("components", summary["components"]),
+        ("isolated", summary["isolated_vertices"]),
+        ("max degree", summary["max_degree"]),
+    ]
+    for name, value in rows:
+        print(f"{name:<11} {value}")
+    return EXIT_OK
+
+
+# -- parser -------------------------------------------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="structgen",
+        description="Grow 3D lattice structures with neural cellular automata, export them, and inspect them.",
+    )
+    parser.add_argument("--version", action="version", version=f"structgen {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log more, and show tracebacks on errors")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    grow = commands.add_parser(
+        "grow",
+        help="grow a structure from a random or saved NCA",
+        description="Grow a structure from one seed vertex with the paper's local NCA and write it to OUT "
+        "(structure JSON, or a mesh: .glb, .obj, .stl, .ply).",
+    )
+    source = grow.add_mutually_exclusive_group()
+    source.add_argument("--seed", type=int, default=0, metavar="N", help="random NCA drawn with this seed (default 0)")
+    source.add_argument("--weights", metavar="FILE", help="NCA weights: .npy (1-D array) or .json (list of numbers)")
+    grow.add_argument("-o", "--output", required=True, metavar="OUT", help="output file; format from the suffix")
+    _add_nca_options(grow)
+    _add_mesh_options(grow)
+    grow.set_defaults(handler=cmd_grow)
+
+    export = commands.add_parser(
+        "export",
+        help="convert a structure file to a mesh",
+        description="Write the structure in FILE to OUT; the format follows OUT's suffix "
+        "(.glb y-up with metadata, .obj, .stl, .ply, or .json).",
+    )
+    export.add_argument("source", metavar="FILE", help="structure JSON file")
+    export.add_argument("output", nargs="?", metavar="OUT", help="output file (or use -o)")
+    export.add_argument("-o", dest="output_option", metavar="OUT", help="output file")
+    _add_mesh_options(export)
+    export.set_defaults(handler=cmd_export)
+
+    info = commands.add_parser(
+        "info",
+        help="print counts, height and connectivity of a structure",
+        description="Print a structure's vertex and edge counts, height, bounding box and connected components.",
+    )
+    info.add_argument("file", metavar="FILE", help="structure JSON file")
+    info.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    info.set_defaults(handler=cmd_info)
+    return parser
+
+
+def _report(message: str) -> None:
+    print(f"structgen: error: {message}", file=sys.stderr)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO,
+        format="%(levelname)s: %(message)s",
+        stream=sys.stderr,
+        force=True,
+    )
+    handler: Callable[[argparse.Namespace], int] = args.handler
+    try:
+        return handler(args)
+    except (InputError, StructureError) as err:
+        _report(str(err))
+    except FileNotFoundError as err:
+        _report(f"{err.filename}: no such file")
+    except (IsADirectoryError, PermissionError) as err:
+        _report(f"{err.filename}: {err.strerror.lower()}")
+    except KeyboardInterrupt:
+        _report("interrupted")
+        return 130
+    except Exception as err:  # a bug or an environment failure, not the user's input
+        _report(f"{type(err).__name__}: {err}")
+        if args.verbose:
+            traceback.print_exc()
+        return EXIT_FAILURE
+    if args.verbose:
+        traceback.print_exc()
+    return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

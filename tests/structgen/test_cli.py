@@ -1,0 +1,180 @@
+"""The structgen command line: results on stdout, one-line errors with exit code 2, nothing written on bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from structgen import LocalNCA, NCAConfig, Structure
+from structgen.cli import main
+from structgen.nca import save_weights
+
+GOOD = '{"vertices": [[0, 0, 0], [0, 0, 1], [1, 0, 1]], "edges": [[0, 1], [1, 2]]}'
+
+
+@pytest.fixture
+def good_file(tmp_path: Path) -> Path:
+    path = tmp_path / "good.json"
+    path.write_text(GOOD)
+    return path
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(err: str, *fragments: str) -> None:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("structgen: error: ") and "Traceback" not in err
+    for fragment in fragments:
+        assert fragment in lines[0]
+
+
+# -- grow ---------------------------------------------------------------------------------------------------------------
+def test_grow_from_a_seed_writes_the_random_ncas_structure(tmp_path, capsys):
+    code, out, _ = run(capsys, "grow", "--seed", 3, "--iterations", 3, "-o", tmp_path / "s.json")
+    assert code == 0
+    grown = Structure.load(tmp_path / "s.json")
+    expected = LocalNCA.random(3, NCAConfig(iterations=3)).grow()
+    assert (grown.vertices.tolist(), grown.edges.tolist()) == (expected.vertices.tolist(), expected.edges.tolist())
+    assert grown.metadata["random_seed"] == 3 and grown.metadata["growth"]["iterations"] == 3
+    assert out.startswith(f"{tmp_path / 's.json'}: {grown.n_vertices} vertices")
+
+
+def test_grow_from_saved_weights_and_straight_to_a_mesh(tmp_path, capsys):
+    weights = save_weights(tmp_path / "w.npy", LocalNCA.random(9).get_weights())
+    code, _, _ = run(capsys, "grow", "--weights", weights, "--cutoff", 0.55, "-o", tmp_path / "s.glb")
+    assert code == 0
+    scene = trimesh.load(tmp_path / "s.glb")
+    expected = LocalNCA.random(9, NCAConfig(cutoff=0.55)).grow()
+    assert scene.metadata["n_vertices"] == expected.n_vertices
+
+
+def test_grow_is_deterministic(tmp_path, capsys):
+    run(capsys, "grow", "--seed", 5, "-o", tmp_path / "a.json")
+    run(capsys, "grow", "--seed", 5, "-o", tmp_path / "b.json")
+    assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()
+
+
+@pytest.mark.parametrize(
+    "argv, fragments",
+    [
+        (["--weights", "{tmp}/missing.npy"], ["missing.npy", "no such file"]),
+        (["--weights", "{tmp}/short.json"], ["short.json", "holds 2 weights"]),
+        (["--cutoff", "1.5"], ["cutoff", "1.5"]),
+        (["--iterations", "-2"], ["iterations"]),
+    ],
+)
+def test_grow_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, argv, fragments):
+    (tmp_path / "short.json").write_text("[0.5, 0.25]")
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    code, out, err = run(capsys, "grow", *argv, "-o", tmp_path / "out.json")
+    assert code == 2 and out == ""
+    assert_one_line_error(err, *fragments)
+    assert not (tmp_path / "out.json").exists()
+
+
+def test_grow_seed_and_weights_together_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["grow", "--seed", "1", "--weights", "w.npy", "-o", str(tmp_path / "x.json")])
+    assert exit_info.value.code == 2
+    assert "not allowed with" in capsys.readouterr().err
+
+
+# -- export -------------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("suffix", [".glb", ".obj", ".stl", ".ply", ".json"])
+def test_export_by_suffix(tmp_path, capsys, good_file, suffix):
+    out_path = tmp_path / f"out{suffix}"
+    code, out, _ = run(capsys, "export", good_file, out_path)
+    assert code == 0 and out_path.exists() and "3 vertices, 2 edges" in out
+    if suffix != ".json":
+        assert len(trimesh.load(out_path, force="mesh").faces) == len(Structure.load(good_file).to_mesh().faces)
+
+
+def test_export_with_dash_o_and_dimensions(tmp_path, capsys, good_file):
+    code, _, _ = run(capsys, "export", good_file, "-o", tmp_path / "thin.stl", "--cylinder-radius", 0.02)
+    assert code == 0
+    thick = Structure.load(good_file).to_mesh()
+    thin = trimesh.load(tmp_path / "thin.stl")
+    assert thin.volume < thick.volume
+
+
+@pytest.mark.parametrize(
+    "content, fragments",
+    [
+        ('{"vertices": [[0, 0, 0], [0, 0, 2]], "edges": [[0, 1]]}', ["bad.json", "edges[0]", "not lattice neighbours"]),
+        ('{"vertices": [[0, 0, 0.5]], "edges": []}', ["bad.json", "vertices[0]", "not an integer"]),
+        ("{ nope", ["bad.json", "not valid JSON"]),
+        ('{"vertices": [[0, 0, 0]], "edges": [], "extra": 1}', ["bad.json", "unknown field 'extra'"]),
+    ],
+)
+def test_export_of_a_broken_file_exits_2_and_keeps_the_old_output(tmp_path, capsys, content, fragments):
+    (tmp_path / "bad.json").write_text(content)
+    target = tmp_path / "out.glb"
+    target.write_bytes(b"previous output")
+    code, out, err = run(capsys, "export", tmp_path / "bad.json", target)
+    assert code == 2 and out == ""
+    assert_one_line_error(err, *fragments)
+    assert target.read_bytes() == b"previous output"
+    assert sorted(os.listdir(tmp_path)) == ["bad.json", "out.glb"]
+
+
+@pytest.mark.parametrize(
+    "argv, fragments",
+    [
+        (["{tmp}/absent.json", "{tmp}/o.stl"], ["absent.json", "no such file"]),
+        (["{good}", "{tmp}/o.fbx"], ["o.fbx", "unknown export format"]),
+        (["{good}"], ["needs an output file"]),
+        (["{good}", "{tmp}/o.json", "--sphere-radius", "0.2"], ["only apply to mesh formats"]),
+        (["{tmp}", "{tmp}/o.stl"], ["is a folder"]),
+    ],
+)
+def test_export_usage_problems_exit_2(tmp_path, capsys, good_file, argv, fragments):
+    argv = [a.replace("{tmp}", str(tmp_path)).replace("{good}", str(good_file)) for a in argv]
+    code, _, err = run(capsys, "export", *argv)
+    assert code == 2
+    assert_one_line_error(err, *fragments)
+    assert sorted(os.listdir(tmp_path)) == ["good.json"]
+
+
+# -- info ---------------------------------------------------------------------------------------------------------------
+def test_info_json(capsys, good_file):
+    code, out, _ = run(capsys, "info", good_file, "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert data["vertices"] == 3 and data["edges"] == 2 and data["height"] == 1 and data["components"] == 1
+    assert data["bounds"] == {"min": [0, 0, 0], "max": [1, 0, 1]}
+
+
+def test_info_table(capsys, good_file):
+    code, out, _ = run(capsys, "info", good_file)
+    assert code == 0
+    table = dict(line.split(None, 1) for line in out.strip().splitlines() if not line.startswith("max"))
+    assert table["vertices"] == "3" and table["edges"] == "2" and table["height"] == "1" and table["components"] == "1"
+
+
+def test_info_of_a_missing_file(tmp_path, capsys):
+    code, out, err = run(capsys, "info", tmp_path / "nope.json")
+    assert code == 2 and out == ""
+    assert_one_line_error(err, "nope.json", "no such file")
+
+
+# -- the installed entry point --------------------------------------------------------------------------------------------
+def test_console_script_and_help_for_every_subcommand(tmp_path):
+    script = Path(sys.executable).with_name("structgen")
+    command = [str(script)] if script.exists() else [sys.executable, "-m", "structgen"]
+    for sub in ([], ["grow"], ["export"], ["info"]):
+        done = subprocess.run([*command, *sub, "--help"], capture_output=True, text=True, check=False)
+        assert done.returncode == 0 and "usage: structgen" in done.stdout
+    done = subprocess.run([*command, "info", str(tmp_path / "x.json")], capture_output=True, text=True, check=False)
+    assert done.returncode == 2 and "Traceback" not in done.stderr and done.stdout == ""

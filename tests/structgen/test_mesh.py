@@ -1,0 +1,106 @@
+"""Meshes: spheres and cylinders of the physics model's size, and exports that load back in trimesh."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+import trimesh
+
+from structgen import Structure, StructureError
+from structgen.mesh import MeshStyle
+
+SPHERE = trimesh.creation.icosphere(subdivisions=MeshStyle().sphere_subdivisions)
+CYLINDER = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=MeshStyle().cylinder_sections)
+
+
+def column(n: int) -> Structure:
+    return Structure([[0, 0, z] for z in range(n)], [[z, z + 1] for z in range(n - 1)])
+
+
+def diagonal() -> Structure:
+    return Structure([[0, 0, 0], [1, 1, 1]], [[0, 1]], {"name": "diagonal"})
+
+
+def test_mesh_has_one_sphere_per_vertex_and_one_cylinder_per_edge():
+    mesh = column(3).to_mesh()
+    assert len(mesh.vertices) == 3 * len(SPHERE.vertices) + 2 * len(CYLINDER.vertices)
+    assert len(mesh.faces) == 3 * len(SPHERE.faces) + 2 * len(CYLINDER.faces)
+
+
+def test_default_dimensions_match_the_physics_model():
+    bounds = column(2).to_mesh().bounds
+    np.testing.assert_allclose(bounds, [[-0.25, -0.25, -0.25], [0.25, 0.25, 1.25]], atol=1e-9)
+
+
+def test_cylinders_run_between_sphere_surfaces_along_the_edge():
+    style = MeshStyle(sphere_radius=0.2, cylinder_radius=0.05, spacing=2.0)
+    mesh = diagonal().to_mesh(sphere_radius=0.2, cylinder_radius=0.05, spacing=2.0)
+    rod = mesh.vertices[2 * len(trimesh.creation.icosphere(subdivisions=style.sphere_subdivisions).vertices) :]
+    axis = np.ones(3) / np.sqrt(3)
+    along = rod @ axis
+    across = np.linalg.norm(rod - along[:, None] * axis, axis=1)
+    np.testing.assert_allclose([along.min(), along.max()], [0.2, 2 * np.sqrt(3) - 0.2], atol=1e-9)
+    on_rim = np.isclose(across, 0.05, atol=1e-9)
+    assert on_rim.sum() >= 2 * style.cylinder_sections and np.all(on_rim | np.isclose(across, 0, atol=1e-9))
+
+
+@pytest.mark.parametrize("suffix", [".stl", ".obj", ".ply"])
+def test_z_up_exports_load_back_with_the_same_geometry(tmp_path, suffix):
+    structure = column(3)
+    path = structure.export(tmp_path / f"column{suffix}")
+    loaded = trimesh.load(path, force="mesh")
+    expected = structure.to_mesh()
+    assert len(loaded.faces) == len(expected.faces)
+    np.testing.assert_allclose(loaded.bounds, expected.bounds, atol=1e-5)
+
+
+def test_glb_is_y_up_and_carries_the_metadata(tmp_path):
+    structure = Structure([[0, 0, 0], [0, 0, 1], [0, 1, 2]], [[0, 1], [1, 2]], {"run": "r1", "score": 2.5})
+    scene = trimesh.load(structure.export(tmp_path / "s.glb"))
+    assert set(scene.geometry) == {"vertices", "edges"}
+    z_up = structure.to_mesh().bounds
+    y_up = scene.to_geometry().bounds
+    # (x, y, z) -> (x, z, -y): height moves to y, depth to -z.
+    np.testing.assert_allclose(y_up[:, 0], z_up[:, 0], atol=1e-5)
+    np.testing.assert_allclose(y_up[:, 1], z_up[:, 2], atol=1e-5)
+    np.testing.assert_allclose(y_up[:, 2], -z_up[::-1, 1], atol=1e-5)
+    meta = scene.metadata
+    assert meta["up_axis"] == "y" and meta["n_vertices"] == 3 and meta["n_edges"] == 2 and meta["height"] == 2
+    assert meta["structure_metadata"] == {"run": "r1", "score": 2.5}
+
+
+def test_structure_without_edges_exports(tmp_path):
+    scene = trimesh.load(Structure([[0, 0, 0]], []).export(tmp_path / "lone.glb"))
+    assert set(scene.geometry) == {"vertices"}
+
+
+def test_json_export_is_the_structure_file(tmp_path):
+    assert Structure.load(diagonal().export(tmp_path / "d.json")) == diagonal()
+
+
+def test_unknown_format_is_refused_and_nothing_is_written(tmp_path):
+    with pytest.raises(StructureError, match="unknown export format '.fbx'"):
+        column(2).export(tmp_path / "c.fbx")
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize(
+    "dimensions, message",
+    [({"sphere_radius": 0.5}, "less than half the spacing"), ({"cylinder_radius": -1.0}, "cylinder_radius"), ({"spacing": 0}, "spacing")],
+)
+def test_bad_dimensions_are_refused(tmp_path, dimensions, message):
+    with pytest.raises(StructureError, match=message):
+        column(2).export(tmp_path / "c.stl", **dimensions)
+    assert not (tmp_path / "c.stl").exists()
+
+
+def test_export_overwrites_only_on_success(tmp_path):
+    path = column(2).export(tmp_path / "c.stl")
+    before = path.read_bytes()
+    with pytest.raises(StructureError):
+        column(3).export(path, sphere_radius=2.0)
+    assert path.read_bytes() == before
+    column(3).export(path)
+    assert path.read_bytes() != before
