@@ -87,6 +87,48 @@ def _write(structure: Structure, output: str, mesh: dict[str, float]) -> Path:
     return structure.export(path, **mesh)
 
 
+def _add_physics_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("physics")
+    group.add_argument(
+        "--preset",
+        choices=("faithful", "fast"),
+        default="faithful",
+        help="faithful: the paper's protocol (1/240 s steps, 50 solver iterations, 30 s); fast: 1/120 s, "
+        "20 iterations, stop when settled, at most 3 s (default faithful)",
+    )
+    group.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="change one physics setting, e.g. --set break_force=60 --set horizon=10 (repeatable; see README)",
+    )
+
+
+def _physics_config(args: argparse.Namespace):
+    from physics import PhysicsConfig
+
+    from structgen.config import ConfigError, apply_overrides
+
+    try:
+        return apply_overrides(PhysicsConfig.preset(args.preset), args.set, "physics")
+    except ConfigError as err:
+        raise InputError(str(err)) from None
+
+
+def _checked(args: argparse.Namespace):
+    """Load the file, simulate it, and return (structure, report); size caps and bad files are input errors."""
+    from physics import InputError as PhysicsInputError
+    from physics import check_stability
+
+    config = _physics_config(args)
+    structure = _load_structure(args.file)
+    try:
+        return structure, check_stability(structure, config)
+    except PhysicsInputError as err:
+        raise InputError(f"{args.file}: {err}") from None
+
+
 def _describe(structure: Structure) -> str:
     return f"{structure.n_vertices} vertices, {structure.n_edges} edges, height {structure.height}"
 
@@ -152,11 +194,58 @@ def cmd_info(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_check(args: argparse.Namespace) -> int:
+    _, report = _checked(args)
+    if args.json:
+        print(json.dumps({"file": str(args.file), **report.to_dict()}))
+    else:
+        broken = len(report.broken_joints)
+        verdict = "stands (no joint broke)" if report.intact else f"breaks ({broken} of {report.n_joints} joints broke)"
+        if report.exploded:
+            verdict = "the simulation exploded (scored as collapsed)"
+        rows = [
+            ("file", args.file),
+            ("preset", report.config.preset_name or f"{args.preset}, customised"),
+            ("verdict", verdict),
+            ("integrity", f"{report.integrity:.4f}"),
+            ("height", f"{report.height:.3f}"),
+            ("complexity", report.complexity),
+            ("score", f"{report.score:.4f}"),
+            ("simulated", f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled")),
+            ("cpu", f"{report.cpu_time:.3f} s"),
+        ]
+        for name, value in rows:
+            print(f"{name:<11} {value}")
+        for joint in report.broken_joints[:10]:
+            print(
+                f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) at {joint.time:.3f} s, "
+                f"{joint.force:.1f} N"
+            )
+        if broken > 10:
+            print(f"broken      ... and {broken - 10} more (--json lists all)")
+    if args.strict and not report.intact:
+        return EXIT_FAILURE
+    return EXIT_OK
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from structgen.render import render_check
+
+    output = Path(args.output)
+    if output.suffix.lower() != ".png":
+        raise InputError(f"{output}: render writes PNG images; give a name ending in .png")
+    _, report = _checked(args)
+    render_check(report, output, dpi=args.dpi)
+    print(f"{output}: {'stands' if report.intact else 'breaks'}, I = {report.integrity:.3f}, Q = {report.score:.3f}")
+    return EXIT_OK
+
+
 # -- parser -------------------------------------------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="structgen",
-        description="Grow 3D lattice structures with neural cellular automata, export them, and inspect them.",
+        description="Grow 3D lattice structures with neural cellular automata, export them, inspect them, and check "
+        "whether they stand under gravity.",
     )
     parser.add_argument("--version", action="version", version=f"structgen {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more, and show tracebacks on errors")
@@ -196,6 +285,32 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("file", metavar="FILE", help="structure JSON file")
     info.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     info.set_defaults(handler=cmd_info)
+
+    check = commands.add_parser(
+        "check",
+        help="simulate a structure under gravity and report whether it stands",
+        description="Build FILE as rigid bodies (a sphere per vertex, a cylinder per edge, breakable fixed joints), "
+        "rest it on the ground under gravity, and report integrity I (share of joints unbroken), height H, "
+        "complexity C (vertex count) and the score Q = I + (Wh*H + Wc*C)*I. Exits 0 whether or not it stands "
+        "(1 with --strict if it breaks).",
+    )
+    check.add_argument("file", metavar="FILE", help="structure JSON file")
+    check.add_argument("--json", action="store_true", help="print the whole report as one JSON object")
+    check.add_argument("--strict", action="store_true", help="exit with 1 if any joint breaks")
+    _add_physics_options(check)
+    check.set_defaults(handler=cmd_check)
+
+    render = commands.add_parser(
+        "render",
+        help="draw a structure before and after its stability check",
+        description="Simulate FILE as 'check' does and draw it as placed and as it ended up, broken joints in red, "
+        "to a PNG image (no display needed).",
+    )
+    render.add_argument("file", metavar="FILE", help="structure JSON file")
+    render.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image to write")
+    render.add_argument("--dpi", type=int, default=110, help="image resolution (default 110)")
+    _add_physics_options(render)
+    render.set_defaults(handler=cmd_render)
     return parser
 
 
@@ -207,12 +322,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.INFO,
-        format="%(levelname)s: %(message)s",
-        stream=sys.stderr,
-        force=True,
-    )
+    # Our packages talk at INFO; third-party libraries (matplotlib, dask) only when something is wrong.
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s: %(message)s", stream=sys.stderr, force=True)
+    for name in ("structgen", "physics", "evolution"):
+        logging.getLogger(name).setLevel(logging.DEBUG if args.verbose else logging.INFO)
     handler: Callable[[argparse.Namespace], int] = args.handler
     try:
         return handler(args)

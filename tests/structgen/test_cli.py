@@ -173,8 +173,100 @@ def test_info_of_a_missing_file(tmp_path, capsys):
 def test_console_script_and_help_for_every_subcommand(tmp_path):
     script = Path(sys.executable).with_name("structgen")
     command = [str(script)] if script.exists() else [sys.executable, "-m", "structgen"]
-    for sub in ([], ["grow"], ["export"], ["info"]):
+    for sub in ([], ["grow"], ["export"], ["info"], ["check"], ["render"]):
         done = subprocess.run([*command, *sub, "--help"], capture_output=True, text=True, check=False)
         assert done.returncode == 0 and "usage: structgen" in done.stdout
     done = subprocess.run([*command, "info", str(tmp_path / "x.json")], capture_output=True, text=True, check=False)
     assert done.returncode == 2 and "Traceback" not in done.stderr and done.stdout == ""
+
+
+# -- check and render -----------------------------------------------------------------------------------------------------
+COLUMN_4 = '{"vertices": [[0, 0, 0], [0, 0, 1], [0, 0, 2], [0, 0, 3]], "edges": [[0, 1], [1, 2], [2, 3]]}'
+SQUARE = '{"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], "edges": [[0, 1], [0, 2], [1, 3], [2, 3]]}'
+
+
+@pytest.fixture
+def square(tmp_path: Path) -> Path:
+    path = tmp_path / "square.json"
+    path.write_text(SQUARE)
+    return path
+
+
+@pytest.fixture
+def column_4(tmp_path: Path) -> Path:
+    path = tmp_path / "column4.json"
+    path.write_text(COLUMN_4)
+    return path
+
+
+def test_check_json_reports_the_required_fields(capsys, square):
+    code, out, err = run(capsys, "check", square, "--preset", "fast", "--json")
+    assert code == 0 and err == ""
+    report = json.loads(out)
+    for key in ("integrity", "height", "complexity", "score", "broken_joints", "settled"):
+        assert key in report
+    assert report["integrity"] == 1.0 and report["complexity"] == 4 and report["preset"] == "fast"
+    assert report["broken_joints"] == [] and report["settled"] is True
+    assert report["score"] == pytest.approx(1 + report["height"] + 4)
+
+
+def test_check_of_a_breaking_structure_exits_0_unless_strict(capsys, column_4):
+    code, out, _ = run(capsys, "check", column_4, "--preset", "fast")
+    assert code == 0 and "breaks" in out and "broken      joint 0 (edge 0, vertex 0)" in out
+    code, _, _ = run(capsys, "check", column_4, "--preset", "fast", "--strict")
+    assert code == 1
+
+
+def test_check_strict_passes_a_standing_structure(capsys, square):
+    code, out, _ = run(capsys, "check", square, "--preset", "fast", "--strict")
+    assert code == 0 and "stands" in out
+
+
+def test_check_set_overrides_a_physics_setting(capsys, column_4):
+    code, out, _ = run(capsys, "check", column_4, "--preset", "fast", "--set", "break_force=70", "--json")
+    assert code == 0
+    report = json.loads(out)
+    assert report["integrity"] == 1.0 and report["config"]["break_force"] == 70.0 and report["preset"] is None
+
+
+@pytest.mark.parametrize(
+    "setting, fragments",
+    [
+        ("bogus=1", ["unknown setting 'physics.bogus'", "timestep"]),
+        ("timestep=abc", ["physics.timestep = 'abc'", "expected a number"]),
+        ("solver_iterations=2.5", ["physics.solver_iterations", "expected an integer"]),
+        ("timestep=-1", ["timestep must be a positive number"]),
+        ("nonsense", ["expected key=value"]),
+    ],
+)
+def test_check_bad_settings_exit_2_naming_the_key(capsys, column_4, setting, fragments):
+    code, out, err = run(capsys, "check", column_4, "--set", setting)
+    assert code == 2 and out == ""
+    assert_one_line_error(err, *fragments)
+
+
+def test_check_refuses_structures_over_the_size_cap(capsys, column_4):
+    code, _, err = run(capsys, "check", column_4, "--set", "max_joints=4")
+    assert code == 2
+    assert_one_line_error(err, "column4.json", "more than max_joints = 4")
+
+
+def test_check_of_a_broken_file(tmp_path, capsys):
+    (tmp_path / "bad.json").write_text('{"vertices": [[0, 0, 0], [0, 0, 0]], "edges": []}')
+    code, _, err = run(capsys, "check", tmp_path / "bad.json")
+    assert code == 2
+    assert_one_line_error(err, "bad.json", "vertices[1] duplicates vertices[0]")
+
+
+def test_render_writes_a_png_before_and_after(tmp_path, capsys, column_4):
+    code, out, _ = run(capsys, "render", column_4, "-o", tmp_path / "c.png", "--preset", "fast", "--dpi", 40)
+    assert code == 0 and "breaks" in out
+    data = (tmp_path / "c.png").read_bytes()
+    assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 1000
+
+
+def test_render_refuses_other_formats_and_writes_nothing(tmp_path, capsys, column_4):
+    code, _, err = run(capsys, "render", column_4, "-o", tmp_path / "c.jpg")
+    assert code == 2
+    assert_one_line_error(err, "c.jpg", "PNG")
+    assert not (tmp_path / "c.jpg").exists()

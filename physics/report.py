@@ -1,0 +1,134 @@
+"""What a stability check reports, and the paper's score."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from physics.config import PhysicsConfig
+
+__all__ = ["BrokenJoint", "StabilityReport", "quality"]
+
+
+def quality(integrity: float, height: float, complexity: float, config: PhysicsConfig) -> float:
+    """The paper's score Q = I + (W_h * H + W_c * C) * I: height and complexity only count as far as it stands."""
+    return integrity + (config.height_weight * height + config.complexity_weight * complexity) * integrity
+
+
+def height_of(z: np.ndarray, config: PhysicsConfig) -> float:
+    """H in lattice units from vertex heights in metres: highest minus lowest, or mean above lowest."""
+    if len(z) == 0 or not np.isfinite(z).all():
+        return 0.0
+    top = z.max() if config.height_mode == "max" else z.mean()
+    return float((top - z.min()) / config.spacing)
+
+
+@dataclass(frozen=True)
+class BrokenJoint:
+    """A joint that gave way: which one, between which edge and vertex, when, and under what load."""
+
+    joint: int
+    edge: int
+    vertex: int
+    time: float
+    force: float
+    torque: float
+
+
+@dataclass(frozen=True)
+class StabilityReport:
+    """The outcome of simulating one structure under gravity.
+
+    ``integrity`` (I) is the share of joints still unbroken, ``height`` (H) the final height in lattice units (see
+    ``PhysicsConfig.height_mode``), ``complexity`` (C) the vertex count, and ``score`` (Q) the paper's
+    ``I + (W_h * H + W_c * C) * I``. A simulation that exploded, or a check that failed, reports I = 0 and Q = 0.
+    Positions are in metres, z up, with the ground at z = 0.
+    """
+
+    integrity: float
+    height: float
+    complexity: int
+    score: float
+    n_joints: int
+    broken_joints: tuple[BrokenJoint, ...]
+    joint_forces: np.ndarray  # (J,) force each joint carried in the last step, N; NaN for broken joints
+    peak_force: float  # the largest force any joint carried in any step, N (the spawn transient included)
+    initial_positions: np.ndarray  # (V, 3) sphere centres as placed
+    final_positions: np.ndarray  # (V, 3) sphere centres at the end
+    final_edge_ends: np.ndarray  # (E, 2, 3) cylinder end points at the end
+    edges: np.ndarray  # (E, 2) the structure's edges, for drawing
+    sim_time: float
+    steps: int
+    settled: bool
+    exploded: bool = False
+    error: str | None = None
+    wall_time: float = 0.0
+    cpu_time: float = 0.0
+    config: PhysicsConfig = field(default_factory=PhysicsConfig)
+
+    @property
+    def intact(self) -> bool:
+        """No joint broke and the simulation ran normally."""
+        return not self.broken_joints and not self.exploded and self.error is None
+
+    @property
+    def broken_edges(self) -> np.ndarray:
+        """Indices of edges with at least one broken joint, sorted."""
+        return np.unique(np.array([b.edge for b in self.broken_joints], dtype=np.int64))
+
+    def to_dict(self, *, positions: bool = True) -> dict[str, Any]:
+        """Plain JSON-ready values; ``positions=False`` leaves out the per-body coordinates."""
+        data: dict[str, Any] = {
+            "integrity": self.integrity,
+            "height": self.height,
+            "complexity": self.complexity,
+            "score": self.score,
+            "intact": self.intact,
+            "n_joints": self.n_joints,
+            "broken_joints": [asdict(b) for b in self.broken_joints],
+            "peak_force": self.peak_force,
+            "sim_time": self.sim_time,
+            "steps": self.steps,
+            "settled": self.settled,
+            "exploded": self.exploded,
+            "error": self.error,
+            "wall_time": self.wall_time,
+            "cpu_time": self.cpu_time,
+            "preset": self.config.preset_name,
+            "config": {k: (v if not (isinstance(v, float) and math.isinf(v)) else "inf") for k, v in asdict(self.config).items()},
+        }
+        if positions:
+            data["initial_positions"] = self.initial_positions.tolist()
+            data["final_positions"] = self.final_positions.tolist()
+            data["final_edge_ends"] = self.final_edge_ends.tolist()
+            data["edges"] = self.edges.tolist()
+            data["joint_forces"] = [None if np.isnan(f) else f for f in self.joint_forces.tolist()]
+        return data
+
+    @classmethod
+    def failed(cls, vertices: np.ndarray, edges: np.ndarray, message: str, config: PhysicsConfig) -> StabilityReport:
+        """The report of a check that could not be completed: integrity and score 0, with the reason."""
+        n_vertices, n_edges = len(vertices), len(edges)
+        nowhere = np.full((n_vertices, 3), np.nan)
+        return cls(
+            integrity=0.0,
+            height=0.0,
+            complexity=n_vertices,
+            score=0.0,
+            n_joints=2 * n_edges,
+            broken_joints=(),
+            joint_forces=np.full(2 * n_edges, np.nan),
+            peak_force=0.0,
+            initial_positions=nowhere,
+            final_positions=nowhere,
+            final_edge_ends=np.full((n_edges, 2, 3), np.nan),
+            edges=np.asarray(edges, dtype=np.int64).reshape(-1, 2),
+            sim_time=0.0,
+            steps=0,
+            settled=False,
+            error=message,
+            config=config,
+        )

@@ -1,0 +1,92 @@
+"""Reference structures: the calibration shapes of the paper's physics, and random lattice growth for test sets.
+
+The calibration shapes pin the physics model (tests/physics): with unit masses and a 52.5 N break force, a
+:func:`column` of 3 vertices stands, a column of 4 breaks, a column of 4 :func:`braced` at its first level stands, and
+a :func:`flat_edge` stands.
+
+:func:`random_growth` makes varied structures of a chosen size, which random NCAs do not (they grow either a lone
+seed or a blob that fills their growth box); benchmarks use it to measure the physics on realistic small and
+medium structures.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from structgen.lattice import OFFSETS, are_neighbours
+from structgen.structure import Structure
+
+__all__ = ["braced", "cantilever", "column", "flat_edge", "random_growth"]
+
+
+def column(n: int) -> Structure:
+    """``n`` vertices stacked straight up from the ground, each joined to the next."""
+    return Structure([[0, 0, z] for z in range(n)], [[z, z + 1] for z in range(n - 1)], {"sample": f"column({n})"})
+
+
+def braced(n: int = 4) -> Structure:
+    """A column of ``n`` vertices held at its first level by four diagonal struts from ground vertices."""
+    if n < 2:
+        raise ValueError(f"a braced column needs at least 2 vertices, got {n}")
+    base = column(n)
+    feet = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
+    vertices = [*base.vertices.tolist(), *feet]
+    edges = [*base.edges.tolist(), *[[1, n + k] for k in range(4)]]
+    return Structure(vertices, edges, {"sample": f"braced({n})"})
+
+
+def cantilever(arm: int, n: int = 2) -> Structure:
+    """A braced column of ``n`` vertices with a horizontal arm of ``arm`` vertices sticking out from its top."""
+    base = braced(max(n, 2))
+    vertices = base.vertices.tolist()
+    edges = base.edges.tolist()
+    top = max(n, 2) - 1
+    previous = top
+    for k in range(1, arm + 1):
+        vertices.append([k, 0, top])
+        edges.append([previous, len(vertices) - 1])
+        previous = len(vertices) - 1
+    return Structure(vertices, edges, {"sample": f"cantilever({arm}, {n})"})
+
+
+def flat_edge() -> Structure:
+    """Two vertices side by side on the ground, joined."""
+    return Structure([[0, 0, 0], [1, 0, 0]], [[0, 1]], {"sample": "flat_edge"})
+
+
+def random_growth(n_vertices: int, seed: int, *, extra_edges: float = 0.3, upward: float = 0.2) -> Structure:
+    """A random connected structure of ``n_vertices`` grown from a seed on the ground.
+
+    Each new vertex goes to an empty lattice neighbour of a random existing vertex and is joined to it: one of the 9
+    cells a layer up with probability ``upward``, otherwise one of the 17 cells in the same layer or below (never
+    below the ground). Then every other pair of neighbouring vertices is joined with probability ``extra_edges``.
+    Low ``upward`` gives wide, low structures that mostly stand; high ``upward`` gives towers that mostly fall.
+    The same arguments give the same structure.
+    """
+    if n_vertices < 1:
+        raise ValueError(f"n_vertices must be at least 1, got {n_vertices}")
+    if not 0 <= extra_edges <= 1 or not 0 <= upward <= 1:
+        raise ValueError("extra_edges and upward must be in [0, 1]")
+    rng = np.random.default_rng(seed)
+    cells = [(0, 0, 0)]
+    taken = {cells[0]}
+    edges = []
+    up, other = np.flatnonzero(OFFSETS[:, 2] > 0), np.flatnonzero(OFFSETS[:, 2] <= 0)
+    while len(cells) < n_vertices:
+        parent_index = int(rng.integers(len(cells)))
+        step = OFFSETS[int(rng.choice(up if rng.random() < upward else other))]
+        child = tuple(int(c) for c in np.add(cells[parent_index], step))
+        if child in taken or child[2] < 0:
+            continue
+        taken.add(child)
+        cells.append(child)
+        edges.append((parent_index, len(cells) - 1))
+    points = np.array(cells)
+    joined = {tuple(sorted(e)) for e in edges}
+    i, j = np.triu_indices(len(points), k=1)
+    near = are_neighbours(points[i], points[j])
+    for a, b in zip(i[near].tolist(), j[near].tolist()):
+        if (a, b) not in joined and rng.random() < extra_edges:
+            edges.append((a, b))
+    sample = f"random_growth({n_vertices}, seed={seed}, extra_edges={extra_edges}, upward={upward})"
+    return Structure(points, np.array(edges, dtype=np.int64).reshape(-1, 2), {"sample": sample})
