@@ -80,7 +80,11 @@ def _build(client: _Client, bodies: Bodies, config: PhysicsConfig) -> tuple[list
     pb.resetSimulation(physicsClientId=cid)
     pb.setGravity(0, 0, -config.gravity, physicsClientId=cid)
     pb.setPhysicsEngineParameter(
-        fixedTimeStep=config.timestep, numSolverIterations=config.solver_iterations, numSubSteps=0, physicsClientId=cid
+        fixedTimeStep=config.timestep,
+        numSolverIterations=config.solver_iterations,
+        solverResidualThreshold=config.solver_residual,
+        numSubSteps=0,
+        physicsClientId=cid,
     )
     ground = pb.createMultiBody(0, pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
     pb.setCollisionFilterGroupMask(ground, -1, _GROUND_GROUP, 0xFFFF, physicsClientId=cid)

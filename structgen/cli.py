@@ -94,7 +94,7 @@ def _add_physics_options(parser: argparse.ArgumentParser) -> None:
         choices=("faithful", "fast"),
         default="faithful",
         help="faithful: the paper's protocol (1/240 s steps, 50 solver iterations, 30 s); fast: 1/120 s, "
-        "20 iterations, stop when settled, at most 3 s (default faithful)",
+        "20 iterations, stop when settled, at most 2 s (default faithful)",
     )
     group.add_argument(
         "--set",
