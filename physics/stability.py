@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -15,13 +15,17 @@ from physics.report import BrokenJoint, StabilityReport, height_of, quality
 __all__ = ["check_or_fail", "check_stability"]
 
 
-def check_stability(structure: Any, config: PhysicsConfig | None = None) -> StabilityReport:
+def check_stability(
+    structure: Any, config: PhysicsConfig | None = None, *, errors: Literal["raise", "report"] = "raise"
+) -> StabilityReport:
     """Simulate ``structure`` resting on the ground under gravity, with joints that break under load.
 
     Args:
         structure: anything with ``vertices`` ((V, 3), lattice units, z up) and ``edges`` ((E, 2) vertex indices):
             a ``structgen.Structure``, a mapping with those keys, or a ``(vertices, edges)`` pair.
         config: model and simulation settings; the default is the faithful preset (``PhysicsConfig()``).
+        errors: "raise" (default) raises on bad input; "report" returns a failed report instead (I = Q = 0,
+            ``error`` set), for batches where one bad structure must not stop the rest.
 
     Returns:
         A :class:`StabilityReport`. A simulation that explodes (non-finite or runaway positions or speeds) is
@@ -31,6 +35,9 @@ def check_stability(structure: Any, config: PhysicsConfig | None = None) -> Stab
         physics.InputError: the structure is malformed or larger than ``config.max_vertices`` / ``max_joints``.
     """
     config = config or PhysicsConfig()
+    if errors == "report":
+        vertices, edges = read_structure(structure)
+        return check_or_fail(vertices, edges, config)
     started_wall, started_cpu = time.perf_counter(), time.process_time()
     vertices, edges = read_structure(structure)
     bodies = place(vertices, edges, config)

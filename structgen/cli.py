@@ -163,13 +163,30 @@ def cmd_grow(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     output = args.output_option or args.output
     if not output:
-        raise InputError("export needs an output file: structgen export FILE OUT (or -o OUT)")
+        raise InputError("export needs an output file: structgen export SOURCE OUT (or -o OUT)")
     if args.output_option and args.output:
         raise InputError("give the output file once, either as OUT or as -o OUT")
-    structure = _load_structure(args.source)
+    source = Path(args.source)
+    if source.is_dir():
+        structure = _run_elite(source, args.elite)
+    else:
+        if args.elite != "best":
+            raise InputError("--elite only applies to run folders")
+        structure = _load_structure(args.source)
     path = _write(structure, output, _mesh_options(args))
     print(f"{path}: {_describe(structure)}")
     return EXIT_OK
+
+
+def _run_elite(run_dir: Path, elite: str) -> Structure:
+    from structgen.runs import elite_genome, open_run
+
+    folder, experiment = open_run(run_dir)
+    problem = experiment.make_problem()
+    if not hasattr(problem, "structure_of"):
+        raise InputError(f"{run_dir}: a run of the {experiment.problem_name!r} problem has no structures to export")
+    genome = elite_genome(folder, experiment, elite)
+    return problem.structure_of(genome).with_metadata(run=str(run_dir), elite=elite)
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -240,6 +257,41 @@ def cmd_render(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _report_run(folder, state) -> None:
+    best = state.best
+    print(f"{folder.path}: {state.generation} generations, {state.evaluations} evaluations, {state.elapsed:.1f} s")
+    if best is not None:
+        details = ", ".join(f"{k} {v:g}" for k, v in best.fields.items())
+        print(f"best: objective {best.objective:g} (generation {best.generation}); {details}")
+
+
+def cmd_evolve(args: argparse.Namespace) -> int:
+    from evolution import graceful_interrupt
+
+    from structgen.experiment import load_experiment
+    from structgen.runs import evolve
+
+    changes = {"generations": args.generations, "seed": args.seed, "workers": args.workers, "cluster": args.cluster}
+    experiment = load_experiment(args.config, overrides=args.set, optimizer=args.optimizer, run_changes=changes)
+    with graceful_interrupt() as stop:
+        folder, state = evolve(experiment, args.run_dir, overwrite=args.overwrite, stop_requested=stop)
+        _report_run(folder, state)
+        return 130 if stop() else EXIT_OK
+
+
+def cmd_resume(args: argparse.Namespace) -> int:
+    from evolution import graceful_interrupt
+
+    from structgen.runs import resume
+
+    with graceful_interrupt() as stop:
+        folder, state = resume(
+            args.run_dir, generations=args.generations, workers=args.workers, cluster=args.cluster, stop_requested=stop
+        )
+        _report_run(folder, state)
+        return 130 if stop() else EXIT_OK
+
+
 # -- parser -------------------------------------------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -267,13 +319,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     export = commands.add_parser(
         "export",
-        help="convert a structure file to a mesh",
-        description="Write the structure in FILE to OUT; the format follows OUT's suffix "
+        help="write a structure file, or an elite of a run, as a mesh",
+        description="Write the structure in SOURCE (a structure JSON file, or a run folder's best candidate or "
+        "archive elite, regrown from its genome) to OUT; the format follows OUT's suffix "
         "(.glb y-up with metadata, .obj, .stl, .ply, or .json).",
     )
-    export.add_argument("source", metavar="FILE", help="structure JSON file")
+    export.add_argument("source", metavar="SOURCE", help="structure JSON file or run folder")
     export.add_argument("output", nargs="?", metavar="OUT", help="output file (or use -o)")
     export.add_argument("-o", dest="output_option", metavar="OUT", help="output file")
+    export.add_argument(
+        "--elite",
+        default="best",
+        metavar="best|index:I",
+        help="for a run folder: the best candidate (default) or the archive elite in cell I (see archive.csv)",
+    )
     _add_mesh_options(export)
     export.set_defaults(handler=cmd_export)
 
@@ -311,6 +370,45 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--dpi", type=int, default=110, help="image resolution (default 110)")
     _add_physics_options(render)
     render.set_defaults(handler=cmd_render)
+
+    evolve = commands.add_parser(
+        "evolve",
+        help="run an evolution (with no arguments: the README's main job)",
+        description="Evolve with the configuration in CONFIG (TOML with [run], [problem] and [optimizer] tables), "
+        "or, without CONFIG, the built-in main job: the paper's setup scaled to a few minutes (GA, population 40, "
+        "NCA vertex cap 64, fast physics). Writes a run folder: config.toml, manifest.json, checkpoint.pkl, "
+        "metrics.jsonl, best/, plots, and archive.csv for quality diversity. Ctrl-C finishes the generation, "
+        "checkpoints and exits (130); `structgen resume` continues.",
+    )
+    evolve.add_argument("config", nargs="?", metavar="CONFIG.toml", help="run configuration (default: the main job)")
+    evolve.add_argument("--optimizer", metavar="NAME", help="ga, cma_es, map_elites or cma_mae (sets optimizer.name)")
+    evolve.add_argument("--generations", type=int, metavar="N", help="generations in total (sets run.generations)")
+    evolve.add_argument("--seed", type=int, metavar="N", help="the run's seed (sets run.seed)")
+    evolve.add_argument("--workers", type=int, metavar="N", help="local evaluation processes, 0 for none (run.workers)")
+    evolve.add_argument("--cluster", metavar="ADDRESS", help="evaluate on the Dask scheduler at ADDRESS (run.cluster)")
+    evolve.add_argument("--run-dir", metavar="DIR", help="run folder to create (default runs/<problem>-<optimizer>-s<seed>-<time>)")
+    evolve.add_argument("--overwrite", action="store_true", help="replace RUN_DIR if it is already a run folder")
+    evolve.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="change any setting by its dotted name, e.g. optimizer.population=100, problem.nca.cutoff=0.6, "
+        "problem.physics.preset=faithful (repeatable)",
+    )
+    evolve.set_defaults(handler=cmd_evolve)
+
+    resume = commands.add_parser(
+        "resume",
+        help="continue a run from its last checkpoint",
+        description="Continue the run in RUN_DIR from its last checkpoint, reading only its config.toml; the result "
+        "is the same as if it had never stopped.",
+    )
+    resume.add_argument("run_dir", metavar="RUN_DIR", help="run folder")
+    resume.add_argument("--generations", type=int, metavar="N", help="run up to N generations in total (default: as configured)")
+    resume.add_argument("--workers", type=int, metavar="N", help="local evaluation processes this time (results do not change)")
+    resume.add_argument("--cluster", metavar="ADDRESS", help="evaluate on this Dask scheduler this time")
+    resume.set_defaults(handler=cmd_resume)
     return parser
 
 
@@ -327,9 +425,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name in ("structgen", "physics", "evolution"):
         logging.getLogger(name).setLevel(logging.DEBUG if args.verbose else logging.INFO)
     handler: Callable[[argparse.Namespace], int] = args.handler
+    from structgen.config import ConfigError
+
     try:
         return handler(args)
-    except (InputError, StructureError) as err:
+    except (InputError, StructureError, ConfigError) as err:
         _report(str(err))
     except FileNotFoundError as err:
         _report(f"{err.filename}: no such file")
@@ -339,6 +439,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         _report("interrupted")
         return 130
     except Exception as err:  # a bug or an environment failure, not the user's input
+        if type(err).__name__ == "RunFolderError":  # a missing or unusable run folder is the user's input
+            _report(str(err))
+            return EXIT_BAD_INPUT
         _report(f"{type(err).__name__}: {err}")
         if args.verbose:
             traceback.print_exc()

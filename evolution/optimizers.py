@@ -1,0 +1,317 @@
+"""Ask/tell optimisers, chosen by name: the paper's GA, CMA-ES (pycma), MAP-Elites and CMA-MAE (pyribs).
+
+Every optimiser has the shape of a pyribs scheduler: :meth:`Optimizer.ask` returns a batch of genomes and
+:meth:`Optimizer.tell` takes their ``objective`` (higher is better), ``measures`` and extra ``fields``. All state,
+random generators included, lives in the object and pickles, so a checkpoint is the pickled optimiser and a resumed
+run continues exactly where it stopped.
+
+Settings are one frozen dataclass per optimiser (``OPTIMIZERS[name].settings``); :func:`make_optimizer` builds one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from evolution.problem import Problem
+
+__all__ = [
+    "OPTIMIZERS",
+    "CMAESSettings",
+    "CMAMAESettings",
+    "GASettings",
+    "MapElitesSettings",
+    "Optimizer",
+    "OptimizerSpec",
+    "make_optimizer",
+]
+
+
+def _positive_int(settings: Any, *names: str) -> None:
+    for name in names:
+        value = getattr(settings, name)
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise ValueError(f"optimizer {name} must be a positive integer, got {value!r}")
+
+
+def _in_range(settings: Any, name: str, low: float, high: float, *, low_open: bool = False) -> None:
+    value = getattr(settings, name)
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or value > high or value < low or (low_open and value == low):
+        bound = f"({low}, {high}]" if low_open else f"[{low}, {high}]"
+        raise ValueError(f"optimizer {name} must be a number in {bound}, got {value!r}")
+
+
+class Optimizer:
+    """Base class: ``ask()`` a batch, evaluate it, ``tell()`` the results. ``archive`` is the quality-diversity
+    archive that holds the results (None for optimisers without one).
+
+    An optimiser pickles without its problem (problems may hold worker pools); after unpickling, :meth:`attach` the
+    problem again before asking.
+    """
+
+    archive: Any = None
+    problem: Problem | None = None
+
+    def attach(self, problem: Problem) -> None:
+        """Give the optimiser its problem again (after loading from a checkpoint)."""
+        self.problem = problem
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["problem"] = None
+        return state
+
+    def ask(self) -> Any:
+        raise NotImplementedError
+
+    def tell(self, objective: np.ndarray, measures: np.ndarray, **fields: np.ndarray) -> None:
+        raise NotImplementedError
+
+
+# -- the paper's genetic algorithm ----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class GASettings:
+    """The paper's loop: keep the best ``parents``, fill the population with mutated copies of random parents.
+
+    Attributes:
+        population: genomes per generation, parents included (100 in the paper).
+        parents: best genomes kept unchanged, without re-evaluation (20 in the paper).
+        mutation_rate: share of the genes of a flat genome moved in each mutation.
+        mutation_scale: a moved gene changes by a uniform value in [-scale, scale] (0.25 in the paper).
+        crossover_rate: chance that a child starts from two parents combined (``Problem.crossover``) before mutation;
+            0 by default, as the paper found recombination no better than random networks.
+    """
+
+    population: int = 100
+    parents: int = 20
+    mutation_rate: float = 0.05
+    mutation_scale: float = 0.25
+    crossover_rate: float = 0.0
+
+    def __post_init__(self) -> None:
+        _positive_int(self, "population", "parents")
+        if self.parents >= self.population:
+            raise ValueError(f"optimizer parents ({self.parents}) must be fewer than population ({self.population})")
+        _in_range(self, "mutation_rate", 0.0, 1.0, low_open=True)
+        _in_range(self, "mutation_scale", 0.0, math.inf, low_open=True)
+        _in_range(self, "crossover_rate", 0.0, 1.0)
+
+
+class GeneticAlgorithm(Optimizer):
+    """Elitist GA: the first generation is ``population`` random genomes; every later one is
+    ``population - parents`` children, and the parents for the next come from parents and children together."""
+
+    def __init__(self, problem: Problem, settings: GASettings, seed: int) -> None:
+        self.problem, self.settings = problem, settings
+        self.rng = np.random.default_rng(seed)
+        self.parents: Any = None  # genomes
+        self.parent_objective = np.zeros(0)
+        self._asked: Any = None
+
+    def ask(self) -> Any:
+        s = self.settings
+        if self.parents is None:
+            self._asked = self.problem.initial_genomes(s.population, self.rng)
+            return self._asked
+        children = []
+        n_parents = len(self.parent_objective)
+        for _ in range(s.population - s.parents):
+            parent = self.parents[int(self.rng.integers(n_parents))]
+            if s.crossover_rate and self.rng.random() < s.crossover_rate:
+                other = self.parents[int(self.rng.integers(n_parents))]
+                parent = self.problem.crossover(parent, other, self.rng)
+            children.append(self._mutate(parent))
+        self._asked = np.array(children) if self.problem.flat else children
+        return self._asked
+
+    def _mutate(self, genome: Any) -> Any:
+        if not self.problem.flat:
+            return self.problem.mutate(genome, self.rng)
+        s = self.settings
+        moved = self.rng.random(len(genome)) < s.mutation_rate
+        return genome + moved * self.rng.uniform(-s.mutation_scale, s.mutation_scale, len(genome))
+
+    def tell(self, objective: np.ndarray, measures: np.ndarray, **fields: np.ndarray) -> None:
+        if self._asked is None:
+            raise RuntimeError("tell() before ask()")
+        if self.parents is None:
+            pool, scores = list(self._asked), np.asarray(objective, dtype=np.float64)
+        else:
+            pool = list(self.parents) + list(self._asked)
+            scores = np.concatenate([self.parent_objective, objective])
+        # Stable sort: among equal scores, parents (listed first) stay ahead of children.
+        keep = np.argsort(-scores, kind="stable")[: self.settings.parents]
+        chosen = [pool[i] for i in keep]
+        self.parents = np.array(chosen) if self.problem.flat else chosen
+        self.parent_objective = scores[keep]
+        self._asked = None
+
+
+# -- CMA-ES (pycma) ---------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CMAESSettings:
+    """CMA-ES from the ``cma`` package.
+
+    Attributes:
+        population: samples per generation (pycma's popsize).
+        sigma0: initial step size.
+        diagonal: learn only a diagonal covariance (sep-CMA-ES). Needed for thousands of parameters: a full
+            covariance of the NCA's 4766 weights is 180 MB and its decomposition takes seconds.
+    """
+
+    population: int = 100
+    sigma0: float = 0.1
+    diagonal: bool = True
+
+    def __post_init__(self) -> None:
+        _positive_int(self, "population")
+        if self.population < 2:
+            raise ValueError("optimizer population must be at least 2 for CMA-ES")
+        _in_range(self, "sigma0", 0.0, math.inf, low_open=True)
+
+
+class _Normal:
+    """Standard normal samples from our own generator (pycma would otherwise use numpy's global one, which a
+    checkpoint cannot capture). A class rather than a lambda so that it pickles."""
+
+    def __init__(self, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, *shape: int) -> np.ndarray:
+        return self.rng.standard_normal(shape)
+
+
+class CMAES(Optimizer):
+    """pycma's CMAEvolutionStrategy, started from one random genome; it minimises, so objectives are negated."""
+
+    def __init__(self, problem: Problem, settings: CMAESSettings, seed: int) -> None:
+        import cma
+
+        if not problem.flat:
+            raise ValueError(f"cma_es needs flat genomes; {problem.name} has object genomes (use ga or map_elites)")
+        rng = np.random.default_rng(seed)
+        x0 = np.asarray(problem.initial_genomes(1, rng), dtype=np.float64)[0]
+        options = {
+            "popsize": settings.population,
+            "randn": _Normal(int(rng.integers(2**63))),
+            "seed": np.nan,  # leave numpy's global generator alone
+            "CMA_diagonal": settings.diagonal,
+            "verbose": -9,
+            "verb_disp": 0,
+            "verb_log": 0,
+        }
+        self.es = cma.CMAEvolutionStrategy(x0, settings.sigma0, options)
+        self._asked: np.ndarray | None = None
+
+    def ask(self) -> np.ndarray:
+        self._asked = np.array(self.es.ask())
+        return self._asked
+
+    def tell(self, objective: np.ndarray, measures: np.ndarray, **fields: np.ndarray) -> None:
+        if self._asked is None:
+            raise RuntimeError("tell() before ask()")
+        self.es.tell(list(self._asked), (-np.asarray(objective, dtype=np.float64)).tolist())
+        self._asked = None
+
+
+# -- quality diversity (pyribs; built in evolution.qd) ----------------------------------------------------------------
+@dataclass(frozen=True)
+class MapElitesSettings:
+    """MAP-Elites on a pyribs grid archive.
+
+    Attributes:
+        cells: archive cells along each measure.
+        emitters: number of emitters; each proposes ``batch_size`` genomes per generation.
+        batch_size: genomes per emitter per generation.
+        sigma: Gaussian mutation strength for flat genomes (pyribs' GaussianEmitter).
+        variation: "gaussian" (flat genomes only) or "problem" (the problem's own mutation, for any genome).
+    """
+
+    cells: tuple[int, ...] = (16, 16)
+    emitters: int = 1
+    batch_size: int = 100
+    sigma: float = 0.05
+    variation: str = "gaussian"
+
+    def __post_init__(self) -> None:
+        _positive_int(self, "emitters", "batch_size")
+        _in_range(self, "sigma", 0.0, math.inf, low_open=True)
+        if self.variation not in ("gaussian", "problem"):
+            raise ValueError(f"optimizer variation must be 'gaussian' or 'problem', got {self.variation!r}")
+
+
+@dataclass(frozen=True)
+class CMAMAESettings:
+    """CMA-MAE: CMA-ES emitters improving an archive that learns (``learning_rate``), results kept in a second,
+    ordinary archive. Defaults follow the warehouse NCA work (5 emitters, ranker "imp", restart on no improvement).
+
+    Attributes:
+        cells: archive cells along each measure.
+        emitters: number of CMA-ES emitters.
+        batch_size: genomes per emitter per generation.
+        sigma0: initial step size of each emitter.
+        learning_rate: the archive's learning rate (0.01 in the warehouse work; 1 would be CMA-ME).
+        threshold_min: initial acceptance threshold of every cell.
+        es: the evolution strategy inside the emitters: "sep_cma_es" (diagonal, for thousands of parameters) or
+            "cma_es" (full covariance, for small problems).
+    """
+
+    cells: tuple[int, ...] = (16, 16)
+    emitters: int = 5
+    batch_size: int = 20
+    sigma0: float = 0.1
+    learning_rate: float = 0.01
+    threshold_min: float = 0.0
+    es: str = "sep_cma_es"
+
+    def __post_init__(self) -> None:
+        _positive_int(self, "emitters", "batch_size")
+        _in_range(self, "sigma0", 0.0, math.inf, low_open=True)
+        _in_range(self, "learning_rate", 0.0, 1.0, low_open=True)
+        if not math.isfinite(self.threshold_min):
+            raise ValueError(f"optimizer threshold_min must be finite, got {self.threshold_min!r}")
+        if self.es not in ("sep_cma_es", "cma_es"):
+            raise ValueError(f"optimizer es must be 'sep_cma_es' or 'cma_es', got {self.es!r}")
+
+
+# -- registry -------------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class OptimizerSpec:
+    """An optimiser by name: its settings class and how to build it for a problem and a seed."""
+
+    settings: type
+    build: Callable[[Problem, Any, int], Optimizer]
+    summary: str
+
+
+def _map_elites(problem: Problem, settings: MapElitesSettings, seed: int) -> Optimizer:
+    from evolution.qd import map_elites
+
+    return map_elites(problem, settings, seed)
+
+
+def _cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
+    from evolution.qd import cma_mae
+
+    return cma_mae(problem, settings, seed)
+
+
+OPTIMIZERS: dict[str, OptimizerSpec] = {
+    "ga": OptimizerSpec(GASettings, GeneticAlgorithm, "the paper's elitist genetic algorithm"),
+    "cma_es": OptimizerSpec(CMAESSettings, CMAES, "CMA-ES (pycma), diagonal by default"),
+    "map_elites": OptimizerSpec(MapElitesSettings, _map_elites, "MAP-Elites on a pyribs grid archive"),
+    "cma_mae": OptimizerSpec(CMAMAESettings, _cma_mae, "CMA-MAE (pyribs) with a separate result archive"),
+}
+
+
+def make_optimizer(name: str, problem: Problem, settings: Any = None, seed: int = 0) -> Optimizer:
+    """Build the optimiser called ``name`` for ``problem``; unknown names fail with the list of known ones."""
+    if name not in OPTIMIZERS:
+        raise ValueError(f"unknown optimizer {name!r}; choose one of {', '.join(OPTIMIZERS)}")
+    spec = OPTIMIZERS[name]
+    return spec.build(problem, settings if settings is not None else spec.settings(), seed)

@@ -1,0 +1,92 @@
+"""Plots written with a run: the objective over generations, and the quality-diversity archive as a heatmap.
+
+Drawn with matplotlib's object interface on the Agg canvas: no display, no global pyplot state.
+"""
+
+from __future__ import annotations
+
+import io
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from evolution.problem import Problem
+
+if TYPE_CHECKING:
+    from evolution.run import RunFolder
+
+__all__ = ["write_plots"]
+
+
+def _png(figure: Any) -> bytes:
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    return buffer.getvalue()
+
+
+def objective_figure(rows: list[dict[str, Any]], problem: Problem) -> Any:
+    """Best objective so far, this generation's best and mean; below, the best candidate's plotted fields."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fields = [name for name in problem.plot_fields if f"best_{name}" in rows[-1]]
+    figure = Figure(figsize=(8, 3.6 + 1.6 * len(fields)), layout="constrained")
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(1 + len(fields), 1, sharex=True, squeeze=False, height_ratios=[2.2] + [1] * len(fields))[:, 0]
+    generation = [row["generation"] for row in rows]
+    top = axes[0]
+    top.plot(generation, [row["best_objective"] for row in rows], lw=2, label="best so far")
+    top.plot(generation, [row["generation_best_objective"] for row in rows], lw=1, alpha=0.8, label="best this generation")
+    top.plot(generation, [row["mean_objective"] for row in rows], lw=1, alpha=0.8, label="mean this generation")
+    top.set_ylabel("objective")
+    top.set_title(f"{problem.name}: objective over generations ({rows[-1]['evaluations']} evaluations)")
+    top.legend(loc="best", fontsize=8)
+    top.grid(alpha=0.3)
+    # Each field of the best candidate on its own scale (integrity lives in [0, 1], complexity in the tens).
+    for ax, name, colour in zip(axes[1:], fields, ("tab:green", "tab:red", "tab:purple", "tab:brown")):
+        ax.plot(generation, [row[f"best_{name}"] for row in rows], lw=1.5, color=colour)
+        ax.set_ylabel(f"best's\n{name}", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("generation")
+    return figure
+
+
+def archive_figure(archive: Any, problem: Problem) -> Any:
+    """The archive's elites: objective by cell, measures on the axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(7, 5.5), layout="constrained")
+    FigureCanvasAgg(figure)
+    ax = figure.add_subplot()
+    dims = tuple(archive.dims)
+    grid = np.full(dims, np.nan)
+    data = archive.data(["index", "objective"])
+    if len(data["index"]):
+        grid[np.unravel_index(data["index"], dims)] = data["objective"]
+    if len(dims) == 1:
+        grid = grid[:, None]
+    (x_low, x_high), *rest = problem.measure_ranges
+    y_low, y_high = rest[0] if rest else (0.0, 1.0)
+    image = ax.imshow(
+        grid.T, origin="lower", aspect="auto", extent=(x_low, x_high, y_low, y_high), cmap="viridis", interpolation="nearest"
+    )
+    figure.colorbar(image, ax=ax, label="objective")
+    ax.set_xlabel(problem.measure_names[0])
+    ax.set_ylabel(problem.measure_names[1] if len(problem.measure_names) > 1 else "")
+    stats = archive.stats
+    ax.set_title(
+        f"archive: {stats.num_elites} elites, coverage {float(stats.coverage):.1%}, QD score {float(stats.qd_score):.4g}"
+    )
+    return figure
+
+
+def write_plots(folder: RunFolder, problem: Problem, archive: Any = None) -> None:
+    """Redraw ``objective.png`` from metrics.jsonl and, for quality diversity, ``archive.png``."""
+    from evolution.run import _atomic_write
+
+    rows = folder.metrics()
+    if rows:
+        _atomic_write(folder / folder.OBJECTIVE_PLOT, _png(objective_figure(rows, problem)))
+    if archive is not None and len(problem.measure_names) in (1, 2):
+        _atomic_write(folder / folder.ARCHIVE_PLOT, _png(archive_figure(archive, problem)))

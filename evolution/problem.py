@@ -1,0 +1,130 @@
+"""What the evolution engine optimises: a problem turns a batch of genomes into objectives, measures and fields.
+
+The engine never looks inside a genome. Two kinds are supported:
+
+- **Flat vectors** (``n_params`` is an int): a batch is a ``(n, n_params)`` float array, the form every optimiser
+  understands (the NCA weights of the structures domain, continuous toy problems).
+- **Objects** (``n_params`` is None): a batch is a list of arbitrary picklable genomes (rule sets, finite-state
+  machines). The problem must then supply :meth:`Problem.mutate` (and may supply :meth:`Problem.crossover`), and only
+  optimisers that vary genomes through those hooks can run it (``ga``, ``map_elites``).
+
+Evaluation must be a pure function of each genome and its seed, so results do not depend on how a batch is split
+across workers, and any elite can be re-created later.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Evaluation", "Problem"]
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Results for a batch of ``n`` candidates, in the order they were given.
+
+    Attributes:
+        objective: ``(n,)`` float, higher is better.
+        measures: ``(n, m)`` float behaviour descriptors for quality diversity; ``(n, 0)`` if the problem has none.
+        fields: extra per-candidate numbers, each ``(n,)`` float (integrity, vertex count, ...).
+    """
+
+    objective: np.ndarray
+    measures: np.ndarray
+    fields: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        objective = np.asarray(self.objective, dtype=np.float64).reshape(-1)
+        n = len(objective)
+        measures = np.asarray(self.measures, dtype=np.float64).reshape(n, -1)
+        fields = {name: np.asarray(values, dtype=np.float64).reshape(-1) for name, values in self.fields.items()}
+        for name, values in fields.items():
+            if len(values) != n:
+                raise ValueError(f"field {name!r} has {len(values)} values for {n} candidates")
+        if not np.isfinite(objective).all() or not np.isfinite(measures).all():
+            raise ValueError("objective and measures must be finite numbers (a problem returned NaN or infinity)")
+        object.__setattr__(self, "objective", objective)
+        object.__setattr__(self, "measures", measures)
+        object.__setattr__(self, "fields", fields)
+
+    def __len__(self) -> int:
+        return len(self.objective)
+
+    @classmethod
+    def concatenate(cls, parts: list[Evaluation]) -> Evaluation:
+        """Join evaluations of consecutive slices of a batch back into one."""
+        names = list(parts[0].fields)
+        return cls(
+            objective=np.concatenate([p.objective for p in parts]),
+            measures=np.concatenate([p.measures for p in parts]),
+            fields={name: np.concatenate([p.fields[name] for p in parts]) for name in names},
+        )
+
+    def row(self, i: int) -> dict[str, Any]:
+        """Candidate ``i`` as plain numbers: objective, measures and fields."""
+        return {
+            "objective": float(self.objective[i]),
+            "measures": self.measures[i].tolist(),
+            **{name: float(values[i]) for name, values in self.fields.items()},
+        }
+
+
+class Problem:
+    """Base class of everything the engine can optimise. Subclasses set the attributes and override the methods.
+
+    Attributes:
+        name: short identifier, used in run folders and logs.
+        n_params: length of a flat genome vector, or None for object genomes.
+        measure_names: names of the quality-diversity measures, e.g. ``("height", "vertices")``.
+        measure_ranges: ``(low, high)`` for each measure; they lay out quality-diversity archives.
+        field_names: names of the extra per-candidate fields :meth:`evaluate` reports.
+        plot_fields: fields of the best candidate worth plotting over generations.
+    """
+
+    name: str = "problem"
+    n_params: int | None = None
+    measure_names: tuple[str, ...] = ()
+    measure_ranges: tuple[tuple[float, float], ...] = ()
+    field_names: tuple[str, ...] = ()
+    plot_fields: tuple[str, ...] = ()
+
+    @property
+    def flat(self) -> bool:
+        """Whether genomes are flat float vectors."""
+        return self.n_params is not None
+
+    def initial_genomes(self, count: int, rng: np.random.Generator) -> Any:
+        """``count`` random genomes: a ``(count, n_params)`` array, or a list for object genomes."""
+        raise NotImplementedError
+
+    def evaluate(self, genomes: Any, seeds: np.ndarray) -> Evaluation:
+        """Evaluate a batch; ``seeds[i]`` is the seed for candidate ``i`` (deterministic problems may ignore it)."""
+        raise NotImplementedError
+
+    def mutate(self, genome: Any, rng: np.random.Generator) -> Any:
+        """A mutated copy of ``genome`` (required for object genomes; never modify the argument)."""
+        raise NotImplementedError(f"{self.name} does not define its own mutation")
+
+    def crossover(self, first: Any, second: Any, rng: np.random.Generator) -> Any:
+        """A child combining two parents; optional. The default mixes flat vectors gene by gene."""
+        if not self.flat:
+            raise NotImplementedError(f"{self.name} does not define crossover for its genomes")
+        take_first = rng.random(len(first)) < 0.5
+        return np.where(take_first, first, second)
+
+    def genome_to_json(self, genome: Any) -> Any:
+        """A JSON-ready form of a genome, for people and other tools (flat vectors become lists)."""
+        if self.flat:
+            return np.asarray(genome, dtype=np.float64).tolist()
+        raise NotImplementedError(f"{self.name} does not say how to write its genomes")
+
+    def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
+        """Write files that show a genome (a structure, a picture) into ``folder``; returns their paths."""
+        return []
+
+    def close(self) -> None:
+        """Release resources held for evaluation (worker pools)."""

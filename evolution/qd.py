@@ -1,0 +1,143 @@
+"""Quality diversity with pyribs: grid archives, emitters and schedulers behind the :class:`Optimizer` interface.
+
+Imported only when a quality-diversity optimiser is built (pyribs pulls in numba, which is slow to load).
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+from ribs.archives import GridArchive
+from ribs.emitters import EmitterBase, EvolutionStrategyEmitter, GaussianEmitter
+from ribs.schedulers import Scheduler
+
+from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer
+from evolution.problem import Problem
+
+__all__ = ["ProblemMutationEmitter", "RibsOptimizer", "cma_mae", "map_elites"]
+
+
+def _cells(settings: Any, problem: Problem) -> tuple[int, ...]:
+    cells = tuple(settings.cells)
+    if len(cells) != len(problem.measure_names):
+        raise ValueError(
+            f"optimizer cells has {len(cells)} entries but {problem.name} has {len(problem.measure_names)} measures "
+            f"({', '.join(problem.measure_names)})"
+        )
+    if any(not isinstance(c, int) or isinstance(c, bool) or c < 1 for c in cells):
+        raise ValueError(f"optimizer cells must be positive integers, got {list(cells)}")
+    return cells
+
+
+def _grid_archive(problem: Problem, cells: tuple[int, ...], seed: int, **options: Any) -> GridArchive:
+    if not problem.measure_names:
+        raise ValueError(f"quality diversity needs measures, and {problem.name} defines none")
+    solution = {"solution_dim": problem.n_params} if problem.flat else {"solution_dim": (), "solution_dtype": object}
+    return GridArchive(
+        **solution,
+        dims=cells,
+        ranges=problem.measure_ranges,
+        extra_fields={name: ((), np.float64) for name in problem.field_names},
+        seed=seed,
+        **options,
+    )
+
+
+class RibsOptimizer(Optimizer):
+    """A pyribs scheduler behind our interface; ``archive`` is its result archive."""
+
+    def __init__(self, scheduler: Scheduler, problem: Problem) -> None:
+        self.scheduler, self.problem = scheduler, problem
+        self.archive = scheduler.result_archive
+
+    def attach(self, problem: Problem) -> None:
+        self.problem = problem
+        for emitter in self.scheduler.emitters:
+            if isinstance(emitter, ProblemMutationEmitter):
+                emitter.problem = problem
+
+    def ask(self) -> Any:
+        genomes = self.scheduler.ask()
+        return genomes if self.problem.flat else list(genomes)
+
+    def tell(self, objective: np.ndarray, measures: np.ndarray, **fields: np.ndarray) -> None:
+        self.scheduler.tell(objective, measures, **fields)
+
+
+class ProblemMutationEmitter(EmitterBase):
+    """A pyribs emitter whose variation is the problem's own mutation: random genomes while the archive is empty,
+    then mutated copies of elites sampled from it. This is how genomes that are not flat vectors take part in
+    MAP-Elites."""
+
+    def __init__(self, archive: GridArchive, problem: Problem, batch_size: int, seed: int) -> None:
+        super().__init__(archive, solution_dim=archive.solution_dim, bounds=None, lower_bounds=None, upper_bounds=None)
+        self.problem, self.batch_size = problem, batch_size
+        self.rng = np.random.default_rng(seed)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["problem"] = None  # re-attached by RibsOptimizer.attach
+        return state
+
+    def ask(self) -> np.ndarray:
+        if self.archive.empty:
+            genomes = list(self.problem.initial_genomes(self.batch_size, self.rng))
+        else:
+            elites = self.archive.sample_elites(self.batch_size)["solution"]
+            genomes = [self.problem.mutate(copy.deepcopy(e), self.rng) for e in elites]
+        if self.problem.flat:
+            return np.stack([np.asarray(g, dtype=np.float64) for g in genomes])
+        batch = np.empty(len(genomes), dtype=object)
+        batch[:] = genomes
+        return batch
+
+def map_elites(problem: Problem, settings: MapElitesSettings, seed: int) -> Optimizer:
+    # One seed for the archive, then two per emitter (its first genomes, its own generator).
+    seeds = [int(x) for x in np.random.SeedSequence(seed).generate_state(1 + 2 * settings.emitters)]
+    archive = _grid_archive(problem, _cells(settings, problem), seeds[0])
+    variation = settings.variation if problem.flat else "problem"
+    emitters = []
+    for k in range(settings.emitters):
+        first, own = seeds[1 + 2 * k], seeds[2 + 2 * k]
+        if variation == "gaussian":
+            emitters.append(
+                GaussianEmitter(
+                    archive,
+                    sigma=settings.sigma,
+                    initial_solutions=np.asarray(problem.initial_genomes(settings.batch_size, np.random.default_rng(first))),
+                    batch_size=settings.batch_size,
+                    seed=own,
+                )
+            )
+        else:
+            emitters.append(ProblemMutationEmitter(archive, problem, settings.batch_size, own))
+    return RibsOptimizer(Scheduler(archive, emitters), problem)
+
+
+def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
+    if not problem.flat:
+        raise ValueError(f"cma_mae needs flat genomes; {problem.name} has object genomes (use ga or map_elites)")
+    seeds = np.random.SeedSequence(seed).generate_state(settings.emitters + 3)
+    cells = _cells(settings, problem)
+    archive = _grid_archive(
+        problem, cells, int(seeds[0]), learning_rate=settings.learning_rate, threshold_min=settings.threshold_min
+    )
+    result_archive = _grid_archive(problem, cells, int(seeds[1]))
+    x0 = np.asarray(problem.initial_genomes(1, np.random.default_rng(int(seeds[2]))), dtype=np.float64)[0]
+    emitters = [
+        EvolutionStrategyEmitter(
+            archive,
+            x0=x0,
+            sigma0=settings.sigma0,
+            ranker="imp",
+            selection_rule="mu",
+            restart_rule="no_improvement",
+            es=settings.es,
+            batch_size=settings.batch_size,
+            seed=int(seeds[k + 3]),
+        )
+        for k in range(settings.emitters)
+    ]
+    return RibsOptimizer(Scheduler(archive, emitters, result_archive=result_archive), problem)

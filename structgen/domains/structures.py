@@ -1,0 +1,156 @@
+"""The paper's experiment as a problem: evolve local NCAs whose structures stand, grow tall and grow complex.
+
+## Genome
+The flat weight vector of a local NCA (4766 numbers for the paper's 52-60-26 network). Random genomes are uniform in
+``[-init_scale, init_scale]``.
+
+## Phenotype
+The structure the NCA grows from one seed vertex (:mod:`structgen.nca`, settings in ``[problem.nca]``).
+
+## Objective
+The paper's score Q = I + (Wh * H + Wc * C) * I from a PyBullet stability check (:mod:`physics`, settings in
+``[problem.physics]``, fast preset by default). Structures the check refuses (over its size caps) score 0.
+
+## Measures
+``height`` (H, lattice units) and ``vertices`` (C), for quality-diversity archives. Their ranges are centred on
+whole numbers, so a structure that sags from height 3 to 2.998 stays in the cell of height 3.
+
+## Fields
+``integrity``, ``height``, ``complexity``, ``edges``, ``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the
+check refused the structure) and ``capped`` (0/1: growth stopped at the NCA's vertex cap).
+
+## The paper's special rules
+As settings: ``problem.nca.cutoff`` (activation cutoff, 0.6 in the paper's variant), ``problem.nca.build_down =
+false`` (no building below the seed), ``problem.physics.height_mode = "mean"`` (average height instead of height).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evolution import Evaluation, Problem
+from physics import PhysicsConfig, check_stability
+from structgen.nca import NCAConfig, _split, grow, grow_population, n_params
+from structgen.structure import Structure
+
+__all__ = ["StableStructures", "StructuresSettings"]
+
+
+@dataclass(frozen=True)
+class StructuresSettings:
+    """The ``[problem]`` table of the structures domain.
+
+    Attributes:
+        init_scale: random genomes are uniform in [-init_scale, init_scale] (0.25, the paper's range).
+        nca: the NCA's shape and growth rules (``[problem.nca]``). The default vertex cap of 64 keeps random
+            networks, which fill their growth box with about 1,100 vertices, within what a simulation can judge
+            in a search loop: growth stops before the step that would exceed it.
+        physics_preset: the physics preset the ``[problem.physics]`` settings start from ("fast" or "faithful").
+        physics: the physics settings (``[problem.physics]``).
+    """
+
+    init_scale: float = 0.25
+    nca: NCAConfig = field(default_factory=lambda: NCAConfig(max_vertices=64))
+    physics_preset: str = "fast"
+    physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.init_scale, (int, float)) and self.init_scale > 0):
+            raise ValueError(f"problem init_scale must be a positive number, got {self.init_scale!r}")
+
+
+class StableStructures(Problem):
+    """Genomes are NCA weights; the objective is the paper's Q from a physics check of the grown structure."""
+
+    name = "structures"
+    measure_names = ("height", "vertices")
+    field_names = ("integrity", "height", "complexity", "edges", "broken_joints", "settled", "failed", "capped")
+    plot_fields = ("integrity", "height", "complexity")
+
+    def __init__(self, settings: StructuresSettings | None = None) -> None:
+        self.settings = settings or StructuresSettings()
+        nca = self.settings.nca
+        self.n_params = n_params(nca)
+        reach = min(nca.iterations, nca.max_extent)
+        tallest = 2 * reach if nca.build_down else reach
+        self.measure_ranges = ((-0.5, tallest + 0.5), (0.5, nca.max_vertices + 0.5))
+
+    def initial_genomes(self, count: int, rng: np.random.Generator) -> np.ndarray:
+        scale = self.settings.init_scale
+        return rng.uniform(-scale, scale, size=(count, self.n_params))
+
+    def evaluate(self, genomes: np.ndarray, seeds: np.ndarray) -> Evaluation:
+        structures = grow_population(np.asarray(genomes, dtype=np.float64), self.settings.nca)
+        reports = [check_stability(s, self.settings.physics, errors="report") for s in structures]
+        fields = {
+            "integrity": [r.integrity for r in reports],
+            "height": [r.height for r in reports],
+            "complexity": [r.complexity for r in reports],
+            "edges": [s.n_edges for s in structures],
+            "broken_joints": [len(r.broken_joints) for r in reports],
+            "settled": [float(r.settled) for r in reports],
+            "failed": [float(r.error is not None) for r in reports],
+            "capped": [float(s.metadata["growth"]["hit_max_vertices"]) for s in structures],
+        }
+        measures = np.array([[r.height, r.complexity] for r in reports], dtype=np.float64).reshape(-1, 2)
+        return Evaluation(np.array([r.score for r in reports]), measures, fields)
+
+    def crossover(self, first: np.ndarray, second: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """The paper's most promising recombination: the child is ``first`` with one hidden neuron (its incoming
+        weights, bias and outgoing weights) taken from ``second``."""
+        child = np.array(first, dtype=np.float64, copy=True)
+        w1, b1, w2, _ = _split(child, self.settings.nca.hidden)
+        o1, c1, o2, _ = _split(np.asarray(second, dtype=np.float64), self.settings.nca.hidden)
+        neuron = int(rng.integers(self.settings.nca.hidden))
+        w1[:, neuron], b1[neuron], w2[neuron, :] = o1[:, neuron], c1[neuron], o2[neuron, :]
+        return child
+
+    def structure_of(self, genome: Any) -> Structure:
+        """The structure a genome grows (the same as during evaluation)."""
+        return grow(np.asarray(genome, dtype=np.float64), self.settings.nca)
+
+    def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
+        from structgen.render import render_check
+
+        structure = self.structure_of(genome)
+        report = check_stability(structure, self.settings.physics, errors="report")
+        structure = structure.with_metadata(score=report.score, integrity=report.integrity, height=report.height)
+        paths = [structure.save(folder / "structure.json"), structure.export(folder / "structure.glb")]
+        from structgen._fileio import atomic_write
+
+        paths.append(atomic_write(folder / "report.json", json.dumps(report.to_dict(), indent=1) + "\n"))
+        if report.error is None:
+            paths.append(render_check(report, folder / "structure.png"))
+        return paths
+
+
+def settings_from_table(table: dict[str, Any], where: str) -> StructuresSettings:
+    """Build settings from a ``[problem]`` table (without its ``name``), checking every key and type."""
+    from structgen.config import ConfigError, build
+
+    table = dict(table)
+    nca_table = table.pop("nca", {})
+    physics_table = dict(table.pop("physics", {}))
+    for name, value in (("nca", nca_table), ("physics", physics_table)):
+        if not isinstance(value, dict):
+            raise ConfigError(f"{where}.{name} must be a table, got {value!r}")
+    preset = physics_table.pop("preset", "fast")
+    try:
+        base = PhysicsConfig.preset(preset)
+    except ValueError as err:
+        raise ConfigError(f"{where}.physics.preset: {err}") from None
+    nca = build(NCAConfig, nca_table, f"{where}.nca", base=NCAConfig(max_vertices=64))
+    physics = build(PhysicsConfig, physics_table, f"{where}.physics", base=base)
+    rest = build(StructuresSettings, table, where)
+    return replace(rest, nca=nca, physics_preset=preset, physics=physics)
+
+
+def settings_to_table(settings: StructuresSettings) -> dict[str, Any]:
+    """The resolved ``[problem]`` table (every setting spelled out)."""
+    physics = {"preset": settings.physics_preset, **asdict(settings.physics)}
+    return {"init_scale": settings.init_scale, "nca": asdict(settings.nca), "physics": physics}

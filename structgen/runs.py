@@ -1,0 +1,146 @@
+"""Evolution runs from a checked configuration: start one, resume one, and take elites out of one.
+
+These are the functions behind ``structgen evolve``, ``structgen resume`` and ``structgen export RUN_DIR``; scripts
+can call them directly::
+
+    from structgen.experiment import load_experiment
+    from structgen.runs import evolve, resume
+
+    folder, state = evolve(load_experiment("my.toml", overrides=["run.generations=50"]), "runs/mine")
+    folder, state = resume("runs/mine", generations=80)
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import logging
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evolution import RunFolder, RunFolderError, RunState, advance, make_evaluator, make_optimizer
+from evolution.run import library_versions
+from structgen import __version__
+from structgen.config import ConfigError
+from structgen.experiment import Experiment, load_experiment
+
+__all__ = ["default_run_dir", "elite_genome", "evolve", "open_run", "resume"]
+
+log = logging.getLogger(__name__)
+LIBRARIES = ["numpy", "scipy", "torch", "pybullet", "ribs", "cma", "trimesh", "matplotlib", "distributed"]
+
+
+def default_run_dir(experiment: Experiment) -> Path:
+    """``runs/<problem>-<optimizer>-s<seed>-<date>-<time>`` under the current folder."""
+    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    return Path("runs") / f"{experiment.problem_name}-{experiment.optimizer_name}-s{experiment.run.seed}-{stamp}"
+
+
+def _manifest() -> dict[str, Any]:
+    return {
+        "schema": 1,
+        "structgen": __version__,
+        "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "argv": sys.argv,
+        "versions": library_versions(LIBRARIES),
+    }
+
+
+def _advance(folder: RunFolder, experiment: Experiment, state: RunState, **options: Any) -> RunState:
+    problem = experiment.make_problem()
+    try:
+        with make_evaluator(experiment.run.workers, experiment.run.cluster) as evaluator:
+            return advance(folder, problem, state, experiment.run, evaluator, **options)
+    finally:
+        problem.close()
+
+
+def evolve(
+    experiment: Experiment,
+    run_dir: str | Path | None = None,
+    *,
+    overwrite: bool = False,
+    progress: bool = True,
+    stop_requested: Callable[[], bool] = lambda: False,
+) -> tuple[RunFolder, RunState]:
+    """Start a run in a new folder (default :func:`default_run_dir`) and carry it to ``experiment.run.generations``
+    or until ``stop_requested()`` (checked after each generation, which is then checkpointed)."""
+    problem = experiment.make_problem()
+    try:
+        optimizer = make_optimizer(experiment.optimizer_name, problem, experiment.optimizer_settings, experiment.run.seed)
+    finally:
+        problem.close()
+    folder = RunFolder.create(run_dir or default_run_dir(experiment), experiment.to_toml(), _manifest(), overwrite=overwrite)
+    state = RunState(optimizer=optimizer)
+    return folder, _advance(folder, experiment, state, progress=progress, stop_requested=stop_requested)
+
+
+def open_run(run_dir: str | Path) -> tuple[RunFolder, Experiment]:
+    """A run folder and its configuration, checked."""
+    folder = RunFolder.open(run_dir)
+    try:
+        experiment = load_experiment(folder / RunFolder.CONFIG)
+    except ConfigError as err:
+        raise RunFolderError(str(err)) from None
+    return folder, experiment
+
+
+def resume(
+    run_dir: str | Path,
+    *,
+    generations: int | None = None,
+    workers: int | None = None,
+    cluster: str | None = None,
+    progress: bool = True,
+    stop_requested: Callable[[], bool] = lambda: False,
+) -> tuple[RunFolder, RunState]:
+    """Continue a run from its last checkpoint up to ``generations`` in total (default: its configured number).
+
+    The metrics of generations after the checkpoint are dropped and recomputed; the result is the same as if the
+    run had never stopped. ``workers`` and ``cluster`` change only where evaluation happens, not its results.
+    """
+    folder, experiment = open_run(run_dir)
+    state = folder.load_checkpoint()
+    _warn_on_new_versions(folder)
+    if generations is not None:
+        if generations < state.generation:
+            raise ConfigError(f"--generations {generations} is fewer than the {state.generation} already run")
+        if generations != experiment.run.generations:
+            experiment = experiment.with_run(generations=generations)
+            from evolution.run import _atomic_write
+
+            _atomic_write(folder / RunFolder.CONFIG, experiment.to_toml())
+    runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
+    if runtime:
+        experiment = experiment.with_run(**runtime)
+    folder.truncate_metrics(state.generation)
+    if state.generation >= experiment.run.generations:
+        log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)
+        return folder, state
+    log.info("%s: resuming after generation %d of %d", folder.path, state.generation, experiment.run.generations)
+    return folder, _advance(folder, experiment, state, progress=progress, stop_requested=stop_requested)
+
+
+def _warn_on_new_versions(folder: RunFolder) -> None:
+    recorded = folder.manifest().get("versions", {})
+    current = library_versions(LIBRARIES)
+    changed = [f"{name} {recorded[name]} -> {current.get(name)}" for name in recorded if recorded[name] != current.get(name)]
+    if changed:
+        log.warning("library versions differ from when this run started (%s); results may differ", ", ".join(changed))
+
+
+def elite_genome(folder: RunFolder, experiment: Experiment, elite: str) -> Any:
+    """The genome named by ``elite``: ``"best"`` (best seen) or ``"index:I"`` (the archive's elite in cell I)."""
+    problem = experiment.make_problem()
+    try:
+        if elite == "best":
+            return folder.best_genome(problem)
+        kind, _, value = elite.partition(":")
+        if kind != "index" or not value.lstrip("-").isdigit():
+            raise ConfigError(f"--elite {elite!r}: use 'best' or 'index:I' with I a cell index from archive.csv")
+        return np.asarray(folder.archive_genome(int(value), problem))
+    finally:
+        problem.close()
