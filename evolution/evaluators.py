@@ -111,13 +111,13 @@ class DaskEvaluator(Evaluator):
     structgen[cluster]``).
     """
 
-    def __init__(self, address: str, *, slices: int | None = None) -> None:
+    def __init__(self, address: str, *, slices: int | None = None, timeout: float = 10.0) -> None:
         try:
             from distributed import Client
         except ImportError:
             raise EvaluationError("--cluster needs the 'distributed' package: pip install 'structgen[cluster]'") from None
         try:
-            self.client = Client(address, timeout="10s")
+            self.client = Client(address, timeout=f"{timeout}s")
         except OSError as err:
             raise EvaluationError(f"cannot reach the Dask scheduler at {address}: {err}") from None
         self.slices = slices

@@ -55,3 +55,8 @@ def test_growing_a_structure_still_needs_neither_library():
 @pytest.mark.parametrize("package", ["physics", "evolution"])
 def test_importing_a_library_does_not_load_structgen(package):
     assert "structgen" not in loaded_after(f"import {package}")
+
+
+def test_import_evolution_stays_light():
+    # pyribs pulls in numba; it loads only when a quality-diversity optimiser is built.
+    assert not loaded_after("import evolution") & {"ribs", "numba", "torch", "pybullet", "structgen", "physics"}

@@ -135,10 +135,11 @@ def settings_from_table(table: dict[str, Any], where: str) -> StructuresSettings
 
     table = dict(table)
     nca_table = table.pop("nca", {})
-    physics_table = dict(table.pop("physics", {}))
+    physics_table = table.pop("physics", {})
     for name, value in (("nca", nca_table), ("physics", physics_table)):
         if not isinstance(value, dict):
             raise ConfigError(f"{where}.{name} must be a table, got {value!r}")
+    physics_table = dict(physics_table)
     preset = physics_table.pop("preset", "fast")
     try:
         base = PhysicsConfig.preset(preset)

@@ -136,7 +136,7 @@ def test_export_of_a_broken_file_exits_2_and_keeps_the_old_output(tmp_path, caps
         (["{good}", "{tmp}/o.fbx"], ["o.fbx", "unknown export format"]),
         (["{good}"], ["needs an output file"]),
         (["{good}", "{tmp}/o.json", "--sphere-radius", "0.2"], ["only apply to mesh formats"]),
-        (["{tmp}", "{tmp}/o.stl"], ["is a folder"]),
+        (["{tmp}", "{tmp}/o.stl"], ["not a run folder (no config.toml)"]),
     ],
 )
 def test_export_usage_problems_exit_2(tmp_path, capsys, good_file, argv, fragments):

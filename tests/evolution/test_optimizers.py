@@ -1,0 +1,210 @@
+"""Optimisers: the paper's GA, CMA-ES, MAP-Elites and CMA-MAE, on flat and object genomes, by name."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+from evolution import OPTIMIZERS, Evaluation, make_optimizer
+from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
+from evolution.toys import Ones, Sphere
+
+SMALL = {
+    "ga": GASettings(population=12, parents=3),
+    "cma_es": CMAESSettings(population=8),
+    "map_elites": MapElitesSettings(cells=(6, 6), batch_size=10, sigma=0.2),
+    "cma_mae": CMAMAESettings(cells=(6, 6), emitters=2, batch_size=5),
+}
+
+
+def step(optimizer, problem, generation: int = 0):
+    genomes = optimizer.ask()
+    result = problem.evaluate(genomes, np.arange(len(genomes)) + 1000 * generation)
+    optimizer.tell(result.objective, result.measures, **result.fields)
+    return genomes, result
+
+
+def best_after(name: str, problem, generations: int, seed: int = 0) -> float:
+    optimizer = make_optimizer(name, problem, SMALL[name], seed=seed)
+    return max(step(optimizer, problem, g)[1].objective.max() for g in range(generations))
+
+
+# -- the registry -----------------------------------------------------------------------------------------------------
+def test_registry_names_the_four_optimizers():
+    assert list(OPTIMIZERS) == ["ga", "cma_es", "map_elites", "cma_mae"]
+
+
+def test_unknown_optimizer_lists_the_known_ones():
+    with pytest.raises(ValueError, match="unknown optimizer 'de'; choose one of ga, cma_es, map_elites, cma_mae"):
+        make_optimizer("de", Sphere())
+
+
+@pytest.mark.parametrize("name", list(OPTIMIZERS))
+def test_every_optimizer_improves_the_sphere(name):
+    problem = Sphere()
+    first = make_optimizer(name, problem, SMALL[name], seed=1)
+    start = step(first, problem)[1].objective.max()
+    assert best_after(name, problem, 25, seed=1) > start + 0.5
+
+
+@pytest.mark.parametrize("name", list(OPTIMIZERS))
+def test_every_optimizer_is_deterministic_given_its_seed(name):
+    problem = Sphere()
+    runs = []
+    for _ in range(2):
+        optimizer = make_optimizer(name, problem, SMALL[name], seed=7)
+        runs.append([step(optimizer, problem, g)[0] for g in range(4)])
+    for a, b in zip(*runs):
+        assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("name", list(OPTIMIZERS))
+def test_every_optimizer_pickles_mid_run_and_continues_identically(name):
+    problem = Sphere()
+    optimizer = make_optimizer(name, problem, SMALL[name], seed=3)
+    for g in range(3):
+        step(optimizer, problem, g)
+    copy = pickle.loads(pickle.dumps(optimizer))
+    copy.attach(problem)
+    assert copy.problem is problem or name == "cma_es"
+    for g in range(3, 6):
+        a, _ = step(optimizer, problem, g)
+        b, _ = step(copy, problem, g)
+        assert np.array_equal(a, b)
+
+
+def test_pickled_optimizers_leave_their_problem_behind():
+    # Problems may hold worker pools; a checkpoint must not try to carry them.
+    problem = Ones()
+    for name in ("ga", "map_elites"):
+        optimizer = make_optimizer(name, problem, SMALL[name], seed=0)
+        step(optimizer, problem)
+        restored = pickle.loads(pickle.dumps(optimizer))
+        assert restored.problem is None
+        for emitter in getattr(getattr(restored, "scheduler", None), "emitters", []):
+            assert emitter.problem is None
+        restored.attach(problem)
+        for emitter in getattr(getattr(restored, "scheduler", None), "emitters", []):
+            assert emitter.problem is problem
+
+
+def test_optimizers_do_not_touch_numpys_global_generator():
+    np.random.seed(123)
+    expected = np.random.random()
+    np.random.seed(123)
+    for name in OPTIMIZERS:
+        optimizer = make_optimizer(name, Sphere(), SMALL[name], seed=0)
+        for g in range(2):
+            step(optimizer, Sphere(), g)
+    assert np.random.random() == expected
+
+
+# -- the paper's GA -----------------------------------------------------------------------------------------------------
+def test_ga_generation_sizes_and_elitism():
+    problem = Sphere()
+    ga = make_optimizer("ga", problem, GASettings(population=10, parents=4), seed=0)
+    first, result = step(ga, problem)
+    assert first.shape == (10, problem.n_params)
+    kept = np.argsort(-result.objective, kind="stable")[:4]
+    np.testing.assert_array_equal(ga.parents, first[kept])
+    children, _ = step(ga, problem, 1)
+    assert children.shape == (6, problem.n_params)
+    best = [ga.parent_objective.max()]
+    for g in range(2, 12):
+        step(ga, problem, g)
+        best.append(ga.parent_objective.max())
+    assert all(b >= a for a, b in zip(best, best[1:]))  # the best is never lost
+
+
+def test_ga_mutation_moves_a_share_of_genes_within_the_scale():
+    problem = Sphere()
+    settings = GASettings(population=101, parents=1, mutation_rate=0.25, mutation_scale=0.1)
+    ga = make_optimizer("ga", problem, settings, seed=2)
+    step(ga, problem)
+    parent = ga.parents[0]
+    children = ga.ask()
+    moved = children != parent
+    assert 0.15 < moved.mean() < 0.35
+    assert np.abs(children - parent).max() <= 0.1
+
+
+def test_ga_crossover_uses_the_problems_recombination():
+    class Recorder(Sphere):
+        calls = 0
+
+        def crossover(self, first, second, rng):
+            Recorder.calls += 1
+            return (first + second) / 2
+
+    problem = Recorder()
+    ga = make_optimizer("ga", problem, GASettings(population=20, parents=5, crossover_rate=1.0), seed=0)
+    step(ga, problem)
+    ga.ask()
+    assert Recorder.calls == 15
+
+
+@pytest.mark.parametrize("field, value", [("parents", 100), ("parents", 0), ("mutation_rate", 0.0), ("mutation_scale", -1.0), ("crossover_rate", 1.5)])
+def test_ga_settings_are_checked(field, value):
+    with pytest.raises(ValueError, match=field):
+        GASettings(**{field: value})
+
+
+# -- object genomes with the problem's own mutation ----------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["ga", "map_elites"])
+def test_object_genomes_evolve_through_the_problems_mutation(name):
+    problem = Ones()
+    optimizer = make_optimizer(name, problem, SMALL[name], seed=4)
+    genomes, first = step(optimizer, problem)
+    assert isinstance(genomes, list) and isinstance(genomes[0], tuple)
+    best = max(step(optimizer, problem, g)[1].objective.max() for g in range(1, 40))
+    assert best > first.objective.max() + 3
+
+
+@pytest.mark.parametrize("name", ["cma_es", "cma_mae"])
+def test_vector_only_optimizers_refuse_object_genomes(name):
+    with pytest.raises(ValueError, match="needs flat genomes"):
+        make_optimizer(name, Ones(), SMALL[name])
+
+
+def test_map_elites_keeps_object_genomes_in_its_archive():
+    problem = Ones()
+    optimizer = make_optimizer("map_elites", problem, SMALL["map_elites"], seed=0)
+    for g in range(5):
+        step(optimizer, problem, g)
+    elites = optimizer.archive.data()
+    assert len(elites["index"]) > 3
+    assert all(isinstance(s, tuple) and sum(s) == o for s, o in zip(elites["solution"], elites["objective"]))
+
+
+# -- quality diversity ----------------------------------------------------------------------------------------------------
+def test_cma_mae_learns_in_one_archive_and_keeps_results_in_another():
+    optimizer = make_optimizer("cma_mae", Sphere(), SMALL["cma_mae"], seed=0)
+    for g in range(5):
+        step(optimizer, Sphere(), g)
+    learning = optimizer.scheduler.archive
+    assert optimizer.archive is optimizer.scheduler.result_archive and optimizer.archive is not learning
+    assert learning.learning_rate == 0.01
+    assert optimizer.archive.stats.num_elites > 0
+
+
+def test_quality_diversity_settings_must_match_the_measures():
+    with pytest.raises(ValueError, match="cells has 3 entries but sphere has 2 measures"):
+        make_optimizer("map_elites", Sphere(), MapElitesSettings(cells=(4, 4, 4)))
+
+
+# -- evaluations --------------------------------------------------------------------------------------------------------
+def test_evaluation_refuses_nan_and_mismatched_fields():
+    with pytest.raises(ValueError, match="finite"):
+        Evaluation(np.array([1.0, np.nan]), np.zeros((2, 0)))
+    with pytest.raises(ValueError, match="field 'x' has 1 values for 2 candidates"):
+        Evaluation(np.ones(2), np.zeros((2, 0)), {"x": np.ones(1)})
+
+
+def test_evaluations_join_in_order():
+    a = Evaluation(np.array([1.0]), np.array([[0.1, 0.2]]), {"f": [5]})
+    b = Evaluation(np.array([2.0, 3.0]), np.array([[0.3, 0.4], [0.5, 0.6]]), {"f": [6, 7]})
+    joined = Evaluation.concatenate([a, b])
+    assert joined.objective.tolist() == [1.0, 2.0, 3.0] and joined.fields["f"].tolist() == [5, 6, 7]
+    assert joined.row(2) == {"objective": 3.0, "measures": [0.5, 0.6], "f": 7.0}

@@ -1,0 +1,225 @@
+"""Run folders and the loop: checkpoints, resume equivalence, metrics, evaluators (local pool and Dask)."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from evolution import (
+    EvaluationError,
+    PoolEvaluator,
+    RunFolder,
+    RunFolderError,
+    RunSettings,
+    RunState,
+    SerialEvaluator,
+    advance,
+    make_optimizer,
+)
+from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
+from evolution.toys import Ones, Sphere, SphereSettings
+
+CASES = {
+    "ga-sphere": ("ga", Sphere, GASettings(population=10, parents=3)),
+    "ga-ones": ("ga", Ones, GASettings(population=10, parents=3, crossover_rate=0.5)),
+    "cma_es-sphere": ("cma_es", Sphere, CMAESSettings(population=8)),
+    "map_elites-sphere": ("map_elites", Sphere, MapElitesSettings(cells=(5, 5), batch_size=8)),
+    "map_elites-ones": ("map_elites", Ones, MapElitesSettings(cells=(5, 5), batch_size=8)),
+    "cma_mae-sphere": ("cma_mae", Sphere, CMAMAESettings(cells=(5, 5), emitters=2, batch_size=4)),
+}
+
+
+def new_run(tmp_path, name: str, case: str, generations: int, **settings):
+    optimizer_name, problem_type, optimizer_settings = CASES[case]
+    problem = problem_type()
+    folder = RunFolder.create(tmp_path / name, "[run]\n", {"test": True})
+    run = RunSettings(generations=generations, seed=5, workers=0, **settings)
+    return folder, problem, RunState(optimizer=make_optimizer(optimizer_name, problem, optimizer_settings, seed=5)), run
+
+
+def results(folder: RunFolder) -> dict:
+    """Everything a run leaves that must match bit for bit (not the timings)."""
+    metrics = [{k: v for k, v in row.items() if k != "wall_s"} for row in folder.metrics()]
+    files = {}
+    for name in ("archive.csv", "archive_solutions.npy", "best/genome.npy", "best/genome.json", "best/best.json"):
+        path = folder / name
+        if path.exists():
+            files[name] = path.read_bytes()
+    return {"metrics": metrics, "files": files}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_two_plus_two_generations_equal_four(tmp_path, case):
+    folder, problem, state, settings = new_run(tmp_path, "straight", case, 4)
+    advance(folder, problem, state, settings, SerialEvaluator(), progress=False)
+
+    first, problem, state, settings = new_run(tmp_path, "resumed", case, 4)
+    advance(first, problem, state, settings, SerialEvaluator(), until=2, progress=False)
+    restored = first.load_checkpoint()
+    assert restored.generation == 2
+    advance(first, problem, restored, settings, SerialEvaluator(), progress=False)
+
+    assert results(first) == results(folder)
+    assert len(results(folder)["metrics"]) == 4
+
+
+def test_metrics_after_the_checkpoint_are_dropped_on_resume(tmp_path):
+    folder, problem, state, settings = new_run(tmp_path, "r", "ga-sphere", 6, checkpoint_every=3)
+    advance(folder, problem, state, settings, SerialEvaluator(), until=5, progress=False)
+    assert len(folder.metrics()) == 5
+    restored = folder.load_checkpoint()  # written at generation 3 and at the stop (generation 5)
+    assert restored.generation == 5
+    # Simulate a kill after generation 4's metrics but before its checkpoint: the checkpoint says 3.
+    folder.truncate_metrics(3)
+    assert [row["generation"] for row in folder.metrics()] == [1, 2, 3]
+
+
+def test_checkpoints_follow_checkpoint_every_and_the_end(tmp_path):
+    folder, problem, state, settings = new_run(tmp_path, "r", "ga-sphere", 5, checkpoint_every=2)
+    seen = []
+
+    def record(row: dict) -> None:
+        seen.append(folder.load_checkpoint().generation if (folder / "checkpoint.pkl").exists() else None)
+
+    advance(folder, problem, state, settings, SerialEvaluator(), progress=False, on_generation=record)
+    assert seen == [None, 2, 2, 4, 5]
+
+
+def test_a_stop_request_finishes_the_generation_and_checkpoints(tmp_path):
+    folder, problem, state, settings = new_run(tmp_path, "r", "ga-sphere", 10, checkpoint_every=5)
+    calls = {"n": 0}
+
+    def stop_after_three() -> bool:
+        calls["n"] += 1
+        return calls["n"] >= 3
+
+    state = advance(folder, problem, state, settings, SerialEvaluator(), progress=False, stop_requested=stop_after_three)
+    assert state.generation == 3 and folder.load_checkpoint().generation == 3
+
+
+def test_run_folder_contents(tmp_path):
+    folder, problem, state, settings = new_run(tmp_path, "qd", "map_elites-sphere", 3)
+    advance(folder, problem, state, settings, SerialEvaluator(), progress=False)
+    names = {p.name for p in folder.path.iterdir()}
+    assert {"config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl", "archive.csv", "archive_solutions.npy"} <= names
+    assert {"best", "objective.png", "archive.png"} <= names
+    row = folder.metrics()[-1]
+    for key in ("generation", "evaluations", "best_objective", "mean_objective", "qd_score", "coverage", "wall_s", "best_distance"):
+        assert key in row
+    lines = (folder / "archive.csv").read_text().splitlines()
+    assert lines[0] == "index,objective,x0,x1,threshold,distance"
+    solutions = np.load(folder / "archive_solutions.npy")
+    assert len(solutions) == len(lines) - 1 == row["num_elites"]
+    first = [float(x) for x in lines[1].split(",")]
+    assert np.isclose(Sphere().evaluate(solutions[:1], np.zeros(1)).objective[0], first[1])
+    best = json.loads((folder / "best" / "best.json").read_text())
+    assert best["objective"] == row["best_objective"]
+    assert np.array_equal(folder.archive_genome(int(first[0]), problem), solutions[0])
+
+
+def test_object_genomes_are_written_as_json(tmp_path):
+    folder, problem, state, settings = new_run(tmp_path, "ones", "map_elites-ones", 3)
+    advance(folder, problem, state, settings, SerialEvaluator(), progress=False)
+    genome = json.loads((folder / "best" / "genome.json").read_text())
+    assert set(genome) <= {0, 1} and len(genome) == 16
+    header, first, *_ = (folder / "archive.csv").read_text().splitlines()
+    assert header.endswith(",genome") and not (folder / "archive_solutions.npy").exists()
+    index = int(first.split(",")[0])
+    assert folder.archive_genome(index, problem) == json.loads(first.split(",", 6)[6].strip('"'))
+
+
+# -- run folders are never overwritten by accident ---------------------------------------------------------------------
+def test_existing_folders_are_refused_unless_overwriting_a_run(tmp_path):
+    RunFolder.create(tmp_path / "run", "[run]\n", {})
+    with pytest.raises(RunFolderError, match="already exists"):
+        RunFolder.create(tmp_path / "run", "[run]\n", {})
+    RunFolder.create(tmp_path / "run", "[run]\nnew = 1\n", {}, overwrite=True)
+    assert "new = 1" in (tmp_path / "run" / "config.toml").read_text()
+    (tmp_path / "photos").mkdir()
+    (tmp_path / "photos" / "cat.jpg").write_bytes(b"\xff")
+    with pytest.raises(RunFolderError, match="not a run folder; refusing"):
+        RunFolder.create(tmp_path / "photos", "[run]\n", {}, overwrite=True)
+    assert (tmp_path / "photos" / "cat.jpg").exists()
+    RunFolder.create(tmp_path / "empty", "[run]\n", {})  # a missing folder is fine
+    (tmp_path / "blank").mkdir()
+    RunFolder.create(tmp_path / "blank", "[run]\n", {})  # and so is an empty one
+
+
+def test_opening_and_resuming_broken_folders_fails_clearly(tmp_path):
+    with pytest.raises(RunFolderError, match="no such run folder"):
+        RunFolder.open(tmp_path / "missing")
+    (tmp_path / "plain").mkdir()
+    with pytest.raises(RunFolderError, match="not a run folder"):
+        RunFolder.open(tmp_path / "plain")
+    folder = RunFolder.create(tmp_path / "run", "[run]\n", {})
+    with pytest.raises(RunFolderError, match="no checkpoint yet"):
+        folder.load_checkpoint()
+    (folder / "checkpoint.pkl").write_bytes(b"not a pickle")
+    with pytest.raises(RunFolderError, match="cannot read the checkpoint"):
+        folder.load_checkpoint()
+
+
+@pytest.mark.parametrize("field, value", [("generations", 0), ("checkpoint_every", 0), ("workers", -1), ("seed", -3)])
+def test_run_settings_are_checked(field, value):
+    with pytest.raises(ValueError, match=field):
+        RunSettings(**{field: value})
+
+
+# -- evaluators -----------------------------------------------------------------------------------------------------------
+def noisy_batch():
+    problem = Sphere(SphereSettings(noise=0.5))
+    genomes = problem.initial_genomes(13, np.random.default_rng(0))
+    seeds = np.random.SeedSequence(9).generate_state(13)
+    return problem, genomes, seeds
+
+
+def same(a, b) -> bool:
+    return np.array_equal(a.objective, b.objective) and np.array_equal(a.measures, b.measures) and all(
+        np.array_equal(a.fields[k], b.fields[k]) for k in a.fields
+    )
+
+
+def test_pool_evaluation_equals_serial_evaluation():
+    problem, genomes, seeds = noisy_batch()
+    serial = SerialEvaluator().evaluate(problem, genomes, seeds)
+    with PoolEvaluator(2) as pool:
+        assert same(pool.evaluate(problem, genomes, seeds), serial)
+        ones = Ones()
+        batch = ones.initial_genomes(7, np.random.default_rng(1))
+        assert same(pool.evaluate(ones, batch, np.arange(7)), ones.evaluate(batch, np.arange(7)))
+
+
+class Crashing(Sphere):
+    """Kills the process that evaluates it: stands in for a simulator crashing inside a worker."""
+
+    def evaluate(self, genomes, seeds):
+        os._exit(3)
+
+
+def test_a_dying_worker_raises_an_evaluation_error():
+    problem, genomes, seeds = noisy_batch()
+    with PoolEvaluator(1) as pool, pytest.raises(EvaluationError, match="worker process died"):
+        pool.evaluate(Crashing(), genomes, seeds)
+
+
+def test_dask_evaluation_equals_serial_evaluation():
+    distributed = pytest.importorskip("distributed")
+    from evolution import DaskEvaluator
+
+    problem, genomes, seeds = noisy_batch()
+    serial = SerialEvaluator().evaluate(problem, genomes, seeds)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with DaskEvaluator(cluster.scheduler_address) as dask:
+            assert same(dask.evaluate(problem, genomes, seeds), serial)
+            assert same(dask.evaluate(problem, genomes[:3], seeds[:3]), SerialEvaluator().evaluate(problem, genomes[:3], seeds[:3]))
+
+
+def test_an_unreachable_cluster_is_an_evaluation_error():
+    pytest.importorskip("distributed")
+    from evolution import DaskEvaluator
+
+    with pytest.raises(EvaluationError, match="cannot reach the Dask scheduler"):
+        DaskEvaluator("tcp://127.0.0.1:9", timeout=1.0)

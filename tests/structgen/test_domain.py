@@ -1,0 +1,84 @@
+"""The stable-structures domain: NCA weights in; the paper's Q, height and vertex count out."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from physics import PhysicsConfig, check_stability
+from structgen import NCAConfig, grow
+from structgen.domains.structures import StableStructures, StructuresSettings
+from structgen.nca import _split
+
+SMALL = StructuresSettings(nca=NCAConfig(max_vertices=16))
+
+
+@pytest.fixture(scope="module")
+def batch():
+    problem = StableStructures(SMALL)
+    genomes = problem.initial_genomes(6, np.random.default_rng(3))
+    return problem, genomes, problem.evaluate(genomes, np.arange(6))
+
+
+def test_objective_is_the_physics_score_of_the_grown_structure(batch):
+    problem, genomes, result = batch
+    for genome, objective, measures, integrity in zip(genomes, result.objective, result.measures, result.fields["integrity"]):
+        report = check_stability(grow(genome, SMALL.nca), PhysicsConfig.preset("fast"))
+        assert objective == report.score and integrity == report.integrity
+        assert measures.tolist() == [report.height, report.complexity]
+
+
+def test_fields_and_measures_are_declared(batch):
+    problem, _, result = batch
+    assert set(result.fields) == set(problem.field_names) and problem.measure_names == ("height", "vertices")
+    assert result.measures.shape == (6, 2)
+    assert problem.n_params == 4766 and problem.measure_ranges == ((-0.5, 10.5), (0.5, 16.5))
+
+
+def test_evaluation_is_deterministic_and_independent_of_batching(batch):
+    problem, genomes, result = batch
+    again = problem.evaluate(genomes[3:], np.arange(3, 6))
+    assert np.array_equal(again.objective, result.objective[3:]) and np.array_equal(again.measures, result.measures[3:])
+
+
+def test_structures_the_physics_refuses_score_zero_and_are_flagged():
+    settings = replace(SMALL, physics=PhysicsConfig.preset("fast", max_joints=2))
+    problem = StableStructures(settings)
+    genomes = problem.initial_genomes(8, np.random.default_rng(0))
+    result = problem.evaluate(genomes, np.arange(8))
+    too_big = result.fields["edges"] > 1
+    assert too_big.any()
+    assert (result.objective[too_big] == 0).all() and (result.fields["failed"][too_big] == 1).all()
+
+
+def test_no_build_down_shrinks_the_height_range():
+    problem = StableStructures(replace(SMALL, nca=NCAConfig(max_vertices=16, build_down=False)))
+    assert problem.measure_ranges[0] == (-0.5, 5.5)
+
+
+def test_crossover_swaps_one_hidden_neuron():
+    problem = StableStructures(SMALL)
+    first, second = problem.initial_genomes(2, np.random.default_rng(1))
+    child = problem.crossover(first, second, np.random.default_rng(2))
+    w1, b1, w2, b2 = _split(child, 60)
+    f1, fb1, f2, fb2 = _split(first, 60)
+    s1, sb1, s2, _ = _split(second, 60)
+    swapped = [j for j in range(60) if not np.array_equal(w1[:, j], f1[:, j])]
+    assert len(swapped) == 1
+    j = swapped[0]
+    assert np.array_equal(w1[:, j], s1[:, j]) and b1[j] == sb1[j] and np.array_equal(w2[j], s2[j])
+    assert np.array_equal(b2, fb2) and (child != first).sum() == 52 + 1 + 26
+    assert not np.shares_memory(child, first)
+
+
+def test_artifacts_show_the_structure(tmp_path, batch):
+    problem, genomes, result = batch
+    best = int(np.argmax(result.objective))
+    paths = problem.write_artifacts(genomes[best], tmp_path)
+    assert {p.name for p in paths} >= {"structure.json", "structure.glb", "report.json"}
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["score"] == result.objective[best]
+    assert json.loads((tmp_path / "structure.json").read_text())["metadata"]["score"] == result.objective[best]

@@ -1,0 +1,270 @@
+"""structgen evolve / resume / export RUN_DIR: run folders, reproducibility, interruption, clusters, bad configs."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from structgen.cli import main
+
+# The paper's problem in miniature: growth capped at 16 vertices, 4 children a generation, fast physics.
+TINY = """\
+[run]
+generations = 4
+seed = 3
+workers = 0
+
+[problem]
+name = "structures"
+
+[problem.nca]
+max_vertices = 16
+
+[optimizer]
+name = "{optimizer}"
+{optimizer_settings}
+"""
+OPTIMIZER_SETTINGS = {
+    "ga": "population = 6\nparents = 2",
+    "cma_es": "population = 6",
+    "map_elites": "batch_size = 6\ncells = [6, 8]",
+    "cma_mae": "emitters = 2\nbatch_size = 3\ncells = [6, 8]",
+}
+
+
+def tiny_config(tmp_path: Path, optimizer: str = "ga") -> Path:
+    path = tmp_path / f"{optimizer}.toml"
+    path.write_text(TINY.format(optimizer=optimizer, optimizer_settings=OPTIMIZER_SETTINGS[optimizer]))
+    return path
+
+
+def cli(capsys, *argv) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def outcome(run: Path) -> dict:
+    """What must be identical between two runs of the same configuration (everything but timings)."""
+    metrics = [{k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in (run / "metrics.jsonl").read_text().splitlines()]
+    files = {name: (run / name).read_bytes() for name in ("best/genome.npy", "best/best.json", "best/structure.json", "archive.csv", "archive_solutions.npy") if (run / name).exists()}
+    return {"metrics": metrics, "files": files}
+
+
+def structgen_command() -> list[str]:
+    script = Path(sys.executable).with_name("structgen")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "structgen"]
+
+
+def wait_for_lines(path: Path, count: int, process: subprocess.Popen, limit: float = 120.0) -> None:
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline:
+        if path.exists() and len(path.read_text().splitlines()) >= count:
+            return
+        assert process.poll() is None, process.communicate()
+        time.sleep(0.05)
+    raise AssertionError(f"{path} never reached {count} lines")
+
+
+# -- evolve ---------------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("optimizer", list(OPTIMIZER_SETTINGS))
+def test_evolve_writes_a_complete_run_folder(tmp_path, capsys, optimizer):
+    run = tmp_path / "run"
+    code, out, err = cli(capsys, "evolve", tiny_config(tmp_path, optimizer), "--run-dir", run)
+    assert code == 0, err
+    assert out.splitlines()[0].startswith(f"{run}: 4 generations") and "best: objective" in out
+    names = {p.name for p in run.iterdir()}
+    assert {"config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl", "objective.png", "best"} <= names
+    quality_diversity = optimizer in ("map_elites", "cma_mae")
+    assert ({"archive.csv", "archive_solutions.npy", "archive.png"} <= names) is quality_diversity
+    rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    assert [r["generation"] for r in rows] == [1, 2, 3, 4]
+    for key in ("evaluations", "best_objective", "mean_objective", "best_integrity", "best_height", "best_complexity", "wall_s"):
+        assert key in rows[-1]
+    assert ("qd_score" in rows[-1] and "coverage" in rows[-1]) is quality_diversity
+    assert {p.name for p in (run / "best").iterdir()} >= {"genome.npy", "structure.json", "structure.glb", "structure.png", "report.json"}
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["versions"]["pybullet"] and manifest["versions"]["torch"]
+    assert f'name = "{optimizer}"' in (run / "config.toml").read_text()
+
+
+def test_same_config_and_seed_give_the_same_run(tmp_path, capsys):
+    config = tiny_config(tmp_path)
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "a")
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "b")
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "c", "--seed", 4)
+    assert outcome(tmp_path / "a") == outcome(tmp_path / "b")
+    assert outcome(tmp_path / "a") != outcome(tmp_path / "c")
+
+
+def test_evolve_never_overwrites_a_run_unless_told(tmp_path, capsys):
+    config, run = tiny_config(tmp_path), tmp_path / "run"
+    assert cli(capsys, "evolve", config, "--run-dir", run, "--generations", 1)[0] == 0
+    before = (run / "metrics.jsonl").read_bytes()
+    code, out, err = cli(capsys, "evolve", config, "--run-dir", run)
+    assert code == 2 and "already exists; choose another --run-dir or pass --overwrite" in err
+    assert (run / "metrics.jsonl").read_bytes() == before
+    assert cli(capsys, "evolve", config, "--run-dir", run, "--overwrite")[0] == 0
+    assert len((run / "metrics.jsonl").read_text().splitlines()) == 4
+
+
+@pytest.mark.parametrize(
+    "content, args, message",
+    [
+        ("[optimizer]\nname = 'nsga'\n", [], "unknown optimizer.name 'nsga'"),
+        ("[run]\ngenerations = 'many'\n", [], "run.generations = 'many': expected an integer"),
+        ("[problem.nca]\nhiden = 30\n", [], "unknown setting 'problem.nca.hiden'"),
+        ("", ["--optimizer", "pso"], "unknown optimizer.name 'pso'"),
+        ("", ["--set", "optimizer.parents=-1"], "parents must be a positive integer"),
+    ],
+)
+def test_bad_configurations_fail_before_any_work(tmp_path, capsys, content, args, message):
+    config = tmp_path / "bad.toml"
+    config.write_text(content)
+    code, out, err = cli(capsys, "evolve", config, "--run-dir", tmp_path / "run", *args)
+    assert code == 2 and out == "" and message in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "run").exists()
+
+
+def test_main_job_defaults_run(tmp_path, capsys):
+    code, out, err = cli(capsys, "evolve", "--generations", 1, "--workers", 0, "--run-dir", tmp_path / "main")
+    assert code == 0, err
+    config = (tmp_path / "main" / "config.toml").read_text()
+    assert 'name = "structures"' in config and "population = 40" in config and "max_vertices = 64" in config
+    assert "40 evaluations" in out
+
+
+# -- resume -------------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("optimizer", ["ga", "cma_mae"])
+def test_two_plus_two_generations_equal_four(tmp_path, capsys, optimizer):
+    config = tiny_config(tmp_path, optimizer)
+    assert cli(capsys, "evolve", config, "--run-dir", tmp_path / "whole")[0] == 0
+    assert cli(capsys, "evolve", config, "--run-dir", tmp_path / "split", "--generations", 2)[0] == 0
+    code, out, _ = cli(capsys, "resume", tmp_path / "split", "--generations", 4)
+    assert code == 0 and "4 generations" in out
+    assert outcome(tmp_path / "split") == outcome(tmp_path / "whole")
+    assert "generations = 4" in (tmp_path / "split" / "config.toml").read_text()
+
+
+def test_killed_run_resumes_to_the_same_result(tmp_path, capsys):
+    config = tiny_config(tmp_path)
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "whole", "--generations", 12)
+    run = tmp_path / "killed"
+    process = subprocess.Popen(
+        [*structgen_command(), "evolve", str(config), "--run-dir", str(run), "--generations", "12"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    wait_for_lines(run / "metrics.jsonl", 3, process)
+    process.send_signal(signal.SIGKILL)  # no chance to clean up: whatever it was writing is cut short
+    process.wait()
+    assert process.returncode == -signal.SIGKILL
+    code, out, err = cli(capsys, "resume", run)
+    assert code == 0, err
+    assert outcome(run) == outcome(tmp_path / "whole")
+
+
+def test_ctrl_c_finishes_the_generation_checkpoints_and_exits_130(tmp_path, capsys):
+    config = tiny_config(tmp_path)
+    run = tmp_path / "interrupted"
+    process = subprocess.Popen(
+        [*structgen_command(), "evolve", str(config), "--run-dir", str(run), "--generations", "40"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    wait_for_lines(run / "metrics.jsonl", 2, process)
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err
+    assert "finishing this generation" in err
+    rows = (run / "metrics.jsonl").read_text().splitlines()
+    stopped_at = json.loads(rows[-1])["generation"]
+    assert 2 <= stopped_at < 40 and f"{stopped_at} generations" in out
+    assert cli(capsys, "resume", run, "--generations", stopped_at + 2)[0] == 0
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "whole", "--generations", stopped_at + 2)
+    assert outcome(run) == outcome(tmp_path / "whole")
+
+
+def test_resume_of_a_finished_run_does_nothing_and_bad_folders_fail(tmp_path, capsys):
+    config = tiny_config(tmp_path)
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "run", "--generations", 2)
+    before = outcome(tmp_path / "run")
+    assert cli(capsys, "resume", tmp_path / "run")[0] == 0
+    assert outcome(tmp_path / "run") == before
+    code, _, err = cli(capsys, "resume", tmp_path / "run", "--generations", 1)
+    assert code == 2 and "fewer than the 2 already run" in err
+    code, _, err = cli(capsys, "resume", tmp_path / "nowhere")
+    assert code == 2 and "no such run folder" in err
+    (tmp_path / "run" / "config.toml").write_text("[optimizer]\nname = 'x'\n")
+    code, _, err = cli(capsys, "resume", tmp_path / "run")
+    assert code == 2 and "config.toml: unknown optimizer.name 'x'" in err
+
+
+# -- evaluation on a Dask cluster ---------------------------------------------------------------------------------------
+def test_cluster_evaluation_gives_the_same_run(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    config = tiny_config(tmp_path)
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "local", "--generations", 2)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        code, _, err = cli(
+            capsys, "evolve", config, "--run-dir", tmp_path / "cluster", "--generations", 2, "--cluster", cluster.scheduler_address
+        )
+    assert code == 0, err
+    assert outcome(tmp_path / "cluster") == outcome(tmp_path / "local")
+
+
+# -- export -------------------------------------------------------------------------------------------------------------
+def test_export_the_best_and_an_archive_elite(tmp_path, capsys):
+    run = tmp_path / "qd"
+    cli(capsys, "evolve", tiny_config(tmp_path, "map_elites"), "--run-dir", run)
+    code, out, _ = cli(capsys, "export", run, "-o", tmp_path / "best.glb")
+    assert code == 0
+    best = json.loads((run / "best" / "structure.json").read_text())
+    assert f"{len(best['vertices'])} vertices" in out
+    assert trimesh.load(tmp_path / "best.glb").metadata["n_vertices"] == len(best["vertices"])
+    header, *rows = (run / "archive.csv").read_text().splitlines()
+    columns = header.split(",")
+    row = dict(zip(columns, rows[-1].split(",")))
+    code, out, _ = cli(capsys, "export", run, "-o", tmp_path / "elite.json", "--elite", f"index:{row['index']}")
+    assert code == 0
+    elite = json.loads((tmp_path / "elite.json").read_text())
+    assert len(elite["vertices"]) == int(float(row["vertices"])) and elite["metadata"]["elite"] == f"index:{row['index']}"
+
+
+@pytest.mark.parametrize(
+    "elite, message",
+    [("index:99999", "no elite in cell 99999"), ("top", "use 'best' or 'index:I'"), ("index:x", "use 'best' or 'index:I'")],
+)
+def test_export_of_unknown_elites_fails_clearly(tmp_path, capsys, elite, message):
+    run = tmp_path / "qd"
+    cli(capsys, "evolve", tiny_config(tmp_path, "map_elites"), "--run-dir", run, "--generations", 1)
+    code, _, err = cli(capsys, "export", run, "-o", tmp_path / "x.glb", "--elite", elite)
+    assert code == 2 and message in err and not (tmp_path / "x.glb").exists()
+
+
+def test_export_index_needs_an_archive(tmp_path, capsys):
+    run = tmp_path / "ga"
+    cli(capsys, "evolve", tiny_config(tmp_path), "--run-dir", run, "--generations", 1)
+    code, _, err = cli(capsys, "export", run, "-o", tmp_path / "x.glb", "--elite", "index:0")
+    assert code == 2 and "has no archive" in err
+
+
+def test_export_from_a_toy_run_says_there_is_no_structure(tmp_path, capsys):
+    config = tmp_path / "sphere.toml"
+    config.write_text("[run]\ngenerations = 1\nworkers = 0\n[problem]\nname = 'sphere'\n[optimizer]\nname = 'ga'\npopulation = 4\nparents = 1\n")
+    cli(capsys, "evolve", config, "--run-dir", tmp_path / "toy")
+    assert (tmp_path / "toy" / "best" / "genome.npy").exists()
+    assert np.load(tmp_path / "toy" / "best" / "genome.npy").shape == (8,)
+    code, _, err = cli(capsys, "export", tmp_path / "toy", "-o", tmp_path / "x.glb")
+    assert code == 2 and "has no structures to export" in err
