@@ -14,6 +14,7 @@ across workers, and any elite can be re-created later.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -117,10 +118,17 @@ class Problem:
         return np.where(take_first, first, second)
 
     def genome_to_json(self, genome: Any) -> Any:
-        """A JSON-ready form of a genome, for people and other tools (flat vectors become lists)."""
+        """A JSON-ready form of a genome, for people and other tools. Flat vectors become lists; other genomes are
+        used as they are if JSON can hold them (strings, numbers, lists, tuples, dicts). Override for anything else."""
         if self.flat:
             return np.asarray(genome, dtype=np.float64).tolist()
-        raise NotImplementedError(f"{self.name} does not say how to write its genomes")
+        try:
+            json.dumps(genome)
+        except (TypeError, ValueError):
+            raise NotImplementedError(
+                f"{self.name}: a {type(genome).__name__} genome is not JSON-ready; define genome_to_json()"
+            ) from None
+        return genome
 
     def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
         """Write files that show a genome (a structure, a picture) into ``folder``; returns their paths."""

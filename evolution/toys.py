@@ -102,6 +102,3 @@ class Ones(Problem):
         half = self.settings.length // 2
         ones = bits.sum(axis=1)
         return Evaluation(ones, np.stack([bits[:, :half].sum(axis=1), bits[:, half:].sum(axis=1)], axis=1), {"ones": ones})
-
-    def genome_to_json(self, genome: tuple[int, ...]) -> list[int]:
-        return list(genome)

@@ -16,8 +16,10 @@ The paper's score Q = I + (Wh * H + Wc * C) * I from a PyBullet stability check 
 whole numbers, so a structure that sags from height 3 to 2.998 stays in the cell of height 3.
 
 ## Fields
-``integrity``, ``height``, ``complexity``, ``edges``, ``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the
-check refused the structure) and ``capped`` (0/1: growth stopped at the NCA's vertex cap).
+``integrity``, ``height``, ``complexity``, ``standing_height`` (the height if no joint broke, else 0), ``edges``,
+``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the check refused the structure) and ``capped`` (0/1: growth
+stopped at the NCA's vertex cap). Metrics record each generation's maximum of every field, so the tallest standing
+structure of a run is there even when it was not the best-scoring one.
 
 ## The paper's special rules
 As settings: ``problem.nca.cutoff`` (activation cutoff, 0.6 in the paper's variant), ``problem.nca.build_down =
@@ -69,7 +71,17 @@ class StableStructures(Problem):
 
     name = "structures"
     measure_names = ("height", "vertices")
-    field_names = ("integrity", "height", "complexity", "edges", "broken_joints", "settled", "failed", "capped")
+    field_names = (
+        "integrity",
+        "height",
+        "complexity",
+        "standing_height",
+        "edges",
+        "broken_joints",
+        "settled",
+        "failed",
+        "capped",
+    )
     plot_fields = ("integrity", "height", "complexity")
 
     def __init__(self, settings: StructuresSettings | None = None) -> None:
@@ -91,6 +103,7 @@ class StableStructures(Problem):
             "integrity": [r.integrity for r in reports],
             "height": [r.height for r in reports],
             "complexity": [r.complexity for r in reports],
+            "standing_height": [r.height if r.intact else 0.0 for r in reports],
             "edges": [s.n_edges for s in structures],
             "broken_joints": [len(r.broken_joints) for r in reports],
             "settled": [float(r.settled) for r in reports],
