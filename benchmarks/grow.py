@@ -13,12 +13,17 @@ import argparse
 import os
 import platform
 import statistics
+import sys
 import time
+from pathlib import Path
 
-import numpy as np
-import torch
+# Run as a script, this file's folder comes first on sys.path, and benchmarks/physics.py would shadow the physics package.
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
-from structgen import NCAConfig, grow, grow_population, random_weights
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+
+from structgen import NCAConfig, grow, grow_population, random_weights  # noqa: E402
 
 VARIANTS = {
     "paper (cutoff 0.5)": NCAConfig(),
