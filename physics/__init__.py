@@ -1,7 +1,8 @@
 """physics: judge lattice structures under gravity with breakable-joint rigid bodies in headless PyBullet.
 
 A library of its own: it takes anything that offers ``vertices`` and ``edges`` arrays and imports nothing from
-``structgen``.
+``structgen``. ``check_stability`` simulates; ``check_statics`` predicts the same report from a static frame solve
+in milliseconds.
 
 >>> from physics import PhysicsConfig, check_stability
 >>> report = check_stability({"vertices": [[0, 0, 0], [0, 0, 1], [0, 0, 2]], "edges": [[0, 1], [1, 2]]},
@@ -15,6 +16,7 @@ from physics.model import InputError
 from physics.parallel import CheckPool, check_many
 from physics.report import BrokenJoint, StabilityReport, quality
 from physics.stability import check_stability
+from physics.statics import check_statics
 
 __all__ = [
     "PRESETS",
@@ -25,5 +27,6 @@ __all__ = [
     "StabilityReport",
     "check_many",
     "check_stability",
+    "check_statics",
     "quality",
 ]

@@ -57,6 +57,20 @@ class PhysicsConfig:
             growing with the square of the joint count.
         max_speed: a body faster than this (m/s) means the simulation exploded.
         max_distance: a body further than this from where it started (m) means the simulation exploded.
+        statics_load_factor: the static analysis (``physics.statics``) multiplies the part of a joint's force along
+            its cylinder by this before comparing with ``break_force``: it stands in for the overshoot a simulation
+            sees when gravity switches on, which is small for loads along a member.
+        statics_shear_factor: the same for the part across the cylinder (a cantilever's load), which overshoots
+            far more in the simulation.
+        statics_beam_radius: radius (m) of the solid beams whose stiffness the static analysis gives the edges. Only
+            the ratio of bending to axial stiffness matters; PyBullet's fixed joints resist bending far more than a
+            slender 0.08 m cylinder would, and a larger radius matches the simulation's load sharing better.
+        statics_tip_margin: the static analysis lets a piece tip over unless its centre of mass lies at least this far
+            (m) inside the convex hull of its ground contacts; a compliant structure sags, and one balanced close to
+            an edge of its footprint rolls over in the simulation.
+
+    The four statics settings were fitted on half of the 240 structures of ``benchmarks/statics.py`` and checked on
+    the other half (see ``benchmarks/README.md``).
     """
 
     timestep: float = 1 / 240
@@ -85,6 +99,10 @@ class PhysicsConfig:
     max_joints: int = 3000
     max_speed: float = 100.0
     max_distance: float = 1000.0
+    statics_load_factor: float = 1.05
+    statics_shear_factor: float = 1.2
+    statics_beam_radius: float = 0.3
+    statics_tip_margin: float = 0.05
 
     def __post_init__(self) -> None:
         for item in fields(self):
@@ -94,7 +112,7 @@ class PhysicsConfig:
                     raise ValueError(f"physics height_mode must be 'max' or 'mean', got {value!r}")
             elif item.name == "early_stop":
                 if not isinstance(value, bool):
-                    raise ValueError(f"physics early_stop must be true or false, got {value!r}")
+                    raise ValueError(f"physics {item.name} must be true or false, got {value!r}")
             elif item.type in ("int", int):
                 if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                     raise ValueError(f"physics {item.name} must be a positive integer, got {value!r}")
@@ -133,7 +151,15 @@ class PhysicsConfig:
         return next((name for name, preset in PRESETS.items() if preset == self), None)
 
 
-_MAY_BE_ZERO = {"friction", "rolling_friction", "spinning_friction", "height_weight", "complexity_weight", "settle_speed"}
+_MAY_BE_ZERO = {
+    "friction",
+    "rolling_friction",
+    "spinning_friction",
+    "height_weight",
+    "complexity_weight",
+    "settle_speed",
+    "statics_tip_margin",
+}
 _MAY_BE_INFINITE = {"break_force", "break_torque", "max_speed", "max_distance"}
 
 PRESETS: dict[str, PhysicsConfig] = {}

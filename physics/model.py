@@ -109,13 +109,14 @@ def _quaternions_z_to(directions: np.ndarray) -> np.ndarray:
     return np.concatenate([unit * np.sin(half)[:, None], np.cos(half)[:, None]], axis=1)
 
 
-def place(vertices: np.ndarray, edges: np.ndarray, config: PhysicsConfig) -> Bodies:
-    """Bodies of a structure resting on the ground; raises InputError if it is too large or an edge too short."""
-    if len(vertices) > config.max_vertices:
+def place(vertices: np.ndarray, edges: np.ndarray, config: PhysicsConfig, *, enforce_caps: bool = True) -> Bodies:
+    """Bodies of a structure resting on the ground; raises InputError if an edge is too short or, with
+    ``enforce_caps`` (the simulation's limits), if it is too large."""
+    if enforce_caps and len(vertices) > config.max_vertices:
         raise InputError(
             f"structure has {len(vertices)} vertices, more than max_vertices = {config.max_vertices}"
         )
-    if 2 * len(edges) > config.max_joints:
+    if enforce_caps and 2 * len(edges) > config.max_joints:
         raise InputError(
             f"structure has {len(edges)} edges ({2 * len(edges)} joints), more than max_joints = {config.max_joints}"
         )

@@ -68,6 +68,7 @@ class StabilityReport:
     wall_time: float = 0.0
     cpu_time: float = 0.0
     config: PhysicsConfig = field(default_factory=PhysicsConfig)
+    method: str = "bullet"  # "bullet": simulated; "statics": predicted by physics.statics
 
     @property
     def intact(self) -> bool:
@@ -97,6 +98,7 @@ class StabilityReport:
             "error": self.error,
             "wall_time": self.wall_time,
             "cpu_time": self.cpu_time,
+            "method": self.method,
             "preset": self.config.preset_name,
             "config": {k: (v if not (isinstance(v, float) and math.isinf(v)) else "inf") for k, v in asdict(self.config).items()},
         }

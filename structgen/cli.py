@@ -10,6 +10,7 @@ import argparse
 import json
 import logging
 import sys
+import time
 import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -103,6 +104,11 @@ def _add_physics_options(parser: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="change one physics setting, e.g. --set break_force=60 --set horizon=10 (repeatable; see README)",
     )
+    group.add_argument(
+        "--statics",
+        action="store_true",
+        help="predict with the static frame solve (milliseconds, no size cap) instead of simulating",
+    )
 
 
 def _physics_config(args: argparse.Namespace):
@@ -119,12 +125,12 @@ def _physics_config(args: argparse.Namespace):
 def _checked(args: argparse.Namespace):
     """Load the file, simulate it, and return (structure, report); size caps and bad files are input errors."""
     from physics import InputError as PhysicsInputError
-    from physics import check_stability
+    from physics import check_stability, check_statics
 
     config = _physics_config(args)
     structure = _load_structure(args.file)
     try:
-        return structure, check_stability(structure, config)
+        return structure, (check_statics if args.statics else check_stability)(structure, config)
     except PhysicsInputError as err:
         raise InputError(f"{args.file}: {err}") from None
 
@@ -137,27 +143,61 @@ def _describe(structure: Structure) -> str:
 def cmd_grow(args: argparse.Namespace) -> int:
     from structgen.nca import LocalNCA, load_weights
 
-    config = _nca_config(args)
     mesh = _mesh_options(args)
-    if args.weights:
-        try:
-            nca = LocalNCA(load_weights(args.weights, config), config)
-        except ValueError as err:
-            raise InputError(str(err)) from None
-        origin: dict[str, Any] = {"weights_file": str(args.weights)}
+    if args.run:
+        nca = _run_nca(args)
+        origin: dict[str, Any] = {"run": str(args.run), "elite": args.elite}
     else:
-        nca = LocalNCA.random(args.seed, config)
-        origin = {"random_seed": args.seed}
+        config = _nca_config(args)
+        if args.weights:
+            try:
+                nca = LocalNCA(load_weights(args.weights, config), config)
+            except ValueError as err:
+                raise InputError(str(err)) from None
+            origin = {"weights_file": str(args.weights)}
+        else:
+            nca = LocalNCA.random(args.seed, config)
+            origin = {"random_seed": args.seed}
+    started = time.perf_counter()
     structure = nca.grow()
+    log.info("grew %d vertices and %d edges in %.2f s", structure.n_vertices, structure.n_edges, time.perf_counter() - started)
     growth = structure.metadata["growth"]
     if growth["hit_max_vertices"]:
-        log.warning("growth stopped after %d steps at --max-vertices %d", growth["iterations_run"], config.max_vertices)
+        log.warning("growth stopped after %d steps at --max-vertices %d", growth["iterations_run"], nca.config.max_vertices)
     if growth["hit_max_extent"]:
-        log.warning("some growth was dropped at --max-extent %d", config.max_extent)
+        log.warning("some growth was dropped at --max-extent %d", nca.config.max_extent)
     structure = structure.with_metadata(**origin)
     path = _write(structure, args.output, mesh)
     print(f"{path}: {_describe(structure)}")
     return EXIT_OK
+
+
+def _run_nca(args: argparse.Namespace):
+    """The NCA of a run's elite, with the run's NCA settings changed by any NCA options given."""
+    from dataclasses import replace
+
+    from structgen.nca import LocalNCA
+    from structgen.runs import elite_genome, open_run
+
+    folder, experiment = open_run(args.run)
+    if experiment.problem_name != "structures":
+        raise InputError(f"{args.run}: a run of the {experiment.problem_name!r} problem has no NCA to grow")
+    config = experiment.problem_settings.nca
+    changes = {
+        "iterations": args.iterations,
+        "cutoff": args.cutoff,
+        "hidden": args.hidden,
+        "max_vertices": args.max_vertices,
+        "max_extent": args.max_extent,
+    }
+    changes = {k: v for k, v in changes.items() if v is not None}
+    if args.no_build_down:
+        changes["build_down"] = False
+    try:
+        config = replace(config, **changes)
+        return LocalNCA(elite_genome(folder, experiment, args.elite), config)
+    except ValueError as err:
+        raise InputError(str(err)) from None
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -222,22 +262,26 @@ def cmd_check(args: argparse.Namespace) -> int:
             verdict = "the simulation exploded (scored as collapsed)"
         rows = [
             ("file", args.file),
+            ("method", "static frame solve" if report.method == "statics" else "simulation (PyBullet)"),
             ("preset", report.config.preset_name or f"{args.preset}, customised"),
             ("verdict", verdict),
             ("integrity", f"{report.integrity:.4f}"),
             ("height", f"{report.height:.3f}"),
             ("complexity", report.complexity),
             ("score", f"{report.score:.4f}"),
-            ("simulated", f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled")),
+            (
+                "simulated",
+                f"{report.steps} failure rounds"
+                if report.method == "statics"
+                else f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled"),
+            ),
             ("cpu", f"{report.cpu_time:.3f} s"),
         ]
         for name, value in rows:
             print(f"{name:<11} {value}")
         for joint in report.broken_joints[:10]:
-            print(
-                f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) at {joint.time:.3f} s, "
-                f"{joint.force:.1f} N"
-            )
+            when = f"in round {joint.time:.0f}" if report.method == "statics" else f"at {joint.time:.3f} s"
+            print(f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) {when}, {joint.force:.1f} N")
         if broken > 10:
             print(f"broken      ... and {broken - 10} more (--json lists all)")
     if args.strict and not report.intact:
@@ -272,7 +316,8 @@ def cmd_evolve(args: argparse.Namespace) -> int:
     from structgen.runs import evolve
 
     changes = {"generations": args.generations, "seed": args.seed, "workers": args.workers, "cluster": args.cluster}
-    experiment = load_experiment(args.config, overrides=args.set, optimizer=args.optimizer, run_changes=changes)
+    overrides = [*args.set, *([f"problem.evaluator={args.evaluator}"] if args.evaluator else [])]
+    experiment = load_experiment(args.config, overrides=overrides, optimizer=args.optimizer, run_changes=changes)
     with graceful_interrupt() as stop:
         folder, state = evolve(experiment, args.run_dir, overwrite=args.overwrite, stop_requested=stop)
         _report_run(folder, state)
@@ -312,6 +357,12 @@ def build_parser() -> argparse.ArgumentParser:
     source = grow.add_mutually_exclusive_group()
     source.add_argument("--seed", type=int, default=0, metavar="N", help="random NCA drawn with this seed (default 0)")
     source.add_argument("--weights", metavar="FILE", help="NCA weights: .npy (1-D array) or .json (list of numbers)")
+    source.add_argument(
+        "--run",
+        metavar="RUN_DIR",
+        help="an evolution run's NCA (its settings, then any NCA options given here, e.g. more --iterations)",
+    )
+    grow.add_argument("--elite", default="best", metavar="best|index:I", help="with --run: which NCA (default best)")
     grow.add_argument("-o", "--output", required=True, metavar="OUT", help="output file; format from the suffix")
     _add_nca_options(grow)
     _add_mesh_options(grow)
@@ -386,6 +437,12 @@ def build_parser() -> argparse.ArgumentParser:
     evolve.add_argument("--seed", type=int, metavar="N", help="the run's seed (sets run.seed)")
     evolve.add_argument("--workers", type=int, metavar="N", help="local evaluation processes, 0 for none (run.workers)")
     evolve.add_argument("--cluster", metavar="ADDRESS", help="evaluate on the Dask scheduler at ADDRESS (run.cluster)")
+    evolve.add_argument(
+        "--evaluator",
+        choices=("bullet", "statics", "statics+bullet"),
+        help="judge structures by simulation, by the static frame solve, or statics first and the simulation for "
+        "those predicted to stand (sets problem.evaluator)",
+    )
     evolve.add_argument("--run-dir", metavar="DIR", help="run folder to create (default runs/<problem>-<optimizer>-s<seed>-<time>)")
     evolve.add_argument("--overwrite", action="store_true", help="replace RUN_DIR if it is already a run folder")
     evolve.add_argument(

@@ -48,9 +48,11 @@ def _plain(settings_type: type) -> tuple[Callable[[dict[str, Any], str], Any], C
 
 
 def _read_structures(table: dict[str, Any], where: str) -> structures.StructuresSettings:
-    unknown = sorted(set(table) - {"init_scale", "nca", "physics"})
+    unknown = sorted(set(table) - {"init_scale", "evaluator", "nca", "physics"})
     if unknown:
-        raise ConfigError(f"unknown setting '{where}.{unknown[0]}'; {where} has: init_scale, nca (table), physics (table)")
+        raise ConfigError(
+            f"unknown setting '{where}.{unknown[0]}'; {where} has: init_scale, evaluator, nca (table), physics (table)"
+        )
     return structures.settings_from_table(table, where)
 
 

@@ -9,7 +9,8 @@ The structure the NCA grows from one seed vertex (:mod:`structgen.nca`, settings
 
 ## Objective
 The paper's score Q = I + (Wh * H + Wc * C) * I from a PyBullet stability check (:mod:`physics`, settings in
-``[problem.physics]``, fast preset by default). Structures the check refuses (over its size caps) score 0.
+``[problem.physics]``, fast preset by default), or from the static frame solve (``problem.evaluator``). Structures
+the check refuses (over its size caps) score 0.
 
 ## Measures
 ``height`` (H, lattice units) and ``vertices`` (C), for quality-diversity archives. Their ranges are centred on
@@ -17,9 +18,10 @@ whole numbers, so a structure that sags from height 3 to 2.998 stays in the cell
 
 ## Fields
 ``integrity``, ``height``, ``complexity``, ``standing_height`` (the height if no joint broke, else 0), ``edges``,
-``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the check refused the structure) and ``capped`` (0/1: growth
-stopped at the NCA's vertex cap). Metrics record each generation's maximum of every field, so the tallest standing
-structure of a run is there even when it was not the best-scoring one.
+``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the check refused the structure), ``capped`` (0/1: growth
+stopped at the NCA's vertex cap) and ``evaluator`` (0: scored by the static solve, 1: by the simulation). Metrics
+record each generation's maximum of every field, so the tallest standing structure of a run is there even when it
+was not the best-scoring one.
 
 ## The paper's special rules
 As settings: ``problem.nca.cutoff`` (activation cutoff, 0.6 in the paper's variant), ``problem.nca.build_down =
@@ -36,11 +38,14 @@ from typing import Any
 import numpy as np
 
 from evolution import Evaluation, Problem
-from physics import PhysicsConfig, check_stability
+from physics import PhysicsConfig, StabilityReport, check_stability, check_statics
 from structgen.nca import NCAConfig, _split, grow, grow_population, n_params
 from structgen.structure import Structure
 
-__all__ = ["StableStructures", "StructuresSettings"]
+__all__ = ["EVALUATORS", "StableStructures", "StructuresSettings"]
+
+EVALUATORS = ("bullet", "statics", "statics+bullet")
+_BY_STATICS, _BY_BULLET = 0.0, 1.0
 
 
 @dataclass(frozen=True)
@@ -49,6 +54,10 @@ class StructuresSettings:
 
     Attributes:
         init_scale: random genomes are uniform in [-init_scale, init_scale] (0.25, the paper's range).
+        evaluator: how structures are judged: "bullet" (simulation), "statics" (the static frame solve of
+            :mod:`physics.statics`, milliseconds), or "statics+bullet" (statics for every structure, then the
+            simulation for each one statics predicts to stand: the candidates for best). The field ``evaluator``
+            records which one scored each candidate.
         nca: the NCA's shape and growth rules (``[problem.nca]``). The default vertex cap of 64 keeps random
             networks, which fill their growth box with about 1,100 vertices, within what a simulation can judge
             in a search loop: growth stops before the step that would exceed it.
@@ -57,6 +66,7 @@ class StructuresSettings:
     """
 
     init_scale: float = 0.25
+    evaluator: str = "bullet"
     nca: NCAConfig = field(default_factory=lambda: NCAConfig(max_vertices=64))
     physics_preset: str = "fast"
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
@@ -64,6 +74,8 @@ class StructuresSettings:
     def __post_init__(self) -> None:
         if not (isinstance(self.init_scale, (int, float)) and self.init_scale > 0):
             raise ValueError(f"problem init_scale must be a positive number, got {self.init_scale!r}")
+        if self.evaluator not in EVALUATORS:
+            raise ValueError(f"problem evaluator must be one of {', '.join(EVALUATORS)}, got {self.evaluator!r}")
 
 
 class StableStructures(Problem):
@@ -81,6 +93,7 @@ class StableStructures(Problem):
         "settled",
         "failed",
         "capped",
+        "evaluator",
     )
     plot_fields = ("integrity", "height", "complexity")
 
@@ -98,7 +111,7 @@ class StableStructures(Problem):
 
     def evaluate(self, genomes: np.ndarray, seeds: np.ndarray) -> Evaluation:
         structures = grow_population(np.asarray(genomes, dtype=np.float64), self.settings.nca)
-        reports = [check_stability(s, self.settings.physics, errors="report") for s in structures]
+        reports = [self.judge(s) for s in structures]
         fields = {
             "integrity": [r.integrity for r in reports],
             "height": [r.height for r in reports],
@@ -109,9 +122,24 @@ class StableStructures(Problem):
             "settled": [float(r.settled) for r in reports],
             "failed": [float(r.error is not None) for r in reports],
             "capped": [float(s.metadata["growth"]["hit_max_vertices"]) for s in structures],
+            "evaluator": [_BY_STATICS if r.method == "statics" else _BY_BULLET for r in reports],
         }
         measures = np.array([[r.height, r.complexity] for r in reports], dtype=np.float64).reshape(-1, 2)
         return Evaluation(np.array([r.score for r in reports]), measures, fields)
+
+    def judge(self, structure: Structure) -> StabilityReport:
+        """The report that scores one structure, by the configured evaluator; never raises for bad structures.
+
+        The choice for "statics+bullet" depends on the structure alone, so results do not depend on how a
+        batch is split between workers.
+        """
+        physics = self.settings.physics
+        if self.settings.evaluator == "bullet":
+            return check_stability(structure, physics, errors="report")
+        predicted = check_statics(structure, physics)
+        if self.settings.evaluator == "statics" or not predicted.intact:
+            return predicted
+        return check_stability(structure, physics, errors="report")
 
     def crossover(self, first: np.ndarray, second: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The paper's most promising recombination: the child is ``first`` with one hidden neuron (its incoming
@@ -131,7 +159,7 @@ class StableStructures(Problem):
         from structgen.render import render_check
 
         structure = self.structure_of(genome)
-        report = check_stability(structure, self.settings.physics, errors="report")
+        report = self.judge(structure)
         structure = structure.with_metadata(score=report.score, integrity=report.integrity, height=report.height)
         paths = [structure.save(folder / "structure.json"), structure.export(folder / "structure.glb")]
         from structgen._fileio import atomic_write
@@ -167,4 +195,4 @@ def settings_from_table(table: dict[str, Any], where: str) -> StructuresSettings
 def settings_to_table(settings: StructuresSettings) -> dict[str, Any]:
     """The resolved ``[problem]`` table (every setting spelled out)."""
     physics = {"preset": settings.physics_preset, **asdict(settings.physics)}
-    return {"init_scale": settings.init_scale, "nca": asdict(settings.nca), "physics": physics}
+    return {"init_scale": settings.init_scale, "evaluator": settings.evaluator, "nca": asdict(settings.nca), "physics": physics}
