@@ -256,7 +256,8 @@ class CMAMAESettings:
         batch_size: genomes per emitter per generation.
         sigma0: initial step size of each emitter.
         learning_rate: the archive's learning rate (0.01 in the warehouse work; 1 would be CMA-ME).
-        threshold_min: initial acceptance threshold of every cell.
+        threshold_min: initial acceptance threshold of every cell; unset, just below the problem's objective floor,
+            so that candidates scoring the floor still enter the archive (an empty archive stalls the emitters).
         es: the evolution strategy inside the emitters: "sep_cma_es" (diagonal, for thousands of parameters) or
             "cma_es" (full covariance, for small problems).
     """
@@ -266,14 +267,14 @@ class CMAMAESettings:
     batch_size: int = 20
     sigma0: float = 0.1
     learning_rate: float = 0.01
-    threshold_min: float = 0.0
+    threshold_min: float | None = None
     es: str = "sep_cma_es"
 
     def __post_init__(self) -> None:
         _positive_int(self, "emitters", "batch_size")
         _in_range(self, "sigma0", 0.0, math.inf, low_open=True)
         _in_range(self, "learning_rate", 0.0, 1.0, low_open=True)
-        if not math.isfinite(self.threshold_min):
+        if self.threshold_min is not None and not math.isfinite(self.threshold_min):
             raise ValueError(f"optimizer threshold_min must be finite, got {self.threshold_min!r}")
         if self.es not in ("sep_cma_es", "cma_es"):
             raise ValueError(f"optimizer es must be 'sep_cma_es' or 'cma_es', got {self.es!r}")

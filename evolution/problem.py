@@ -84,6 +84,9 @@ class Problem:
         measure_ranges: ``(low, high)`` for each measure; they lay out quality-diversity archives.
         field_names: names of the extra per-candidate fields :meth:`evaluate` reports.
         plot_fields: fields of the best candidate worth plotting over generations.
+        objective_floor: the lowest objective the problem gives. Quality-diversity archives start their acceptance
+            thresholds just below it (so even the worst candidates are kept while nothing better exists) and
+            measure their QD score from it.
     """
 
     name: str = "problem"
@@ -92,6 +95,7 @@ class Problem:
     measure_ranges: tuple[tuple[float, float], ...] = ()
     field_names: tuple[str, ...] = ()
     plot_fields: tuple[str, ...] = ()
+    objective_floor: float = 0.0
 
     @property
     def flat(self) -> bool:

@@ -40,6 +40,7 @@ def _grid_archive(problem: Problem, cells: tuple[int, ...], seed: int, **options
         dims=cells,
         ranges=problem.measure_ranges,
         extra_fields={name: ((), np.float64) for name in problem.field_names},
+        qd_score_offset=problem.objective_floor,
         seed=seed,
         **options,
     )
@@ -121,9 +122,10 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
         raise ValueError(f"cma_mae needs flat genomes; {problem.name} has object genomes (use ga or map_elites)")
     seeds = np.random.SeedSequence(seed).generate_state(settings.emitters + 3)
     cells = _cells(settings, problem)
-    archive = _grid_archive(
-        problem, cells, int(seeds[0]), learning_rate=settings.learning_rate, threshold_min=settings.threshold_min
-    )
+    threshold = settings.threshold_min
+    if threshold is None:  # a hair below the floor: a candidate scoring exactly the floor must still get in
+        threshold = problem.objective_floor - 1e-6 * max(1.0, abs(problem.objective_floor))
+    archive = _grid_archive(problem, cells, int(seeds[0]), learning_rate=settings.learning_rate, threshold_min=threshold)
     result_archive = _grid_archive(problem, cells, int(seeds[1]))
     x0 = np.asarray(problem.initial_genomes(1, np.random.default_rng(int(seeds[2]))), dtype=np.float64)[0]
     emitters = [

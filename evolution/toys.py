@@ -37,6 +37,7 @@ class Sphere(Problem):
     """Maximise ``10 - sum((x - 0.5)^2)``; the measures are the first two coordinates (clipped to [-1, 1])."""
 
     name = "sphere"
+    objective_floor = -100.0  # 10 - |x - 0.5|^2, far below anything a search visits
     measure_names = ("x0", "x1")
     measure_ranges = ((-1.0, 1.0), (-1.0, 1.0))
     field_names = ("distance",)

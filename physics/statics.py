@@ -92,6 +92,8 @@ class _Frame:
 
 def _frame(bodies: Bodies, config: PhysicsConfig) -> _Frame:
     edges = bodies.edges
+    if not len(edges):
+        return _Frame(np.zeros((0, 12, 12)), np.zeros((0, 12)), np.zeros((0, 12), dtype=np.int64))
     lengths = np.linalg.norm(bodies.sphere_positions[edges[:, 1]] - bodies.sphere_positions[edges[:, 0]], axis=1)
     keys, which = np.unique(np.round(lengths, 9), return_inverse=True)
     local = np.stack([_local_stiffness(L, config.statics_beam_radius) for L in keys])[which.ravel()]

@@ -208,3 +208,18 @@ def test_evaluations_join_in_order():
     joined = Evaluation.concatenate([a, b])
     assert joined.objective.tolist() == [1.0, 2.0, 3.0] and joined.fields["f"].tolist() == [5, 6, 7]
     assert joined.row(2) == {"objective": 3.0, "measures": [0.5, 0.6], "f": 7.0}
+
+
+def test_cma_mae_survives_a_generation_where_everything_scores_the_floor():
+    class Flat(Sphere):
+        objective_floor = 0.0
+
+        def evaluate(self, genomes, seeds):
+            result = super().evaluate(genomes, seeds)
+            return Evaluation(np.zeros(len(genomes)), result.measures, result.fields)
+
+    problem = Flat()
+    optimizer = make_optimizer("cma_mae", problem, SMALL["cma_mae"], seed=0)
+    for g in range(3):
+        step(optimizer, problem, g)
+    assert optimizer.archive.stats.num_elites > 0

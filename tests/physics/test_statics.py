@@ -84,6 +84,13 @@ def test_a_balanced_structure_on_one_sphere_stands():
     np.testing.assert_allclose(joint_forces(balanced, FAST)[[0, 2]], [2 * W, 2 * W], rtol=1e-6)
 
 
+def test_structures_without_edges():
+    lone = check_statics(([[3, 3, 3]], []), FAST)
+    assert lone.intact and lone.integrity == 1.0 and lone.score == 2.0  # as the simulation: Q = 1 + (0 + 1) * 1
+    scattered = check_statics(([[0, 0, 0], [4, 0, 2]], []), FAST)
+    assert scattered.intact and scattered.height == 0.0  # the floating vertex falls, but there is no joint to break
+
+
 def test_pieces_without_ground_contact_fall():
     # Two separate pieces; the upper one floats and falls.
     structure = ([[0, 0, 0], [1, 0, 0], [0, 0, 3], [0, 0, 4]], [[0, 1], [2, 3]])

@@ -270,3 +270,16 @@ def test_render_refuses_other_formats_and_writes_nothing(tmp_path, capsys, colum
     assert code == 2
     assert_one_line_error(err, "c.jpg", "PNG")
     assert not (tmp_path / "c.jpg").exists()
+
+
+def test_check_statics_predicts_without_simulating(capsys, column_4, square):
+    code, out, _ = run(capsys, "check", column_4, "--statics", "--json")
+    report = json.loads(out)
+    assert code == 0 and report["method"] == "statics" and report["integrity"] == 0.0 and report["steps"] == 2
+    code, out, _ = run(capsys, "check", square, "--statics")
+    assert code == 0 and "static frame solve" in out and "stands" in out
+
+
+def test_render_statics_writes_a_png(tmp_path, capsys, column_4):
+    code, out, _ = run(capsys, "render", column_4, "--statics", "-o", tmp_path / "c.png", "--dpi", 40)
+    assert code == 0 and "breaks" in out and (tmp_path / "c.png").read_bytes().startswith(b"\x89PNG")

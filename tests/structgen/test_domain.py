@@ -82,3 +82,44 @@ def test_artifacts_show_the_structure(tmp_path, batch):
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["score"] == result.objective[best]
     assert json.loads((tmp_path / "structure.json").read_text())["metadata"]["score"] == result.objective[best]
+
+
+# -- evaluators: simulation, static solve, or both --------------------------------------------------------------------------
+def evaluate_with(evaluator: str, count: int = 8):
+    problem = StableStructures(replace(SMALL, evaluator=evaluator))
+    genomes = problem.initial_genomes(count, np.random.default_rng(5))
+    return problem, genomes, problem.evaluate(genomes, np.arange(count))
+
+
+def test_statics_evaluator_scores_with_the_static_solve():
+    from physics import check_statics
+
+    problem, genomes, result = evaluate_with("statics")
+    assert (result.fields["evaluator"] == 0).all()
+    for genome, objective in zip(genomes, result.objective):
+        assert objective == check_statics(grow(genome, SMALL.nca), SMALL.physics).score
+
+
+def test_statics_then_bullet_rechecks_exactly_the_structures_predicted_to_stand():
+    from physics import check_statics
+
+    problem, genomes, result = evaluate_with("statics+bullet", count=12)
+    predicted = [check_statics(grow(g, SMALL.nca), SMALL.physics) for g in genomes]
+    rechecked = result.fields["evaluator"] == 1
+    assert rechecked.tolist() == [p.intact for p in predicted]
+    assert rechecked.any() and (~rechecked).any()
+    for genome, objective, by_bullet in zip(genomes, result.objective, rechecked):
+        if by_bullet:
+            assert objective == check_stability(grow(genome, SMALL.nca), SMALL.physics).score
+
+
+def test_mixed_evaluation_does_not_depend_on_batching():
+    problem, genomes, whole = evaluate_with("statics+bullet", count=12)
+    parts = [problem.evaluate(genomes[a:b], np.arange(a, b)) for a, b in ((0, 5), (5, 12))]
+    assert np.array_equal(np.concatenate([p.objective for p in parts]), whole.objective)
+    assert np.array_equal(np.concatenate([p.fields["evaluator"] for p in parts]), whole.fields["evaluator"])
+
+
+def test_unknown_evaluator_is_refused():
+    with pytest.raises(ValueError, match="evaluator must be one of bullet, statics, statics\\+bullet"):
+        StructuresSettings(evaluator="fem")

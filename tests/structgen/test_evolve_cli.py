@@ -268,3 +268,27 @@ def test_export_from_a_toy_run_says_there_is_no_structure(tmp_path, capsys):
     assert np.load(tmp_path / "toy" / "best" / "genome.npy").shape == (8,)
     code, _, err = cli(capsys, "export", tmp_path / "toy", "-o", tmp_path / "x.glb")
     assert code == 2 and "has no structures to export" in err
+
+
+@pytest.mark.parametrize("evaluator", ["statics", "statics+bullet"])
+def test_evolve_with_the_static_evaluators_records_which_scored(tmp_path, capsys, evaluator):
+    run = tmp_path / "run"
+    code, _, err = cli(capsys, "evolve", tiny_config(tmp_path, "map_elites"), "--run-dir", run, "--evaluator", evaluator)
+    assert code == 0, err
+    assert f'evaluator = "{evaluator}"' in (run / "config.toml").read_text()
+    header, *rows = (run / "archive.csv").read_text().splitlines()
+    column = header.split(",").index("evaluator")
+    scored_by = {float(row.split(",")[column]) for row in rows}
+    assert scored_by == {0.0} if evaluator == "statics" else scored_by <= {0.0, 1.0}
+
+
+def test_grow_a_runs_best_further(tmp_path, capsys):
+    run = tmp_path / "run"
+    cli(capsys, "evolve", tiny_config(tmp_path), "--run-dir", run, "--generations", 1)
+    code, out, err = cli(capsys, "grow", "--run", run, "--iterations", 2, "--max-vertices", 5000, "-o", tmp_path / "more.json")
+    assert code == 0, err
+    grown = json.loads((tmp_path / "more.json").read_text())
+    assert grown["metadata"]["growth"]["iterations"] == 2 and grown["metadata"]["growth"]["max_vertices"] == 5000
+    assert grown["metadata"]["run"] == str(run)
+    code, _, err = cli(capsys, "grow", "--run", tmp_path / "nowhere", "-o", tmp_path / "x.json")
+    assert code == 2 and "no such run folder" in err
