@@ -16,7 +16,7 @@ from physics.model import InputError
 from physics.parallel import CheckPool, check_many
 from physics.report import BrokenJoint, StabilityReport, quality
 from physics.stability import check_stability
-from physics.statics import check_statics
+from physics.statics import check_statics, joint_forces
 
 __all__ = [
     "PRESETS",
@@ -28,5 +28,6 @@ __all__ = [
     "check_many",
     "check_stability",
     "check_statics",
+    "joint_forces",
     "quality",
 ]

@@ -34,10 +34,25 @@ def _add_mesh_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--sphere-radius", type=float, metavar="R", help="radius of the vertex spheres (default 0.25)")
     group.add_argument("--cylinder-radius", type=float, metavar="R", help="radius of the edge cylinders (default 0.08)")
     group.add_argument("--spacing", type=float, metavar="S", help="world length of one lattice step (default 1.0)")
+    group.add_argument(
+        "--sphere-subdivisions",
+        type=int,
+        metavar="N",
+        help="icosphere subdivisions of each sphere, 0..5 (default 2: 320 triangles; 0 gives 20, for big structures)",
+    )
+    group.add_argument(
+        "--cylinder-sections", type=int, metavar="N", help="sides of each cylinder, 3..128 (default 12; 6 for big structures)"
+    )
 
 
 def _mesh_options(args: argparse.Namespace) -> dict[str, float]:
-    names = {"sphere_radius": args.sphere_radius, "cylinder_radius": args.cylinder_radius, "spacing": args.spacing}
+    names = {
+        "sphere_radius": args.sphere_radius,
+        "cylinder_radius": args.cylinder_radius,
+        "spacing": args.spacing,
+        "sphere_subdivisions": args.sphere_subdivisions,
+        "cylinder_sections": args.cylinder_sections,
+    }
     return {name: value for name, value in names.items() if value is not None}
 
 

@@ -17,6 +17,8 @@ if TYPE_CHECKING:
 __all__ = ["render_check"]
 
 INTACT, BROKEN, VERTEX, GROUND = "#5b6f8a", "#d62728", "#e0703c", "#d9d4c7"
+# Beyond this many broken joints, crosses would hide the structure; the red edges still show where it failed.
+_MAX_CROSSES = 200
 
 
 def _verdict(report: StabilityReport) -> str:
@@ -28,6 +30,13 @@ def _verdict(report: StabilityReport) -> str:
     if broken == 0:
         return "stands: no joint broke"
     return f"breaks: {broken} of {report.n_joints} joints"
+
+
+def _after_title(report: StabilityReport) -> str:
+    if report.method == "statics":
+        rounds = report.steps
+        return f"after the static analysis ({rounds} failure round{'s' if rounds != 1 else ''})"
+    return f"after {report.sim_time:.2f} s" + (" (settled)" if report.settled else "")
 
 
 def _draw(axes, centres: np.ndarray, segments: np.ndarray, broken: np.ndarray, size: float, title: str) -> None:
@@ -47,10 +56,12 @@ def _draw(axes, centres: np.ndarray, segments: np.ndarray, broken: np.ndarray, s
 def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int = 110) -> Path:
     """Draw the structure as placed and as it ended up, side by side, and write a PNG to ``path`` atomically.
 
-    Edges with a broken joint are red, in both pictures; in the first, a red cross marks each broken joint.
+    Edges with a broken joint are red, in both pictures; in the first, a red cross marks each broken joint (when
+    there are at most 200).
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     edges = report.edges
     before, after = report.initial_positions, report.final_positions
@@ -63,7 +74,10 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
     low, high = (finite.min(axis=0), finite.max(axis=0)) if len(finite) else (np.zeros(3), np.ones(3))
     low[2] = 0.0
     middle, half = (low + high) / 2, max((high - low).max() / 2, 1.0) + 0.5
-    size = max(12.0, 400.0 / max(1.0, half) ** 2)
+    # The vertical axis ends a little above the top, at the same scale as x and y, so wide flat structures get a
+    # readable picture instead of a thin slab in a tall empty box.
+    top = min(2 * half, max(high[2] + 0.5, 0.35 * half))
+    size = max(3.0, min(80.0, 400.0 / max(1.0, half) ** 2))
 
     figure = Figure(figsize=(10, 5.2))
     FigureCanvasAgg(figure)
@@ -74,7 +88,7 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
     figure.suptitle(summary, fontsize=11)
     panels = [
         (before, start_segments, "before (as placed on the ground)"),
-        (after, report.final_edge_ends, f"after {report.sim_time:.2f} s" + (" (settled)" if report.settled else "")),
+        (after, report.final_edge_ends, _after_title(report)),
     ]
     for column, (centres, segments, title) in enumerate(panels, start=1):
         axes = figure.add_subplot(1, 2, column, projection="3d")
@@ -82,7 +96,7 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
                            [middle[0] + half, middle[1] + half], [middle[0] - half, middle[1] + half]])
         axes.plot_trisurf(ground[:, 0], ground[:, 1], np.zeros(4), color=GROUND, alpha=0.35, linewidth=0)
         _draw(axes, centres, segments, broken_edges, size, title)
-        if column == 1 and report.broken_joints:
+        if column == 1 and 0 < len(report.broken_joints) <= _MAX_CROSSES:
             radius = report.config.sphere_radius
             joints = []
             for joint in report.broken_joints:
@@ -92,8 +106,9 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
             axes.scatter(*np.array(joints).T, marker="x", s=60, color=BROKEN, depthshade=False, linewidths=2)
         axes.set_xlim(middle[0] - half, middle[0] + half)
         axes.set_ylim(middle[1] - half, middle[1] + half)
-        axes.set_zlim(0, 2 * half)
-        axes.set_box_aspect((1, 1, 1))
+        axes.set_zlim(0, top)
+        axes.set_box_aspect((2 * half, 2 * half, top))
+        axes.zaxis.set_major_locator(MaxNLocator(nbins=4, integer=True))
         axes.set_xlabel("x")
         axes.set_ylabel("y")
         axes.set_zlabel("z")

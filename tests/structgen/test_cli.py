@@ -109,6 +109,23 @@ def test_export_with_dash_o_and_dimensions(tmp_path, capsys, good_file):
     assert thin.volume < thick.volume
 
 
+def test_export_lighter_mesh_for_big_structures(tmp_path, capsys, good_file):
+    code, _, _ = run(
+        capsys, "export", good_file, tmp_path / "light.glb", "--sphere-subdivisions", 0, "--cylinder-sections", 6
+    )
+    assert code == 0
+    light = trimesh.load(tmp_path / "light.glb", force="mesh")
+    assert len(light.faces) == len(Structure.load(good_file).to_mesh(sphere_subdivisions=0, cylinder_sections=6).faces)
+    assert len(light.faces) < len(Structure.load(good_file).to_mesh().faces) / 4
+
+
+def test_export_refuses_an_impossible_mesh_resolution(tmp_path, capsys, good_file):
+    code, _, err = run(capsys, "export", good_file, tmp_path / "o.glb", "--cylinder-sections", 2)
+    assert code == 2
+    assert_one_line_error(err, "cylinder_sections", "3..128")
+    assert sorted(os.listdir(tmp_path)) == ["good.json"]
+
+
 @pytest.mark.parametrize(
     "content, fragments",
     [
