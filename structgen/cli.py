@@ -275,27 +275,27 @@ def cmd_check(args: argparse.Namespace) -> int:
         verdict = "stands (no joint broke)" if report.intact else f"breaks ({broken} of {report.n_joints} joints broke)"
         if report.exploded:
             verdict = "the simulation exploded (scored as collapsed)"
+        statics = report.method == "statics"
         rows = [
             ("file", args.file),
-            ("method", "static frame solve" if report.method == "statics" else "simulation (PyBullet)"),
-            ("preset", report.config.preset_name or f"{args.preset}, customised"),
+            ("method", "static frame solve" if statics else "simulation (PyBullet)"),
+            # The static analysis reads only masses, sizes and the break force from the settings, not the preset's
+            # time stepping.
+            ("settings", f"{report.config.preset_name} preset" if report.config.preset_name else f"{args.preset} preset, customised"),
             ("verdict", verdict),
             ("integrity", f"{report.integrity:.4f}"),
             ("height", f"{report.height:.3f}"),
             ("complexity", report.complexity),
             ("score", f"{report.score:.4f}"),
-            (
-                "simulated",
-                f"{report.steps} failure rounds"
-                if report.method == "statics"
-                else f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled"),
-            ),
+            ("solved", f"{report.steps} failure rounds")
+            if statics
+            else ("simulated", f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled")),
             ("cpu", f"{report.cpu_time:.3f} s"),
         ]
         for name, value in rows:
             print(f"{name:<11} {value}")
         for joint in report.broken_joints[:10]:
-            when = f"in round {joint.time:.0f}" if report.method == "statics" else f"at {joint.time:.3f} s"
+            when = f"in round {joint.time:.0f}" if statics else f"at {joint.time:.3f} s"
             print(f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) {when}, {joint.force:.1f} N")
         if broken > 10:
             print(f"broken      ... and {broken - 10} more (--json lists all)")
@@ -428,8 +428,8 @@ def build_parser() -> argparse.ArgumentParser:
     render = commands.add_parser(
         "render",
         help="draw a structure before and after its stability check",
-        description="Simulate FILE as 'check' does and draw it as placed and as it ended up, broken joints in red, "
-        "to a PNG image (no display needed).",
+        description="Judge FILE as 'check' does (by simulation, or by the static analysis with --statics) and draw "
+        "it as placed and as it ended up, broken joints in red, to a PNG image (no display needed).",
     )
     render.add_argument("file", metavar="FILE", help="structure JSON file")
     render.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image to write")
