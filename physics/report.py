@@ -18,6 +18,11 @@ def quality(integrity: float, height: float, complexity: float, config: PhysicsC
     return integrity + (config.height_weight * height + config.complexity_weight * complexity) * integrity
 
 
+def integrity_of(n_broken: int, n_joints: int) -> float:
+    """I: the share of joints unbroken (1 for a structure without joints)."""
+    return 1.0 - n_broken / n_joints if n_joints else 1.0
+
+
 def height_of(z: np.ndarray, config: PhysicsConfig) -> float:
     """H in lattice units from vertex heights in metres: highest minus lowest, or mean above lowest."""
     if len(z) == 0 or not np.isfinite(z).all():

@@ -10,7 +10,7 @@ import numpy as np
 from physics.bullet import simulate
 from physics.config import PhysicsConfig
 from physics.model import InputError, place, read_structure
-from physics.report import BrokenJoint, StabilityReport, height_of, quality
+from physics.report import BrokenJoint, StabilityReport, height_of, integrity_of, quality
 
 __all__ = ["check_or_fail", "check_stability"]
 
@@ -51,7 +51,7 @@ def check_stability(
     if outcome.exploded:
         integrity, height = 0.0, 0.0
     else:
-        integrity = 1.0 - len(broken) / n_joints if n_joints else 1.0
+        integrity = integrity_of(len(broken), n_joints)
         height = height_of(outcome.final_positions[:, 2], config)
     complexity = len(vertices)
     return StabilityReport(

@@ -37,7 +37,7 @@ from scipy.sparse.linalg import splu
 
 from physics.config import PhysicsConfig
 from physics.model import Bodies, place, read_structure
-from physics.report import BrokenJoint, StabilityReport, height_of, quality
+from physics.report import BrokenJoint, StabilityReport, height_of, integrity_of, quality
 
 __all__ = ["StaticsResult", "check_statics", "joint_forces", "predict"]
 
@@ -252,17 +252,26 @@ def _one_blas_thread():
 def predict(structure: Any, config: PhysicsConfig | None = None, *, rounds: int | None = None) -> StaticsResult:
     """Static forces of the intact structure, then progressive failure (at most ``rounds`` rounds; None: until
     nothing more breaks)."""
-    with _one_blas_thread():
-        return _predict(structure, config or PhysicsConfig(), rounds)
+    config = config or PhysicsConfig()
+    return _predict(_placed(structure, config), config, rounds)
 
 
-def _predict(structure: Any, config: PhysicsConfig, rounds: int | None) -> StaticsResult:
+def _placed(structure: Any, config: PhysicsConfig) -> Bodies:
     vertices, edges = read_structure(structure)
     # The size caps exist for the simulation's first step, which grows with the square of the joint count; a sparse
     # static solve has no such limit.
-    bodies = place(vertices, edges, config, enforce_caps=False)
+    return place(vertices, edges, config, enforce_caps=False)
+
+
+def _predict(bodies: Bodies, config: PhysicsConfig, rounds: int | None) -> StaticsResult:
+    with _one_blas_thread():
+        return _progressive_failure(bodies, config, rounds)
+
+
+def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | None) -> StaticsResult:
+    edges = bodies.edges
     frame = _frame(bodies, config)
-    n_vertices, n_edges = len(vertices), len(edges)
+    n_vertices, n_edges = len(bodies.sphere_positions), len(edges)
     ground = np.isclose(bodies.sphere_positions[:, 2], config.sphere_radius, atol=1e-9)
     broken = np.zeros(2 * n_edges, dtype=bool)
     broken_round = np.full(2 * n_edges, -1)
@@ -338,10 +347,10 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
     """
     config = config or PhysicsConfig()
     started_wall, started_cpu = time.perf_counter(), time.process_time()
-    vertices, edges = read_structure(structure)
-    bodies = place(vertices, edges, config, enforce_caps=False)
-    result = predict((vertices, edges), config)
-    n_joints = 2 * len(edges)
+    bodies = _placed(structure, config)
+    edges = bodies.edges
+    result = _predict(bodies, config, None)
+    n_joints = bodies.n_joints
     forces = np.where(np.isnan(result.first_forces), 0.0, result.first_forces)
     broken = tuple(
         BrokenJoint(joint=int(j), edge=int(j // 2), vertex=int(edges[j // 2, j % 2]), time=float(result.broken_round[j]), force=float(forces[j]), torque=0.0)
@@ -349,7 +358,7 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
     )
     final = bodies.sphere_positions.copy()
     final[~result.standing, 2] = config.sphere_radius
-    integrity = 1.0 - len(broken) / n_joints if n_joints else 1.0
+    integrity = integrity_of(len(broken), n_joints)
     height = height_of(final[:, 2], config)
     standing_edges = result.standing[edges[:, 0]] & result.standing[edges[:, 1]] if len(edges) else np.zeros(0, bool)
     ends = bodies.cylinder_ends(bodies.cylinder_positions, bodies.cylinder_orientations)
@@ -357,8 +366,8 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
     return StabilityReport(
         integrity=integrity,
         height=height,
-        complexity=len(vertices),
-        score=quality(integrity, height, len(vertices), config),
+        complexity=len(final),
+        score=quality(integrity, height, len(final), config),
         n_joints=n_joints,
         broken_joints=broken,
         joint_forces=np.where(result.broken, np.nan, result.first_forces),

@@ -39,6 +39,7 @@ import numpy as np
 
 from evolution import Evaluation, Problem
 from physics import PhysicsConfig, StabilityReport, check_stability, check_statics
+from structgen._fileio import atomic_write
 from structgen.nca import NCAConfig, _split, grow, grow_population, n_params
 from structgen.structure import Structure
 
@@ -162,8 +163,6 @@ class StableStructures(Problem):
         report = self.judge(structure)
         structure = structure.with_metadata(score=report.score, integrity=report.integrity, height=report.height)
         paths = [structure.save(folder / "structure.json"), structure.export(folder / "structure.glb")]
-        from structgen._fileio import atomic_write
-
         paths.append(atomic_write(folder / "report.json", json.dumps(report.to_dict(), indent=1) + "\n"))
         if report.error is None:
             paths.append(render_check(report, folder / "structure.png"))
