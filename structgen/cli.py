@@ -68,9 +68,8 @@ def _add_nca_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--max-extent", type=int, metavar="N", help="never build further than N cells from the seed (default 32)")
 
 
-def _nca_config(args: argparse.Namespace):
-    from structgen.nca import NCAConfig
-
+def _nca_changes(args: argparse.Namespace) -> dict[str, Any]:
+    """The NCA settings given on the command line (only those given)."""
     options = {
         "iterations": args.iterations,
         "cutoff": args.cutoff,
@@ -78,11 +77,17 @@ def _nca_config(args: argparse.Namespace):
         "max_vertices": args.max_vertices,
         "max_extent": args.max_extent,
     }
-    settings: dict[str, Any] = {name: value for name, value in options.items() if value is not None}
+    changes: dict[str, Any] = {name: value for name, value in options.items() if value is not None}
     if args.no_build_down:
-        settings["build_down"] = False
+        changes["build_down"] = False
+    return changes
+
+
+def _nca_config(args: argparse.Namespace):
+    from structgen.nca import NCAConfig
+
     try:
-        return NCAConfig(**settings)
+        return NCAConfig(**_nca_changes(args))
     except ValueError as err:
         raise InputError(str(err)) from None
 
@@ -197,19 +202,8 @@ def _run_nca(args: argparse.Namespace):
     folder, experiment = open_run(args.run)
     if experiment.problem_name != "structures":
         raise InputError(f"{args.run}: a run of the {experiment.problem_name!r} problem has no NCA to grow")
-    config = experiment.problem_settings.nca
-    changes = {
-        "iterations": args.iterations,
-        "cutoff": args.cutoff,
-        "hidden": args.hidden,
-        "max_vertices": args.max_vertices,
-        "max_extent": args.max_extent,
-    }
-    changes = {k: v for k, v in changes.items() if v is not None}
-    if args.no_build_down:
-        changes["build_down"] = False
     try:
-        config = replace(config, **changes)
+        config = replace(experiment.problem_settings.nca, **_nca_changes(args))
         return LocalNCA(elite_genome(folder, experiment, args.elite), config)
     except ValueError as err:
         raise InputError(str(err)) from None
