@@ -174,7 +174,7 @@ class RunFolder:
                     raise RunFolderError(f"{folder.path}: exists and is not a run folder; refusing to overwrite it")
                 shutil.rmtree(folder.path)
         folder.path.mkdir(parents=True, exist_ok=True)
-        _atomic_write(folder / cls.CONFIG, config_text)
+        folder.write_config(config_text)
         _atomic_write(folder / cls.MANIFEST, json.dumps(manifest, indent=2) + "\n")
         return folder
 
@@ -190,6 +190,10 @@ class RunFolder:
 
     def config_text(self) -> str:
         return (self / self.CONFIG).read_text()
+
+    def write_config(self, config_text: str) -> None:
+        """Replace the configuration (atomically): a resume that runs longer than configured records it here."""
+        _atomic_write(self / self.CONFIG, config_text)
 
     def manifest(self) -> dict[str, Any]:
         try:

@@ -110,9 +110,7 @@ def resume(
             raise ConfigError(f"--generations {generations} is fewer than the {state.generation} already run")
         if generations != experiment.run.generations:
             experiment = experiment.with_run(generations=generations)
-            from evolution.run import _atomic_write
-
-            _atomic_write(folder / RunFolder.CONFIG, experiment.to_toml())
+            folder.write_config(experiment.to_toml())
     runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
     if runtime:
         experiment = experiment.with_run(**runtime)
