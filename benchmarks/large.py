@@ -33,7 +33,7 @@ def measure(run_dir: str, elite: str, iterations: int, max_extent: int, bullet_m
     """One size, in this (fresh) process."""
     from dataclasses import replace
 
-    from physics import PhysicsConfig, check_stability, check_statics
+    from physics import check_stability, check_statics
     from structgen.nca import LocalNCA
     from structgen.runs import elite_genome, open_run
 
