@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import logging
 import os
+import pickle
 import signal
+import uuid
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
@@ -65,43 +67,74 @@ class SerialEvaluator(Evaluator):
         return problem.evaluate(genomes, np.asarray(seeds))
 
 
-def _quiet_worker() -> None:
+# The problem a pool worker evaluates, installed once when the worker starts (see PoolEvaluator).
+_worker_problem: tuple[str, Problem] | None = None
+
+
+def _start_worker(token: str, problem_bytes: bytes) -> None:
+    global _worker_problem
     # Ctrl-C is for the parent, which finishes the generation and checkpoints; a worker that died of it would break
     # the pool. One core per worker: libraries must not start a thread per core in every worker.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ[name] = "1"
+    _worker_problem = (token, pickle.loads(problem_bytes))
+
+
+def _evaluate_in_worker(token: str, genomes: Any, seeds: np.ndarray) -> Evaluation:
+    if _worker_problem is None or _worker_problem[0] != token:  # cannot happen unless a pool is reused wrongly
+        raise RuntimeError("this worker was started for another problem")
+    return _worker_problem[1].evaluate(genomes, seeds)
 
 
 class PoolEvaluator(Evaluator):
     """A persistent pool of ``workers`` local processes; each batch is cut into ``slices_per_worker * workers`` slices
     so that uneven evaluation costs even out.
 
+    The problem goes to each worker once, when the pool starts for it; after that only genomes and seeds travel. (A
+    problem may hold a heavy simulator; pickling it with every slice would cost more than the slice.) Evaluating a
+    different problem object restarts the pool.
+
     Workers are started with multiprocessing's "spawn" method (fresh interpreters), so a script that uses this pool
     must guard its entry point with ``if __name__ == "__main__":``, as for any spawn-based pool.
     """
 
     def __init__(self, workers: int, *, slices_per_worker: int = 4) -> None:
-        import multiprocessing
-
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
         self.workers, self.slices_per_worker = workers, slices_per_worker
-        self._pool = ProcessPoolExecutor(
-            max_workers=workers, mp_context=multiprocessing.get_context("spawn"), initializer=_quiet_worker
-        )
+        self._pool: ProcessPoolExecutor | None = None
+        self._problem: Problem | None = None
+        self._token = ""
+
+    def _pool_for(self, problem: Problem) -> ProcessPoolExecutor:
+        if self._pool is None or problem is not self._problem:
+            import multiprocessing
+
+            self.close()
+            self._problem, self._token = problem, uuid.uuid4().hex
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_start_worker,
+                initargs=(self._token, pickle.dumps(problem)),
+            )
+        return self._pool
 
     def evaluate(self, problem: Problem, genomes: Any, seeds: np.ndarray) -> Evaluation:
         seeds = np.asarray(seeds)
+        pool = self._pool_for(problem)
         parts = _slices(len(seeds), self.workers * self.slices_per_worker)
-        futures = [self._pool.submit(_evaluate_slice, problem, _take(genomes, p), seeds[p]) for p in parts]
+        futures = [pool.submit(_evaluate_in_worker, self._token, _take(genomes, p), seeds[p]) for p in parts]
         try:
             return Evaluation.concatenate([f.result() for f in futures])
         except BrokenProcessPool as err:
             raise EvaluationError(f"an evaluation worker process died: {err}") from None
 
     def close(self) -> None:
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool, self._problem = None, None
 
 
 class DaskEvaluator(Evaluator):

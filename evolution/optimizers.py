@@ -1,17 +1,17 @@
-"""Ask/tell optimisers, chosen by name: the paper's GA, CMA-ES (pycma), MAP-Elites and CMA-MAE (pyribs).
+"""The optimiser interface, the paper's GA and CMA-ES (pycma), and the settings of every optimiser.
 
 Every optimiser has the shape of a pyribs scheduler: :meth:`Optimizer.ask` returns a batch of genomes and
 :meth:`Optimizer.tell` takes their ``objective`` (higher is better), ``measures`` and extra ``fields``. All state,
 random generators included, lives in the object and pickles, so a checkpoint is the pickled optimiser and a resumed
 run continues exactly where it stopped.
 
-Settings are one frozen dataclass per optimiser (``OPTIMIZERS[name].settings``); :func:`make_optimizer` builds one.
+Settings are one frozen dataclass per optimiser. The quality-diversity optimisers are built from pyribs in
+:mod:`evolution.qd`, which only loads when one is asked for; :mod:`evolution.registry` chooses optimisers by name.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,13 +21,13 @@ from evolution.problem import Problem
 
 __all__ = [
     "OPTIMIZERS",
+    "CMAES",
     "CMAESSettings",
     "CMAMAESettings",
     "GASettings",
+    "GeneticAlgorithm",
     "MapElitesSettings",
     "Optimizer",
-    "OptimizerSpec",
-    "make_optimizer",
 ]
 
 
@@ -219,7 +219,7 @@ class CMAES(Optimizer):
         self._asked = None
 
 
-# -- quality diversity (pyribs; built in evolution.qd) ----------------------------------------------------------------
+# -- quality diversity (settings here, built from pyribs in evolution.qd) ----------------------------------------------------------------
 @dataclass(frozen=True)
 class MapElitesSettings:
     """MAP-Elites on a pyribs grid archive.
@@ -278,41 +278,3 @@ class CMAMAESettings:
             raise ValueError(f"optimizer threshold_min must be finite, got {self.threshold_min!r}")
         if self.es not in ("sep_cma_es", "cma_es"):
             raise ValueError(f"optimizer es must be 'sep_cma_es' or 'cma_es', got {self.es!r}")
-
-
-# -- registry -------------------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class OptimizerSpec:
-    """An optimiser by name: its settings class and how to build it for a problem and a seed."""
-
-    settings: type
-    build: Callable[[Problem, Any, int], Optimizer]
-    summary: str
-
-
-def _map_elites(problem: Problem, settings: MapElitesSettings, seed: int) -> Optimizer:
-    from evolution.qd import map_elites
-
-    return map_elites(problem, settings, seed)
-
-
-def _cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
-    from evolution.qd import cma_mae
-
-    return cma_mae(problem, settings, seed)
-
-
-OPTIMIZERS: dict[str, OptimizerSpec] = {
-    "ga": OptimizerSpec(GASettings, GeneticAlgorithm, "the paper's elitist genetic algorithm"),
-    "cma_es": OptimizerSpec(CMAESSettings, CMAES, "CMA-ES (pycma), diagonal by default"),
-    "map_elites": OptimizerSpec(MapElitesSettings, _map_elites, "MAP-Elites on a pyribs grid archive"),
-    "cma_mae": OptimizerSpec(CMAMAESettings, _cma_mae, "CMA-MAE (pyribs) with a separate result archive"),
-}
-
-
-def make_optimizer(name: str, problem: Problem, settings: Any = None, seed: int = 0) -> Optimizer:
-    """Build the optimiser called ``name`` for ``problem``; unknown names fail with the list of known ones."""
-    if name not in OPTIMIZERS:
-        raise ValueError(f"unknown optimizer {name!r}; choose one of {', '.join(OPTIMIZERS)}")
-    spec = OPTIMIZERS[name]
-    return spec.build(problem, settings if settings is not None else spec.settings(), seed)

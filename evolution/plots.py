@@ -6,14 +6,12 @@ Drawn with matplotlib's object interface on the Agg canvas: no display, no globa
 from __future__ import annotations
 
 import io
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from evolution.problem import Problem
-
-if TYPE_CHECKING:
-    from evolution.run import RunFolder
+from evolution.runfolder import RunFolder, atomic_write
 
 __all__ = ["write_plots"]
 
@@ -83,10 +81,8 @@ def archive_figure(archive: Any, problem: Problem) -> Any:
 
 def write_plots(folder: RunFolder, problem: Problem, archive: Any = None) -> None:
     """Redraw ``objective.png`` from metrics.jsonl and, for quality diversity, ``archive.png``."""
-    from evolution.run import _atomic_write
-
     rows = folder.metrics()
     if rows:
-        _atomic_write(folder / folder.OBJECTIVE_PLOT, _png(objective_figure(rows, problem)))
+        atomic_write(folder / folder.OBJECTIVE_PLOT, _png(objective_figure(rows, problem)))
     if archive is not None and len(problem.measure_names) in (1, 2):
-        _atomic_write(folder / folder.ARCHIVE_PLOT, _png(archive_figure(archive, problem)))
+        atomic_write(folder / folder.ARCHIVE_PLOT, _png(archive_figure(archive, problem)))

@@ -134,6 +134,14 @@ class Problem:
             ) from None
         return genome
 
+    def genome_from_json(self, data: Any) -> Any:
+        """The genome that :meth:`genome_to_json` turned into ``data``; evaluating it must give the same results as
+        evaluating the original. Flat vectors come back as float arrays; other genomes as JSON gives them (lists for
+        tuples), unless the problem overrides this."""
+        if self.flat:
+            return np.asarray(data, dtype=np.float64)
+        return data
+
     def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
         """Write files that show a genome (a structure, a picture) into ``folder``; returns their paths."""
         return []

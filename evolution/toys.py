@@ -98,6 +98,9 @@ class Ones(Problem):
         cut = int(rng.integers(1, len(first)))
         return first[:cut] + second[cut:]
 
+    def genome_from_json(self, data: list[int]) -> tuple[int, ...]:
+        return tuple(int(bit) for bit in data)
+
     def evaluate(self, genomes: list[tuple[int, ...]], seeds: np.ndarray) -> Evaluation:
         bits = np.array([list(g) for g in genomes], dtype=np.float64).reshape(len(genomes), -1)
         half = self.settings.length // 2

@@ -120,15 +120,31 @@ def test_run_folder_contents(tmp_path):
     assert np.array_equal(folder.archive_genome(int(first[0]), problem), solutions[0])
 
 
-def test_object_genomes_are_written_as_json(tmp_path):
+def test_object_genomes_are_written_as_json_beside_a_numbers_only_csv(tmp_path):
+    import pandas
+
     folder, problem, state, settings = new_run(tmp_path, "ones", "map_elites-ones", 3)
     advance(folder, problem, state, settings, SerialEvaluator(), progress=False)
     genome = json.loads((folder / "best" / "genome.json").read_text())
     assert set(genome) <= {0, 1} and len(genome) == 16
-    header, first, *_ = (folder / "archive.csv").read_text().splitlines()
-    assert header.endswith(",genome") and not (folder / "archive_solutions.npy").exists()
-    index = int(first.split(",")[0])
-    assert folder.archive_genome(index, problem) == json.loads(first.split(",", 6)[6].strip('"'))
+    assert folder.best_genome(problem) == tuple(genome)  # the problem's own type back, not JSON's list
+    table = pandas.read_csv(folder / "archive.csv")
+    assert list(table.columns) == ["index", "objective", "ones_left", "ones_right", "threshold", "ones"]
+    assert all(dtype.kind in "if" for dtype in table.dtypes)
+    genomes = [json.loads(line) for line in (folder / "archive_genomes.jsonl").read_text().splitlines()]
+    assert len(genomes) == len(table) and not (folder / "archive_solutions.npy").exists()
+    for index, genome, ones in zip(table["index"], genomes, table["ones"]):
+        assert folder.archive_genome(int(index), problem) == tuple(genome) and sum(genome) == ones
+
+
+def test_an_archive_whose_genome_file_was_cut_short_is_refused(tmp_path):
+    folder, problem, state, settings = new_run(tmp_path, "ones", "map_elites-ones", 2)
+    advance(folder, problem, state, settings, SerialEvaluator(), progress=False)
+    lines = (folder / "archive_genomes.jsonl").read_text().splitlines()
+    (folder / "archive_genomes.jsonl").write_text(lines[0] + "\n")
+    index = int((folder / "archive.csv").read_text().splitlines()[1].split(",")[0])
+    with pytest.raises(RunFolderError, match=f"holds 1 genomes for the {len(lines)} rows of archive.csv"):
+        folder.archive_genome(index, problem)
 
 
 # -- run folders are never overwritten by accident ---------------------------------------------------------------------
@@ -190,6 +206,26 @@ def test_pool_evaluation_equals_serial_evaluation():
         ones = Ones()
         batch = ones.initial_genomes(7, np.random.default_rng(1))
         assert same(pool.evaluate(ones, batch, np.arange(7)), ones.evaluate(batch, np.arange(7)))
+
+
+class CountsPickles(Sphere):
+    """Counts how often it is pickled in this process."""
+
+    pickled = 0
+
+    def __getstate__(self):
+        type(self).pickled += 1
+        return self.__dict__
+
+
+def test_the_pool_sends_the_problem_to_its_workers_once():
+    problem = CountsPickles(SphereSettings(noise=0.5))
+    genomes = problem.initial_genomes(13, np.random.default_rng(0))
+    with PoolEvaluator(2) as pool:
+        for generation in range(3):
+            seeds = np.random.SeedSequence(generation).generate_state(13)
+            assert same(pool.evaluate(problem, genomes, seeds), problem.evaluate(genomes, seeds))
+    assert CountsPickles.pickled == 1
 
 
 class Crashing(Sphere):

@@ -1,0 +1,285 @@
+"""The run-folder format: which files a run leaves, how each is written and read back.
+
+A run folder holds:
+
+- ``config.toml``: the resolved configuration (written by the caller; ``resume`` reads only this).
+- ``manifest.json``: library versions, start time, command line.
+- ``checkpoint.pkl``: the loop's :class:`RunState` after the last checkpointed generation, written atomically
+  (temporary file, then rename) and only between generations. Pickle is only for resuming.
+- ``metrics.jsonl``: one JSON object per generation; on resume it is cut back to the checkpoint.
+- ``archive.csv``: the quality-diversity archive, one row per elite, numbers only (``pandas.read_csv`` reads it as
+  it is). The genome of each row, in the same order, is in ``archive_solutions.npy`` for flat genomes and in
+  ``archive_genomes.jsonl`` (one JSON value per line) for any other kind.
+- ``best/``: the best genome (``genome.npy`` or ``genome.json``), its scores (``best.json``), and whatever the
+  problem writes to show it (a structure, a mesh, a picture).
+- ``objective.png`` and, for quality diversity, ``archive.png``: plots (see :mod:`evolution.plots`).
+
+Every file is replaced atomically, so a kill at any moment leaves either the old file or the new one.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import pickle
+import shutil
+import sys
+import uuid
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evolution.optimizers import Optimizer
+from evolution.problem import Problem
+
+__all__ = ["CHECKPOINT_SCHEMA", "Best", "RunFolder", "RunFolderError", "RunState", "atomic_write", "library_versions"]
+
+CHECKPOINT_SCHEMA = 1
+
+
+class RunFolderError(Exception):
+    """A run folder cannot be created, read or resumed; the message says which and why."""
+
+
+@dataclass
+class Best:
+    """The best candidate seen so far."""
+
+    genome: Any
+    objective: float
+    measures: list[float]
+    fields: dict[str, float]
+    generation: int
+
+
+@dataclass
+class RunState:
+    """Everything a checkpoint holds: the optimiser (with its random generators) and the loop's counters."""
+
+    optimizer: Optimizer
+    generation: int = 0  # generations completed
+    evaluations: int = 0
+    elapsed: float = 0.0  # wall seconds spent in generations, over all sessions
+    best: Best | None = None
+    best_written: int = -1  # generation of the best candidate last written to best/
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename it into place.
+
+    Readers see either the old file or the complete new one; on any error the temporary file is removed and an
+    existing file at ``path`` is left untouched.
+    """
+    # structgen keeps its own copy (structgen/_fileio.py): `import structgen` must not load evolution, and evolution
+    # must not import structgen.
+    path = Path(path)
+    payload = data.encode("utf-8") if isinstance(data, str) else data
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp")
+    try:
+        with open(tmp, "xb") as handle:
+            handle.write(payload)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def library_versions(names: list[str]) -> dict[str, str | None]:
+    """Installed versions of the given distributions (None where missing), and Python's."""
+    versions: dict[str, str | None] = {"python": sys.version.split()[0]}
+    for name in names:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = None
+    return versions
+
+
+def _npy_bytes(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, array, allow_pickle=False)
+    return buffer.getvalue()
+
+
+class RunFolder:
+    """The files of one run."""
+
+    CONFIG, MANIFEST, CHECKPOINT, METRICS = "config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl"
+    ARCHIVE, SOLUTIONS, GENOMES, BEST = "archive.csv", "archive_solutions.npy", "archive_genomes.jsonl", "best"
+    OBJECTIVE_PLOT, ARCHIVE_PLOT = "objective.png", "archive.png"
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.path = Path(path)
+
+    def __truediv__(self, name: str) -> Path:
+        return self.path / name
+
+    # -- life cycle -----------------------------------------------------------------------------------------------------
+    @classmethod
+    def create(cls, path: str | os.PathLike, config_text: str, manifest: dict[str, Any], *, overwrite: bool = False) -> RunFolder:
+        """Make a new run folder. An existing folder is an error, unless ``overwrite`` and it is an empty folder or
+        a run folder (anything else is never deleted)."""
+        folder = cls(path)
+        if folder.path.exists():
+            if not folder.path.is_dir():
+                raise RunFolderError(f"{folder.path}: exists and is not a folder")
+            contents = list(folder.path.iterdir())
+            if contents:
+                if not overwrite:
+                    raise RunFolderError(f"{folder.path}: already exists; choose another --run-dir or pass --overwrite")
+                if not (folder / cls.CONFIG).exists():
+                    raise RunFolderError(f"{folder.path}: exists and is not a run folder; refusing to overwrite it")
+                shutil.rmtree(folder.path)
+        folder.path.mkdir(parents=True, exist_ok=True)
+        folder.write_config(config_text)
+        atomic_write(folder / cls.MANIFEST, json.dumps(manifest, indent=2) + "\n")
+        return folder
+
+    @classmethod
+    def open(cls, path: str | os.PathLike) -> RunFolder:
+        """An existing run folder (it must hold a config.toml)."""
+        folder = cls(path)
+        if not folder.path.is_dir():
+            raise RunFolderError(f"{folder.path}: no such run folder")
+        if not (folder / cls.CONFIG).is_file():
+            raise RunFolderError(f"{folder.path}: not a run folder (no {cls.CONFIG})")
+        return folder
+
+    def config_text(self) -> str:
+        return (self / self.CONFIG).read_text()
+
+    def write_config(self, config_text: str) -> None:
+        """Replace the configuration (atomically): a resume that runs longer than configured records it here."""
+        atomic_write(self / self.CONFIG, config_text)
+
+    def manifest(self) -> dict[str, Any]:
+        try:
+            return json.loads((self / self.MANIFEST).read_text())
+        except (OSError, json.JSONDecodeError):
+            return {}
+
+    # -- checkpoint -----------------------------------------------------------------------------------------------------
+    def save_checkpoint(self, state: RunState) -> None:
+        atomic_write(self / self.CHECKPOINT, pickle.dumps({"schema": CHECKPOINT_SCHEMA, "state": state}))
+
+    def load_checkpoint(self) -> RunState:
+        path = self / self.CHECKPOINT
+        if not path.is_file():
+            raise RunFolderError(f"{self.path}: no checkpoint yet (the run stopped before its first generation ended)")
+        try:
+            data = pickle.loads(path.read_bytes())
+        except Exception as err:  # a checkpoint from another version, or a damaged file
+            raise RunFolderError(f"{path}: cannot read the checkpoint ({type(err).__name__}: {err})") from None
+        if not isinstance(data, dict) or data.get("schema") != CHECKPOINT_SCHEMA:
+            raise RunFolderError(f"{path}: checkpoint format is not supported by this version")
+        return data["state"]
+
+    # -- metrics --------------------------------------------------------------------------------------------------------
+    def append_metrics(self, row: dict[str, Any]) -> None:
+        with open(self / self.METRICS, "a") as handle:
+            handle.write(json.dumps(row) + "\n")
+            handle.flush()
+            os.fsync(handle.fileno())
+
+    def metrics(self) -> list[dict[str, Any]]:
+        path = self / self.METRICS
+        if not path.exists():
+            return []
+        rows = []
+        for line in path.read_text().splitlines():
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError:  # a line cut short by a kill
+                break
+        return rows
+
+    def truncate_metrics(self, generation: int) -> None:
+        """Keep the rows up to ``generation``: those after the checkpoint will be recomputed."""
+        rows = [row for row in self.metrics() if row["generation"] <= generation]
+        atomic_write(self / self.METRICS, "".join(json.dumps(row) + "\n" for row in rows))
+
+    # -- the best candidate ---------------------------------------------------------------------------------------------
+    def write_best(self, best: Best, problem: Problem) -> None:
+        folder = self / self.BEST
+        folder.mkdir(exist_ok=True)
+        if problem.flat:
+            atomic_write(folder / "genome.npy", _npy_bytes(np.asarray(best.genome, dtype=np.float64)))
+        else:
+            atomic_write(folder / "genome.json", json.dumps(problem.genome_to_json(best.genome)) + "\n")
+        summary = {
+            "generation": best.generation,
+            "objective": best.objective,
+            "measures": dict(zip(problem.measure_names, best.measures)),
+            "fields": best.fields,
+        }
+        atomic_write(folder / "best.json", json.dumps(summary, indent=2) + "\n")
+        problem.write_artifacts(best.genome, folder)
+
+    def best_genome(self, problem: Problem) -> Any:
+        folder = self / self.BEST
+        if problem.flat and (folder / "genome.npy").is_file():
+            return np.load(folder / "genome.npy", allow_pickle=False)
+        if (folder / "genome.json").is_file():
+            return problem.genome_from_json(json.loads((folder / "genome.json").read_text()))
+        raise RunFolderError(f"{self.path}: no best candidate yet")
+
+    # -- the quality-diversity archive ----------------------------------------------------------------------------------
+    def write_archive(self, archive: Any, problem: Problem) -> None:
+        """``archive.csv`` (index, objective, measures, threshold, fields; sorted by cell index) and the genome of
+        each row in the same order: ``archive_solutions.npy`` for flat genomes, ``archive_genomes.jsonl`` otherwise.
+
+        The two files are replaced one after the other; a kill in between leaves them from different generations,
+        which :meth:`archive_genome` detects (the next checkpoint of a resumed run rewrites both).
+        """
+        data = archive.data()
+        order = np.argsort(data["index"], kind="stable")
+        header = ["index", "objective", *problem.measure_names, "threshold", *problem.field_names]
+        columns = [data["index"][order], data["objective"][order]]
+        columns += [data["measures"][order, k] for k in range(len(problem.measure_names))]
+        columns += [data["threshold"][order], *[data[name][order] for name in problem.field_names]]
+        lines = [",".join(header)]
+        for r in range(len(order)):
+            lines.append(",".join([repr(int(columns[0][r]))] + [repr(float(c[r])) for c in columns[1:]]))
+        solutions = data["solution"][order]
+        if problem.flat:
+            atomic_write(self / self.SOLUTIONS, _npy_bytes(np.asarray(solutions, dtype=np.float64)))
+        else:
+            text = "".join(json.dumps(problem.genome_to_json(genome)) + "\n" for genome in solutions)
+            atomic_write(self / self.GENOMES, text)
+        atomic_write(self / self.ARCHIVE, "\n".join(lines) + "\n")
+
+    def archive_genome(self, index: int, problem: Problem) -> Any:
+        """The genome of the archive elite in cell ``index`` (the ``index`` column of archive.csv)."""
+        path = self / self.ARCHIVE
+        if not path.is_file():
+            raise RunFolderError(f"{self.path}: this run has no archive (only quality-diversity runs keep one)")
+        with open(path, newline="") as handle:
+            rows = list(csv.DictReader(handle))
+        positions = [r for r, row in enumerate(rows) if int(row["index"]) == index]
+        if not positions:
+            known = ", ".join(row["index"] for row in rows[:10])
+            raise RunFolderError(f"{path}: no elite in cell {index} (cells held: {known}{', ...' if len(rows) > 10 else ''})")
+        position = positions[0]
+        if "genome" in rows[position]:  # written by structgen 0.1, which kept object genomes in a CSV column
+            return problem.genome_from_json(json.loads(rows[position]["genome"]))
+        if problem.flat:
+            genomes: Any = np.load(self / self.SOLUTIONS, allow_pickle=False)
+            source = self / self.SOLUTIONS
+        else:
+            genomes = (self / self.GENOMES).read_text().splitlines()
+            source = self / self.GENOMES
+        if len(genomes) != len(rows):
+            raise RunFolderError(
+                f"{source}: holds {len(genomes)} genomes for the {len(rows)} rows of {path.name} (a write was cut "
+                "short); resume the run to rewrite both"
+            )
+        return genomes[position] if problem.flat else problem.genome_from_json(json.loads(genomes[position]))
