@@ -11,12 +11,30 @@ in milliseconds.
 1.0
 """
 
+from typing import TYPE_CHECKING, Any
+
 from physics.config import PRESETS, PhysicsConfig
-from physics.model import InputError
-from physics.parallel import CheckPool, check_many
-from physics.report import BrokenJoint, StabilityReport, quality
-from physics.stability import check_stability
-from physics.statics import check_statics, joint_forces
+
+# Everything but the settings loads on first use: reading PhysicsConfig (for its defaults, say) should not cost the
+# import of scipy's sparse solvers.
+_LAZY = {
+    "InputError": "physics.model",
+    "CheckPool": "physics.parallel",
+    "check_many": "physics.parallel",
+    "BrokenJoint": "physics.report",
+    "StabilityReport": "physics.report",
+    "quality": "physics.report",
+    "check_stability": "physics.stability",
+    "check_statics": "physics.statics",
+    "joint_forces": "physics.statics",
+}
+
+if TYPE_CHECKING:
+    from physics.model import InputError
+    from physics.parallel import CheckPool, check_many
+    from physics.report import BrokenJoint, StabilityReport, quality
+    from physics.stability import check_stability
+    from physics.statics import check_statics, joint_forces
 
 __all__ = [
     "PRESETS",
@@ -31,3 +49,11 @@ __all__ = [
     "joint_forces",
     "quality",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'physics' has no attribute {name!r}")

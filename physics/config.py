@@ -18,7 +18,9 @@ Two presets differ only in how the simulation is run, never in the model:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
+from types import MappingProxyType
 from typing import Any, Literal
 
 __all__ = ["PRESETS", "PhysicsConfig"]
@@ -133,6 +135,11 @@ class PhysicsConfig:
             )
         if self.timestep > self.horizon:
             raise ValueError(f"physics timestep {self.timestep} is longer than the horizon {self.horizon}")
+
+    @classmethod
+    def presets(cls) -> Mapping[str, PhysicsConfig]:
+        """The named presets, ``faithful`` first (it is also ``PhysicsConfig()``)."""
+        return MappingProxyType(PRESETS)
 
     @classmethod
     def preset(cls, name: str, **changes: Any) -> PhysicsConfig:

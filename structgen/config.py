@@ -1,18 +1,31 @@
-"""Typed settings from TOML files and ``--set key=value`` overrides, checked before any work starts.
+"""One settings grammar: typed settings from TOML tables and ``--set key=value``, and back to tables.
 
-Every settings object in structgen, physics and evolution is a frozen dataclass with working defaults. This module
-turns text into those objects: unknown keys and values of the wrong type fail with a :class:`ConfigError` that names
-the key (``physics.timestep``), the value and what was expected; the dataclass's own checks then run as usual.
+Every settings object in structgen, physics and evolution is a frozen dataclass with working defaults; a field whose
+type is itself a settings dataclass is a nested table (``[problem.nca]``). This module is the only place that turns
+text into those objects and objects back into text:
+
+- :func:`build` makes an object from a table, recursing into nested tables. Each default lives in the dataclass (or
+  in the field's default of the dataclass that holds it), nowhere else. Unknown keys and values of the wrong type
+  fail with a :class:`ConfigError` naming the key (``problem.physics.timestep``), the value and what was expected;
+  the dataclass's own range checks then run as usual.
+- :func:`to_table` is its inverse: every setting spelled out, ready for ``tomli_w``.
+- **Presets** are a declared hook: a settings class that has a ``presets()`` classmethod (returning a mapping of
+  names to instances, like :meth:`physics.PhysicsConfig.presets`) accepts a ``preset`` key, which starts its table
+  from that instance before the other keys apply. :func:`to_table` writes ``preset`` back when an object equals one.
+- **Keys** in ``--set`` name a setting by its full dotted path (``problem.nca.cutoff``) or by any tail of it that no
+  other setting shares (``nca.cutoff``, ``cutoff``): :func:`resolve_key`. The same rule holds in every subcommand,
+  so ``structgen check --set break_force=60`` is short for ``--set physics.break_force=60``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import sys
 import types
 import typing
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, Literal, TypeVar, get_args, get_origin
 
 if sys.version_info >= (3, 11):
@@ -20,7 +33,18 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["ConfigError", "apply_overrides", "build", "parse_assignment", "parse_value"]
+__all__ = [
+    "ConfigError",
+    "apply_overrides",
+    "build",
+    "parse_assignment",
+    "parse_value",
+    "presets_of",
+    "resolve_key",
+    "set_path",
+    "setting_paths",
+    "to_table",
+]
 
 T = TypeVar("T")
 
@@ -29,6 +53,7 @@ class ConfigError(ValueError):
     """A setting is unknown, of the wrong type, or out of range; the message names it."""
 
 
+# -- text ---------------------------------------------------------------------------------------------------------------
 def parse_value(text: str) -> Any:
     """A ``--set`` value as TOML would read it (``3``, ``0.5``, ``true``, ``"x"``, ``[1, 2]``, ``inf``); anything
     TOML cannot read is taken as a plain string, so ``--set optimizer.name=ga`` works without quotes."""
@@ -46,6 +71,68 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     return key.strip(), parse_value(value.strip())
 
 
+# -- the shape of settings ------------------------------------------------------------------------------------------------
+def presets_of(cls: type) -> Mapping[str, Any]:
+    """The named presets a settings class declares through a ``presets()`` classmethod (empty if it has none)."""
+    declared = getattr(cls, "presets", None)
+    return declared() if callable(declared) else {}
+
+
+def _fields(cls: type) -> dict[str, Any]:
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls) if f.init}
+
+
+def _is_settings(kind: Any) -> bool:
+    return isinstance(kind, type) and dataclasses.is_dataclass(kind)
+
+
+def setting_paths(cls: type, prefix: str = "") -> list[str]:
+    """Every dotted name a table of ``cls`` can hold: its fields, its nested tables and their fields, and
+    ``preset`` where the class declares presets."""
+    paths = [f"{prefix}preset"] if presets_of(cls) else []
+    for name, kind in _fields(cls).items():
+        paths.append(prefix + name)
+        if _is_settings(kind):
+            paths += setting_paths(kind, f"{prefix}{name}.")
+    return paths
+
+
+def resolve_key(key: str, paths: Sequence[str], roots: Iterable[str] = ()) -> str:
+    """The full dotted path that ``key`` names among ``paths``.
+
+    A key that starts with one of ``roots`` (the top-level tables, e.g. ``run``, ``problem``, ``optimizer``) is taken
+    as written, and :func:`build` will say if it does not exist. Otherwise it must be a whole path or the tail of
+    exactly one.
+    """
+    roots = list(roots)
+    if key in paths or key.split(".")[0] in roots:
+        return key
+    matches = [path for path in paths if path.endswith("." + key)]
+    if len(matches) == 1:
+        return matches[0]
+    if matches:
+        raise ConfigError(f"--set {key}: several settings have that name ({', '.join(matches)}); write the whole name")
+    if len(roots) == 1:  # one table of settings: let build() say what it holds
+        return f"{roots[0]}.{key}"
+    close = difflib.get_close_matches(key, paths + [p.rsplit(".", 1)[-1] for p in paths], n=3)
+    hint = f" (did you mean {' or '.join(dict.fromkeys(close))}?)" if close else ""
+    raise ConfigError(f"unknown setting {key!r}{hint}")
+
+
+def set_path(tables: dict[str, Any], key: str, value: Any) -> None:
+    """Put ``value`` at a dotted path like ``problem.nca.cutoff``, making tables on the way."""
+    *parents, last = key.split(".")
+    node = tables
+    for i, part in enumerate(parents):
+        child = node.setdefault(part, {})
+        if not isinstance(child, dict):
+            raise ConfigError(f"--set {key}: {'.'.join(parents[: i + 1])} is a value, not a table")
+        node = child
+    node[last] = value
+
+
+# -- values -------------------------------------------------------------------------------------------------------------
 def _type_name(kind: Any) -> str:
     if get_origin(kind) is Literal:
         return " or ".join(repr(choice) for choice in get_args(kind))
@@ -104,35 +191,96 @@ def _convert(value: Any, kind: Any, where: str) -> Any:
     raise ConfigError(f"{where} = {value!r}: expected {_type_name(kind)}")
 
 
-def _fields(cls: type) -> dict[str, Any]:
-    hints = typing.get_type_hints(cls)
-    return {f.name: hints[f.name] for f in dataclasses.fields(cls) if f.init}
+def _default(cls: type, name: str) -> Any:
+    for item in dataclasses.fields(cls):
+        if item.name == name:
+            if item.default is not dataclasses.MISSING:
+                return item.default
+            if item.default_factory is not dataclasses.MISSING:
+                return item.default_factory()
+    return None
 
 
-def build(cls: type[T], values: Mapping[str, Any], section: str, *, base: T | None = None) -> T:
-    """An instance of the dataclass ``cls`` from ``values`` (unlisted fields keep ``base``'s or the defaults).
+# -- tables <-> objects -----------------------------------------------------------------------------------------------------
+def build(cls: type[T], values: Mapping[str, Any], section: str = "", *, base: T | None = None) -> T:
+    """An instance of the settings dataclass ``cls`` from the table ``values``.
 
-    ``section`` names the place in error messages (``"physics"`` makes keys read ``physics.timestep``).
+    Settings the table does not name keep ``base``'s values (or the class defaults); a nested table starts from the
+    corresponding field of ``base`` (or that field's default), or from a preset it names. ``section`` is where the
+    table sits, for error messages (``"problem"`` makes keys read ``problem.init_scale``).
     """
+    values = dict(values)
+    presets = presets_of(cls)
+    if "preset" in values and presets:
+        name = values.pop("preset")
+        if name not in presets:
+            where = f"{section}.preset" if section else "preset"
+            raise ConfigError(f"{where}: unknown preset {name!r}; choose one of {', '.join(presets)}")
+        base = presets[name]
     known = _fields(cls)
     changes = {}
     for key, value in values.items():
         where = f"{section}.{key}" if section else key
         if key not in known:
-            raise ConfigError(f"unknown setting {where!r}; {section or 'settings'} has: {', '.join(known)}")
-        changes[key] = _convert(value, known[key], where)
+            names = (["preset"] if presets else []) + list(known)
+            raise ConfigError(f"unknown setting {where!r}; {section or 'the settings'} has: {', '.join(names)}")
+        kind = known[key]
+        if _is_settings(kind):
+            if not isinstance(value, Mapping):
+                raise ConfigError(f"{where} must be a table, got {value!r}")
+            nested_base = getattr(base, key) if base is not None else _default(cls, key)
+            changes[key] = build(kind, value, where, base=nested_base)
+        else:
+            changes[key] = _convert(value, kind, where)
     try:
         return dataclasses.replace(base, **changes) if base is not None else cls(**changes)
-    except ValueError as err:  # the dataclass's own range checks, which name the field
+    except (ValueError, TypeError) as err:  # the dataclass's own range checks, which name the field
         raise ConfigError(str(err)) from None
 
 
-def apply_overrides(instance: T, assignments: Iterable[str], section: str) -> T:
-    """``instance`` with ``--set key=value`` assignments applied; keys may carry the section prefix
-    (``physics.timestep=0.01``) or not (``timestep=0.01``)."""
-    values = {}
-    for text in assignments:
-        key, value = parse_assignment(text)
-        prefix = f"{section}."
-        values[key[len(prefix) :] if key.startswith(prefix) else key] = value
-    return build(type(instance), values, section, base=instance)
+def to_table(settings: Any) -> dict[str, Any]:
+    """The table :func:`build` reads back into an equal object: every setting spelled out, nested settings as
+    sub-tables, ``preset`` first where the object equals a declared preset. TOML has no null, so settings that are
+    None are left out (they read back as their default, None)."""
+    table: dict[str, Any] = {}
+    preset = next((name for name, value in presets_of(type(settings)).items() if value == settings), None)
+    if preset is not None:
+        table["preset"] = preset
+    for item in dataclasses.fields(settings):
+        if not item.init:
+            continue
+        value = _plain(getattr(settings, item.name))
+        if value is not None:
+            table[item.name] = value
+    return table
+
+
+def _plain(value: Any) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return to_table(value)
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def apply_overrides(roots: Mapping[str, Any], assignments: Iterable[str | tuple[str, Any]]) -> dict[str, Any]:
+    """Settings objects named by their table (``{"physics": PhysicsConfig(...)}``) with assignments applied: ``--set``
+    texts (``"key=value"``) or ``(key, value)`` pairs, later ones winning.
+
+    Keys follow :func:`resolve_key`: ``physics.break_force=60`` or, as no other setting has that name,
+    ``break_force=60``. A ``preset`` assignment applies before the others whatever its position.
+    """
+    paths = [path for name, value in roots.items() for path in [name, *setting_paths(type(value), f"{name}.")]]
+    tables: dict[str, Any] = {}
+    for item in assignments:
+        key, value = parse_assignment(item) if isinstance(item, str) else item
+        set_path(tables, resolve_key(key, paths, roots), value)
+    unknown = sorted(set(tables) - set(roots))
+    if unknown:
+        raise ConfigError(f"unknown setting {unknown[0]!r}; choose among {', '.join(roots)}")
+    result = dict(roots)
+    for name, table in tables.items():
+        if not isinstance(table, dict):
+            raise ConfigError(f"--set {name}: {name} is a table of settings, not a value")
+        result[name] = build(type(roots[name]), table, name, base=roots[name])
+    return result

@@ -1,7 +1,7 @@
 """Structures as triangle meshes: a sphere at every vertex, a cylinder along every edge, exported with trimesh.
 
-The default dimensions are those of the physics model (sphere radius 0.25 and cylinder radius 0.08 at lattice
-spacing 1), and a cylinder runs from sphere surface to sphere surface as the simulated bodies do. Meshes are built
+The default dimensions are read from the physics model's defaults (sphere radius 0.25 and cylinder radius 0.08 at
+lattice spacing 1, :class:`physics.PhysicsConfig`), and a cylinder runs from sphere surface to sphere surface as the simulated bodies do. Meshes are built
 from one template sphere and one template cylinder transformed with numpy, so large structures export quickly.
 """
 
@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from physics.config import PhysicsConfig
 from structgen._fileio import atomic_write
 from structgen.structure import StructureError
 
@@ -31,13 +32,17 @@ EXPORT_FORMATS = (".json", ".glb", ".obj", ".stl", ".ply")
 Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
 
+_MODEL = PhysicsConfig()
+
+
 @dataclass(frozen=True)
 class MeshStyle:
-    """Dimensions (lattice units times ``spacing``) and look of an exported structure."""
+    """Dimensions (lattice units times ``spacing``) and look of an exported structure; the dimensions default to
+    the physics model's."""
 
-    sphere_radius: float = 0.25
-    cylinder_radius: float = 0.08
-    spacing: float = 1.0
+    sphere_radius: float = _MODEL.sphere_radius
+    cylinder_radius: float = _MODEL.cylinder_radius
+    spacing: float = _MODEL.spacing
     sphere_subdivisions: int = 2
     cylinder_sections: int = 12
     vertex_color: tuple[int, int, int, int] = (214, 96, 60, 255)

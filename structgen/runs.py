@@ -1,13 +1,15 @@
 """Evolution runs from a checked configuration: start one, resume one, and take elites out of one.
 
-These are the functions behind ``structgen evolve``, ``structgen resume`` and ``structgen export RUN_DIR``; scripts
-can call them directly::
+These are the functions behind ``structgen evolve``, ``structgen resume`` and ``structgen export RUN_DIR``, for any
+registered domain; scripts can call them directly::
 
     from structgen.experiment import load_experiment
     from structgen.runs import evolve, resume
 
     folder, state = evolve(load_experiment("my.toml", overrides=["run.generations=50"]), "runs/mine")
     folder, state = resume("runs/mine", generations=80)
+
+Each builds the problem once and the optimiser once (a resumed run's optimiser comes from its checkpoint).
 """
 
 from __future__ import annotations
@@ -21,8 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from evolution import RunFolder, RunFolderError, RunState, advance, make_evaluator, make_optimizer
-from evolution.run import library_versions
+from evolution import Problem, RunFolder, RunFolderError, RunState, advance, library_versions, make_evaluator
 from structgen import __version__
 from structgen.config import ConfigError
 from structgen.experiment import Experiment, load_experiment
@@ -30,32 +31,35 @@ from structgen.experiment import Experiment, load_experiment
 __all__ = ["default_run_dir", "elite_genome", "evolve", "open_run", "resume"]
 
 log = logging.getLogger(__name__)
-LIBRARIES = ["numpy", "scipy", "torch", "pybullet", "ribs", "cma", "trimesh", "matplotlib", "distributed"]
+#: Libraries every run's manifest records; a domain adds its own (DomainSpec.libraries).
+LIBRARIES = ("numpy", "scipy", "ribs", "cma", "matplotlib", "distributed")
 
 
 def default_run_dir(experiment: Experiment) -> Path:
-    """``runs/<problem>-<optimizer>-s<seed>-<date>-<time>`` under the current folder."""
+    """``runs/<domain group>-<optimizer>-s<seed>-<date>-<time>`` under the current folder."""
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    return Path("runs") / f"{experiment.problem_name}-{experiment.optimizer_name}-s{experiment.run.seed}-{stamp}"
+    name = f"{experiment.spec.group_name}-{experiment.optimizer_name}-s{experiment.run.seed}-{stamp}"
+    return Path("runs") / name
 
 
-def _manifest() -> dict[str, Any]:
+def _libraries(experiment: Experiment) -> list[str]:
+    return list(dict.fromkeys([*LIBRARIES, *experiment.spec.libraries]))
+
+
+def _manifest(experiment: Experiment) -> dict[str, Any]:
     return {
         "schema": 1,
         "structgen": __version__,
+        "domain": experiment.domain,
         "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
         "argv": sys.argv,
-        "versions": library_versions(LIBRARIES),
+        "versions": library_versions(_libraries(experiment)),
     }
 
 
-def _advance(folder: RunFolder, experiment: Experiment, state: RunState, **options: Any) -> RunState:
-    problem = experiment.make_problem()
-    try:
-        with make_evaluator(experiment.run.workers, experiment.run.cluster) as evaluator:
-            return advance(folder, problem, state, experiment.run, evaluator, **options)
-    finally:
-        problem.close()
+def _advance(folder: RunFolder, experiment: Experiment, problem: Problem, state: RunState, **options: Any) -> RunState:
+    with make_evaluator(experiment.run.workers, experiment.run.cluster) as evaluator:
+        return advance(folder, problem, state, experiment.run, evaluator, **options)
 
 
 def evolve(
@@ -67,19 +71,22 @@ def evolve(
     stop_requested: Callable[[], bool] = lambda: False,
 ) -> tuple[RunFolder, RunState]:
     """Start a run in a new folder (default :func:`default_run_dir`) and carry it to ``experiment.run.generations``
-    or until ``stop_requested()`` (checked after each generation, which is then checkpointed)."""
+    or until ``stop_requested()`` (checked after each generation, which is then checkpointed).
+
+    A problem and optimiser that cannot work together fail (ConfigError) before the folder is made."""
     problem = experiment.make_problem()
     try:
-        optimizer = make_optimizer(experiment.optimizer_name, problem, experiment.optimizer_settings, experiment.run.seed)
+        optimizer = experiment.make_optimizer(problem)
+        path = run_dir or default_run_dir(experiment)
+        folder = RunFolder.create(path, experiment.to_toml(), _manifest(experiment), overwrite=overwrite)
+        state = RunState(optimizer=optimizer)
+        return folder, _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
     finally:
         problem.close()
-    folder = RunFolder.create(run_dir or default_run_dir(experiment), experiment.to_toml(), _manifest(), overwrite=overwrite)
-    state = RunState(optimizer=optimizer)
-    return folder, _advance(folder, experiment, state, progress=progress, stop_requested=stop_requested)
 
 
 def open_run(run_dir: str | Path) -> tuple[RunFolder, Experiment]:
-    """A run folder and its configuration, checked."""
+    """A run folder and its configuration, checked (nothing is built)."""
     folder = RunFolder.open(run_dir)
     try:
         experiment = load_experiment(folder / RunFolder.CONFIG)
@@ -119,26 +126,27 @@ def resume(
         log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)
         return folder, state
     log.info("%s: resuming after generation %d of %d", folder.path, state.generation, experiment.run.generations)
-    return folder, _advance(folder, experiment, state, progress=progress, stop_requested=stop_requested)
+    problem = experiment.make_problem()
+    try:
+        return folder, _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
+    finally:
+        problem.close()
 
 
 def _warn_on_new_versions(folder: RunFolder) -> None:
     recorded = folder.manifest().get("versions", {})
-    current = library_versions(LIBRARIES)
+    current = library_versions([name for name in recorded if name != "python"])
     changed = [f"{name} {recorded[name]} -> {current.get(name)}" for name in recorded if recorded[name] != current.get(name)]
     if changed:
         log.warning("library versions differ from when this run started (%s); results may differ", ", ".join(changed))
 
 
-def elite_genome(folder: RunFolder, experiment: Experiment, elite: str) -> Any:
+def elite_genome(folder: RunFolder, problem: Problem, elite: str) -> Any:
     """The genome named by ``elite``: ``"best"`` (best seen) or ``"index:I"`` (the archive's elite in cell I)."""
-    problem = experiment.make_problem()
-    try:
-        if elite == "best":
-            return folder.best_genome(problem)
-        kind, _, value = elite.partition(":")
-        if kind != "index" or not value.lstrip("-").isdigit():
-            raise ConfigError(f"--elite {elite!r}: use 'best' or 'index:I' with I a cell index from archive.csv")
-        return np.asarray(folder.archive_genome(int(value), problem))
-    finally:
-        problem.close()
+    if elite == "best":
+        return folder.best_genome(problem)
+    kind, _, value = elite.partition(":")
+    if kind != "index" or not value.lstrip("-").isdigit():
+        raise ConfigError(f"--elite {elite!r}: use 'best' or 'index:I' with I a cell index from archive.csv")
+    genome = folder.archive_genome(int(value), problem)
+    return np.asarray(genome) if problem.flat else genome

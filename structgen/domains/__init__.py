@@ -1,5 +1,39 @@
-"""Domains bind a generator to a judge so the evolution engine can optimise it.
+"""Domains: what structgen can evolve, each binding a generator to a judge as an :class:`evolution.Problem`.
 
-Each domain is an ``evolution.Problem``. They are registered by name in :mod:`structgen.experiment`, which turns the
-``[problem]`` table of a run configuration into one.
+Each domain lives in its own package here (``structures/``; the toy problems in ``toys/``) and is registered by one
+line in :data:`registry.BUILTIN`; other packages register theirs through the ``structgen.domains`` entry-point group.
+Domains import neither each other nor the command line; what two domains share sits one level up, in ``structgen``.
+
+>>> from structgen import domains
+>>> [d.id for d in domains.specs()][:1]
+['structures-v0']
+>>> problem = domains.make("structures-v0")      # the problem with default settings
 """
+
+from structgen.domains.registry import (
+    BUILTIN,
+    DEFAULT_DOMAIN,
+    ENTRY_POINT_GROUP,
+    DomainSpec,
+    MainJob,
+    UnknownDomainError,
+    load_reference,
+    make,
+    register,
+    spec,
+    specs,
+)
+
+__all__ = [
+    "BUILTIN",
+    "DEFAULT_DOMAIN",
+    "ENTRY_POINT_GROUP",
+    "DomainSpec",
+    "MainJob",
+    "UnknownDomainError",
+    "load_reference",
+    "make",
+    "register",
+    "spec",
+    "specs",
+]

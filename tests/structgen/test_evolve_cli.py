@@ -140,7 +140,7 @@ def test_main_job_defaults_run(tmp_path, capsys):
     code, out, err = cli(capsys, "evolve", "--generations", 1, "--workers", 0, "--run-dir", tmp_path / "main")
     assert code == 0, err
     config = (tmp_path / "main" / "config.toml").read_text()
-    assert 'name = "structures"' in config and "population = 40" in config and "max_vertices = 64" in config
+    assert 'name = "structures-v0"' in config and "population = 40" in config and "max_vertices = 64" in config
     assert "40 evaluations" in out
 
 
@@ -267,19 +267,25 @@ def test_export_from_a_toy_run_says_there_is_no_structure(tmp_path, capsys):
     assert (tmp_path / "toy" / "best" / "genome.npy").exists()
     assert np.load(tmp_path / "toy" / "best" / "genome.npy").shape == (8,)
     code, _, err = cli(capsys, "export", tmp_path / "toy", "-o", tmp_path / "x.glb")
-    assert code == 2 and "has no structures to export" in err
+    assert code == 2 and "the sphere-v0 domain has nothing to export" in err
 
 
 @pytest.mark.parametrize("evaluator", ["statics", "statics+bullet"])
 def test_evolve_with_the_static_evaluators_records_which_scored(tmp_path, capsys, evaluator):
     run = tmp_path / "run"
-    code, _, err = cli(capsys, "evolve", tiny_config(tmp_path, "map_elites"), "--run-dir", run, "--evaluator", evaluator)
+    code, _, err = cli(capsys, "evolve", tiny_config(tmp_path, "map_elites"), "--run-dir", run, "--set", f"evaluator={evaluator}")
     assert code == 0, err
     assert f'evaluator = "{evaluator}"' in (run / "config.toml").read_text()
     header, *rows = (run / "archive.csv").read_text().splitlines()
     column = header.split(",").index("evaluator")
     scored_by = {float(row.split(",")[column]) for row in rows}
     assert scored_by == {0.0} if evaluator == "statics" else scored_by <= {0.0, 1.0}
+
+
+def test_an_option_that_is_a_setting_points_to_set(tmp_path, capsys):
+    code, out, err = cli(capsys, "evolve", "--evaluator", "statics", "--run-dir", tmp_path / "run")
+    assert code == 2 and out == "" and not (tmp_path / "run").exists()
+    assert "unrecognized arguments: --evaluator statics (settings go through --set: --set evaluator=statics)" in err
 
 
 def test_grow_a_runs_best_further(tmp_path, capsys):

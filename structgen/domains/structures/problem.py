@@ -31,7 +31,7 @@ false`` (no building below the seed), ``problem.physics.height_mode = "mean"`` (
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +40,7 @@ import numpy as np
 from evolution import Evaluation, Problem
 from physics import PhysicsConfig, StabilityReport, check_stability, check_statics
 from structgen._fileio import atomic_write
-from structgen.nca import NCAConfig, _split, grow, grow_population, n_params
+from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population, n_params
 from structgen.structure import Structure
 
 __all__ = ["EVALUATORS", "StableStructures", "StructuresSettings"]
@@ -54,7 +54,7 @@ class StructuresSettings:
     """The ``[problem]`` table of the structures domain.
 
     Attributes:
-        init_scale: random genomes are uniform in [-init_scale, init_scale] (0.25, the paper's range).
+        init_scale: random genomes are uniform in [-init_scale, init_scale] (the paper's range by default).
         evaluator: how structures are judged: "bullet" (simulation), "statics" (the static frame solve of
             :mod:`physics.statics`, milliseconds), or "statics+bullet" (statics for every structure, then the
             simulation for each one statics predicts to stand: the candidates for best). The field ``evaluator``
@@ -62,14 +62,13 @@ class StructuresSettings:
         nca: the NCA's shape and growth rules (``[problem.nca]``). The default vertex cap of 64 keeps random
             networks, which fill their growth box with about 1,100 vertices, within what a simulation can judge
             in a search loop: growth stops before the step that would exceed it.
-        physics_preset: the physics preset the ``[problem.physics]`` settings start from ("fast" or "faithful").
-        physics: the physics settings (``[problem.physics]``).
+        physics: the physics settings (``[problem.physics]``), the fast preset unless the table names another
+            (``preset = "faithful"``).
     """
 
-    init_scale: float = 0.25
+    init_scale: float = INIT_SCALE
     evaluator: str = "bullet"
     nca: NCAConfig = field(default_factory=lambda: NCAConfig(max_vertices=64))
-    physics_preset: str = "fast"
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
 
     def __post_init__(self) -> None:
@@ -167,31 +166,3 @@ class StableStructures(Problem):
         if report.error is None:
             paths.append(render_check(report, folder / "structure.png"))
         return paths
-
-
-def settings_from_table(table: dict[str, Any], where: str) -> StructuresSettings:
-    """Build settings from a ``[problem]`` table (without its ``name``), checking every key and type."""
-    from structgen.config import ConfigError, build
-
-    table = dict(table)
-    nca_table = table.pop("nca", {})
-    physics_table = table.pop("physics", {})
-    for name, value in (("nca", nca_table), ("physics", physics_table)):
-        if not isinstance(value, dict):
-            raise ConfigError(f"{where}.{name} must be a table, got {value!r}")
-    physics_table = dict(physics_table)
-    preset = physics_table.pop("preset", "fast")
-    try:
-        base = PhysicsConfig.preset(preset)
-    except ValueError as err:
-        raise ConfigError(f"{where}.physics.preset: {err}") from None
-    nca = build(NCAConfig, nca_table, f"{where}.nca", base=NCAConfig(max_vertices=64))
-    physics = build(PhysicsConfig, physics_table, f"{where}.physics", base=base)
-    rest = build(StructuresSettings, table, where)
-    return replace(rest, nca=nca, physics_preset=preset, physics=physics)
-
-
-def settings_to_table(settings: StructuresSettings) -> dict[str, Any]:
-    """The resolved ``[problem]`` table (every setting spelled out)."""
-    physics = {"preset": settings.physics_preset, **asdict(settings.physics)}
-    return {"init_scale": settings.init_scale, "evaluator": settings.evaluator, "nca": asdict(settings.nca), "physics": physics}

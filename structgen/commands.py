@@ -1,0 +1,92 @@
+"""What the command line and the domains' own verbs share: the input error, exit codes, the ``--set`` option, and
+the hooks through which a domain adds verbs and exports.
+
+The command line (:mod:`structgen.cli`) knows no domain. A domain that wants verbs of its own names a
+:class:`DomainCommands` in its :class:`~structgen.domains.DomainSpec`; the command line calls it to add
+``structgen <group> <verb>`` (and the domain's top-level shortcuts), and to export the domain's files and run elites
+through the generic ``structgen export``. This module stays light: it is imported to build every command line.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Collection, Iterable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from structgen.domains import DomainSpec
+
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_FAILURE",
+    "EXIT_OK",
+    "DomainCommands",
+    "InputError",
+    "add_set_option",
+    "settings_from_args",
+    "verbs_wanted",
+]
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class InputError(Exception):
+    """Bad input from the user (a file, an option value); reported in one line with exit code 2."""
+
+
+def add_set_option(parser: argparse.ArgumentParser | Any, tables: str, example: str) -> None:
+    """The ``--set KEY=VALUE`` option, the same in every subcommand (see :mod:`structgen.config` for the grammar)."""
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help=f"change a setting of {tables} by its dotted name, or by the end of it when no other setting shares "
+        f"that, e.g. {example} (repeatable; the named options are shortcuts for some of them)",
+    )
+
+
+def settings_from_args(
+    roots: Mapping[str, Any], args: argparse.Namespace, shortcuts: Mapping[str, str] = {}
+) -> dict[str, Any]:
+    """The settings objects in ``roots`` with the command's ``--set`` assignments applied, then its shortcut options.
+
+    ``shortcuts`` maps an option's ``dest`` to the dotted setting it stands for (``{"iterations": "nca.iterations"}``);
+    an option left at None was not given. Shortcut options apply last, so an option given by name wins over --set.
+    """
+    from structgen.config import apply_overrides
+
+    given = [(key, getattr(args, dest)) for dest, key in shortcuts.items() if getattr(args, dest, None) is not None]
+    return apply_overrides(roots, [*getattr(args, "set", []), *given])
+
+
+class DomainCommands:
+    """What a domain adds to the command line. Subclass it, override what applies, and name an instance in the
+    domain's spec (``commands="mypackage.cli:COMMANDS"``). Handlers raise :class:`InputError` for bad input."""
+
+    def add_verbs(self, subparsers: Any, domain: DomainSpec, only: Collection[str] | None = None) -> None:
+        """Add the domain's verbs to ``subparsers`` (all of them, or those named in ``only``, for the top-level
+        shortcuts). Each verb's parser sets ``handler`` to a function of the parsed arguments returning the exit
+        code."""
+
+    def add_export_options(self, parser: argparse.ArgumentParser) -> None:
+        """Options for exporting this domain's files and elites; they appear in ``structgen export --help``, so
+        give them names no other domain is likely to use."""
+
+    def export_file(self, source: Path, output: Path, args: argparse.Namespace) -> str:
+        """Write the domain's file ``source`` to ``output`` (in the format its suffix names); returns the line to
+        print."""
+        raise InputError(f"{source}: this domain has no files to export")
+
+    def export_elite(
+        self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]
+    ) -> str:
+        """Write what ``genome`` makes (a structure, a layout) to ``output``; ``origin`` names the run and elite it
+        came from, for the file's metadata. Returns the line to print."""
+        raise InputError(f"{output}: this domain has nothing to export")
+
+
+def verbs_wanted(names: Iterable[str], only: Collection[str] | None) -> list[str]:
+    """The verbs of ``names`` to add: all, or those in ``only``."""
+    return [name for name in names if only is None or name in only]

@@ -1,0 +1,52 @@
+"""The paper's domain: 3D lattice structures grown by a local NCA and judged by rigid-body physics.
+
+- :mod:`.problem`: the settings (``[problem]``: evaluator, ``[problem.nca]``, ``[problem.physics]``) and the problem
+  that grows NCA weights into structures and scores them with the paper's Q.
+- :mod:`.commands`: the verbs ``grow``, ``check``, ``render`` and ``info`` (also at the top level: ``structgen grow``
+  is ``structgen structures grow``) and the export of structure files and run elites as meshes.
+
+This file only describes the domain (:data:`DOMAIN`); the problem loads, with torch and the physics, on first use.
+"""
+
+from typing import TYPE_CHECKING, Any
+
+from structgen.domains.registry import DomainSpec, MainJob
+
+if TYPE_CHECKING:
+    from structgen.domains.structures.problem import EVALUATORS, StableStructures, StructuresSettings
+
+__all__ = ["DOMAIN", "EVALUATORS", "StableStructures", "StructuresSettings"]
+
+DOMAIN = DomainSpec(
+    id="structures-v0",
+    entry_point="structgen.domains.structures.problem:StableStructures",
+    settings="structgen.domains.structures.problem:StructuresSettings",
+    summary="3D lattice structures grown by a local NCA and judged by rigid-body physics (the paper's Q)",
+    commands="structgen.domains.structures.commands:COMMANDS",
+    shortcuts=("grow", "check", "render", "info"),
+    aliases=("structures",),
+    libraries=("torch", "pybullet", "trimesh"),
+    # The paper's setup (its local NCA, cutoff 0.5, five steps, building down allowed, the elitist GA keeping a fifth
+    # of the population) scaled to finish in about a minute on two cores: a population of 40, the NCA's vertex cap
+    # of 64 and the fast physics preset (both the domain's defaults).
+    main_job=MainJob(
+        run={"generations": 30, "seed": 0, "checkpoint_every": 1},
+        optimizer="ga",
+        optimizers={
+            "ga": {"population": 40, "parents": 8},
+            "cma_es": {"population": 40},
+            "map_elites": {"batch_size": 40, "cells": [11, 32]},
+            "cma_mae": {"emitters": 4, "batch_size": 10, "cells": [11, 32]},
+        },
+    ),
+    test_settings={"nca": {"hidden": 8, "max_vertices": 16}},
+)
+
+
+def __getattr__(name: str) -> Any:
+    # Names scripts used when this domain was one module; loading them loads torch and the physics.
+    if name in ("EVALUATORS", "StableStructures", "StructuresSettings"):
+        from structgen.domains.structures import problem
+
+        return getattr(problem, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,385 @@
+"""The structures domain's verbs: ``grow``, ``check``, ``render``, ``info``, and exports of structures as meshes.
+
+``structgen structures <verb>``, and at the top level too (``structgen grow``): they are the product's face. Every
+verb takes ``--set`` with the same grammar as ``structgen evolve``; its named options are shortcuts for settings
+(``--cutoff 0.6`` is ``--set nca.cutoff=0.6``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import time
+from collections.abc import Collection, Mapping
+from pathlib import Path
+from typing import Any
+
+from structgen.commands import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    DomainCommands,
+    InputError,
+    add_set_option,
+    settings_from_args,
+    verbs_wanted,
+)
+from structgen.structure import Structure
+
+__all__ = ["COMMANDS", "StructureCommands"]
+
+log = logging.getLogger("structgen")
+
+# Options that stand for settings: the option's dest, then the dotted setting it sets.
+MESH_OPTIONS = {
+    "sphere_radius": "mesh.sphere_radius",
+    "cylinder_radius": "mesh.cylinder_radius",
+    "spacing": "mesh.spacing",
+    "sphere_subdivisions": "mesh.sphere_subdivisions",
+    "cylinder_sections": "mesh.cylinder_sections",
+}
+NCA_OPTIONS = {
+    "iterations": "nca.iterations",
+    "cutoff": "nca.cutoff",
+    "hidden": "nca.hidden",
+    "build_down": "nca.build_down",
+    "max_vertices": "nca.max_vertices",
+    "max_extent": "nca.max_extent",
+}
+
+
+# -- option groups ------------------------------------------------------------------------------------------------------
+def _add_mesh_options(parser: argparse.ArgumentParser, title: str) -> None:
+    from structgen.mesh import MeshStyle
+
+    style = MeshStyle()
+    group = parser.add_argument_group(title)
+    group.add_argument(
+        "--sphere-radius", type=float, metavar="R", help=f"radius of the vertex spheres (default {style.sphere_radius})"
+    )
+    group.add_argument(
+        "--cylinder-radius", type=float, metavar="R", help=f"radius of the edge cylinders (default {style.cylinder_radius})"
+    )
+    group.add_argument("--spacing", type=float, metavar="S", help=f"world length of one lattice step (default {style.spacing})")
+    group.add_argument(
+        "--sphere-subdivisions",
+        type=int,
+        metavar="N",
+        help=f"icosphere subdivisions of each sphere, 0..5 (default {style.sphere_subdivisions}; 0 for big structures)",
+    )
+    group.add_argument(
+        "--cylinder-sections",
+        type=int,
+        metavar="N",
+        help=f"sides of each cylinder, 3..128 (default {style.cylinder_sections}; 6 for big structures)",
+    )
+
+
+def _add_nca_options(parser: argparse.ArgumentParser) -> None:
+    from structgen.nca import NCAConfig
+
+    nca = NCAConfig()
+    group = parser.add_argument_group("NCA (defaults follow the paper)")
+    group.add_argument("--iterations", type=int, metavar="N", help=f"growth steps from the seed vertex (default {nca.iterations})")
+    group.add_argument("--cutoff", type=float, metavar="X", help=f"an output fires above this sigmoid value (default {nca.cutoff})")
+    group.add_argument("--hidden", type=int, metavar="N", help=f"hidden layer size (default {nca.hidden})")
+    group.add_argument(
+        "--no-build-down",
+        dest="build_down",
+        action="store_const",
+        const=False,
+        help="never grow below the seed's level (the paper's special rule)",
+    )
+    group.add_argument(
+        "--max-vertices", type=int, metavar="N", help=f"stop growth before exceeding this (default {nca.max_vertices})"
+    )
+    group.add_argument(
+        "--max-extent", type=int, metavar="N", help=f"never build further than N cells from the seed (default {nca.max_extent})"
+    )
+
+
+def _add_physics_options(parser: argparse.ArgumentParser) -> None:
+    from physics import PhysicsConfig
+
+    presets = PhysicsConfig.presets()
+    default = next(name for name, preset in presets.items() if preset == PhysicsConfig())
+    group = parser.add_argument_group("physics")
+    group.add_argument(
+        "--preset",
+        choices=list(presets),
+        help="faithful: the paper's protocol (1/240 s steps, 50 solver iterations, 30 s); fast: 1/120 s, "
+        f"20 iterations, stop when settled, at most 2 s (default {default}; --set physics.preset=NAME is the same)",
+    )
+    add_set_option(group, "the physics (physics.*)", "--set break_force=60 --set horizon=10")
+    group.add_argument(
+        "--statics",
+        action="store_true",
+        help="predict with the static frame solve (milliseconds, no size cap) instead of simulating",
+    )
+
+
+# -- helpers ------------------------------------------------------------------------------------------------------------
+def _mesh_style(args: argparse.Namespace) -> Any:
+    from structgen.mesh import MeshStyle
+
+    return settings_from_args({"mesh": MeshStyle()}, args, MESH_OPTIONS)["mesh"]
+
+
+def _load_structure(path: str | Path) -> Structure:
+    source = Path(path)
+    if source.is_dir():
+        raise InputError(f"{source}: is a folder, expected a structure JSON file")
+    return Structure.load(source)
+
+
+def _write(structure: Structure, output: str | Path, style: Any) -> Path:
+    from dataclasses import asdict
+
+    from structgen.mesh import MeshStyle
+
+    path = Path(output)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, expected an output file name")
+    default = asdict(MeshStyle())
+    changed = {name: value for name, value in asdict(style).items() if value != default[name]}
+    if changed and path.suffix.lower() == ".json":
+        raise InputError(f"{path}: mesh dimensions only apply to mesh formats (.glb, .obj, .stl, .ply)")
+    return structure.export(path, **changed)
+
+
+def _describe(structure: Structure) -> str:
+    return f"{structure.n_vertices} vertices, {structure.n_edges} edges, height {structure.height}"
+
+
+def _physics_config(args: argparse.Namespace) -> Any:
+    from physics import PhysicsConfig
+
+    return settings_from_args({"physics": PhysicsConfig()}, args, {"preset": "physics.preset"})["physics"]
+
+
+def _checked(args: argparse.Namespace) -> tuple[Structure, Any]:
+    """Load the file, judge it, and return (structure, report); size caps and bad files are input errors."""
+    from physics import InputError as PhysicsInputError
+    from physics import check_stability, check_statics
+
+    config = _physics_config(args)
+    structure = _load_structure(args.file)
+    try:
+        return structure, (check_statics if args.statics else check_stability)(structure, config)
+    except PhysicsInputError as err:
+        raise InputError(f"{args.file}: {err}") from None
+
+
+# -- verbs --------------------------------------------------------------------------------------------------------------
+def cmd_grow(args: argparse.Namespace) -> int:
+    from structgen.mesh import MeshStyle
+    from structgen.nca import LocalNCA, NCAConfig, load_weights
+
+    if args.run:
+        weights, nca_base, origin = _run_nca(args)
+    else:
+        weights, nca_base = None, NCAConfig()
+        origin = {"weights_file": str(args.weights)} if args.weights else {"random_seed": args.seed}
+    settings = settings_from_args({"nca": nca_base, "mesh": MeshStyle()}, args, {**NCA_OPTIONS, **MESH_OPTIONS})
+    config = settings["nca"]
+    try:
+        if args.run:
+            nca = LocalNCA(weights, config)
+        elif args.weights:
+            nca = LocalNCA(load_weights(args.weights, config), config)
+        else:
+            nca = LocalNCA.random(args.seed, config)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    started = time.perf_counter()
+    structure = nca.grow()
+    log.info("grew %d vertices and %d edges in %.2f s", structure.n_vertices, structure.n_edges, time.perf_counter() - started)
+    growth = structure.metadata["growth"]
+    if growth["hit_max_vertices"]:
+        log.warning("growth stopped after %d steps at --max-vertices %d", growth["iterations_run"], config.max_vertices)
+    if growth["hit_max_extent"]:
+        log.warning("some growth was dropped at --max-extent %d", config.max_extent)
+    structure = structure.with_metadata(**origin)
+    path = _write(structure, args.output, settings["mesh"])
+    print(f"{path}: {_describe(structure)}")
+    return EXIT_OK
+
+
+def _run_nca(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
+    """The weights of a run's elite, the run's NCA settings, and where they came from."""
+    from structgen.domains.structures import DOMAIN
+    from structgen.runs import elite_genome, open_run
+
+    folder, experiment = open_run(args.run)
+    if experiment.domain != DOMAIN.id:
+        raise InputError(f"{args.run}: a run of the {experiment.domain} domain has no NCA to grow")
+    problem = experiment.make_problem()
+    try:
+        genome = elite_genome(folder, problem, args.elite)
+    finally:
+        problem.close()
+    return genome, experiment.problem_settings.nca, {"run": str(args.run), "elite": args.elite}
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    structure = _load_structure(args.file)
+    summary = {"file": str(args.file), **structure.summary()}
+    if args.json:
+        print(json.dumps(summary))
+        return EXIT_OK
+    low, high = summary["bounds"]["min"], summary["bounds"]["max"]
+    rows = [
+        ("file", summary["file"]),
+        ("vertices", summary["vertices"]),
+        ("edges", summary["edges"]),
+        ("height", summary["height"]),
+        ("bounds", f"{low} .. {high}"),
+        ("components", summary["components"]),
+        ("isolated", summary["isolated_vertices"]),
+        ("max degree", summary["max_degree"]),
+    ]
+    for name, value in rows:
+        print(f"{name:<11} {value}")
+    return EXIT_OK
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    _, report = _checked(args)
+    if args.json:
+        print(json.dumps({"file": str(args.file), **report.to_dict()}))
+    else:
+        broken = len(report.broken_joints)
+        verdict = "stands (no joint broke)" if report.intact else f"breaks ({broken} of {report.n_joints} joints broke)"
+        if report.exploded:
+            verdict = "the simulation exploded (scored as collapsed)"
+        statics = report.method == "statics"
+        preset = report.config.preset_name
+        rows = [
+            ("file", args.file),
+            ("method", "static frame solve" if statics else "simulation (PyBullet)"),
+            # The static analysis reads only masses, sizes and the break force from the settings, not the preset's
+            # time stepping.
+            ("settings", f"{preset} preset" if preset else "customised (--json lists every setting)"),
+            ("verdict", verdict),
+            ("integrity", f"{report.integrity:.4f}"),
+            ("height", f"{report.height:.3f}"),
+            ("complexity", report.complexity),
+            ("score", f"{report.score:.4f}"),
+            ("solved", f"{report.steps} failure rounds")
+            if statics
+            else ("simulated", f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled")),
+            ("cpu", f"{report.cpu_time:.3f} s"),
+        ]
+        for name, value in rows:
+            print(f"{name:<11} {value}")
+        for joint in report.broken_joints[:10]:
+            when = f"in round {joint.time:.0f}" if statics else f"at {joint.time:.3f} s"
+            print(f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) {when}, {joint.force:.1f} N")
+        if broken > 10:
+            print(f"broken      ... and {broken - 10} more (--json lists all)")
+    if args.strict and not report.intact:
+        return EXIT_FAILURE
+    return EXIT_OK
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from structgen.render import render_check
+
+    output = Path(args.output)
+    if output.suffix.lower() != ".png":
+        raise InputError(f"{output}: render writes PNG images; give a name ending in .png")
+    _, report = _checked(args)
+    render_check(report, output, dpi=args.dpi)
+    print(f"{output}: {'stands' if report.intact else 'breaks'}, I = {report.integrity:.3f}, Q = {report.score:.3f}")
+    return EXIT_OK
+
+
+# -- the hooks ----------------------------------------------------------------------------------------------------------
+def _add_grow(subparsers: Any) -> None:
+    grow = subparsers.add_parser(
+        "grow",
+        help="grow a structure from a random or saved NCA",
+        description="Grow a structure from one seed vertex with the paper's local NCA and write it to OUT "
+        "(structure JSON, or a mesh: .glb, .obj, .stl, .ply).",
+    )
+    source = grow.add_mutually_exclusive_group()
+    source.add_argument("--seed", type=int, default=0, metavar="N", help="random NCA drawn with this seed (default 0)")
+    source.add_argument("--weights", metavar="FILE", help="NCA weights: .npy (1-D array) or .json (list of numbers)")
+    source.add_argument(
+        "--run",
+        metavar="RUN_DIR",
+        help="an evolution run's NCA (its settings, then any NCA options given here, e.g. more --iterations)",
+    )
+    grow.add_argument("--elite", default="best", metavar="best|index:I", help="with --run: which NCA (default best)")
+    grow.add_argument("-o", "--output", required=True, metavar="OUT", help="output file; format from the suffix")
+    _add_nca_options(grow)
+    _add_mesh_options(grow, "mesh dimensions (mesh formats only; defaults match the physics model)")
+    add_set_option(grow, "the NCA (nca.*) and the mesh (mesh.*)", "--set nca.cutoff=0.6")
+    grow.set_defaults(handler=cmd_grow)
+
+
+def _add_info(subparsers: Any) -> None:
+    info = subparsers.add_parser(
+        "info",
+        help="print counts, height and connectivity of a structure",
+        description="Print a structure's vertex and edge counts, height, bounding box and connected components.",
+    )
+    info.add_argument("file", metavar="FILE", help="structure JSON file")
+    info.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    info.set_defaults(handler=cmd_info)
+
+
+def _add_check(subparsers: Any) -> None:
+    check = subparsers.add_parser(
+        "check",
+        help="simulate a structure under gravity and report whether it stands",
+        description="Build FILE as rigid bodies (a sphere per vertex, a cylinder per edge, breakable fixed joints), "
+        "rest it on the ground under gravity, and report integrity I (share of joints unbroken), height H, "
+        "complexity C (vertex count) and the score Q = I + (Wh*H + Wc*C)*I. Exits 0 whether or not it stands "
+        "(1 with --strict if it breaks).",
+    )
+    check.add_argument("file", metavar="FILE", help="structure JSON file")
+    check.add_argument("--json", action="store_true", help="print the whole report as one JSON object")
+    check.add_argument("--strict", action="store_true", help="exit with 1 if any joint breaks")
+    _add_physics_options(check)
+    check.set_defaults(handler=cmd_check)
+
+
+def _add_render(subparsers: Any) -> None:
+    render = subparsers.add_parser(
+        "render",
+        help="draw a structure before and after its stability check",
+        description="Judge FILE as 'check' does (by simulation, or by the static analysis with --statics) and draw "
+        "it as placed and as it ended up, broken joints in red, to a PNG image (no display needed).",
+    )
+    render.add_argument("file", metavar="FILE", help="structure JSON file")
+    render.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image to write")
+    render.add_argument("--dpi", type=int, default=110, help="image resolution (default 110)")
+    _add_physics_options(render)
+    render.set_defaults(handler=cmd_render)
+
+
+class StructureCommands(DomainCommands):
+    VERBS = {"grow": _add_grow, "check": _add_check, "render": _add_render, "info": _add_info}
+
+    def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
+        for name in verbs_wanted(self.VERBS, only):
+            self.VERBS[name](subparsers)
+
+    def add_export_options(self, parser: argparse.ArgumentParser) -> None:
+        _add_mesh_options(parser, "structures: mesh dimensions (mesh formats only; defaults match the physics model)")
+
+    def export_file(self, source: Path, output: Path, args: argparse.Namespace) -> str:
+        structure = _load_structure(source)
+        path = _write(structure, output, _mesh_style(args))
+        return f"{path}: {_describe(structure)}"
+
+    def export_elite(
+        self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]
+    ) -> str:
+        structure = problem.structure_of(genome).with_metadata(**origin)
+        path = _write(structure, output, _mesh_style(args))
+        return f"{path}: {_describe(structure)}"
+
+
+COMMANDS = StructureCommands()
