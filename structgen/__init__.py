@@ -8,9 +8,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from structgen._version import __version__
 from structgen.structure import Structure, StructureError
-
-__version__ = "0.1.0"
 
 __all__ = [
     "LocalNCA",

@@ -70,6 +70,9 @@ def cmd_evolve(args: argparse.Namespace) -> int:
     experiment = load_experiment(
         args.config, domain=args.domain, overrides=args.set, optimizer=args.optimizer, run_changes=changes
     )
+    if args.print_config:
+        print(experiment.to_toml(), end="")
+        return EXIT_OK
     with graceful_interrupt() as stop:
         folder, state = evolve(experiment, args.run_dir, overwrite=args.overwrite, stop_requested=stop)
         _report_run(folder, state)
@@ -166,7 +169,12 @@ def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
     add_set_option(
         evolve,
         "the run, the problem or the optimizer",
-        "optimizer.population=100, problem.nca.cutoff=0.6, physics.preset=faithful, evaluator=statics",
+        "optimizer.population=100 or run.seed=3 (--print-config shows every setting of the chosen domain)",
+    )
+    evolve.add_argument(
+        "--print-config",
+        action="store_true",
+        help="print the resolved configuration (every setting, as a run would record it) and exit without running",
     )
     evolve.set_defaults(handler=cmd_evolve)
 
@@ -206,7 +214,7 @@ def _add_export(commands: Any, exporters: list[tuple[domains.DomainSpec, Any]], 
         export.add_argument("--domain", metavar="ID", help=f"the domain SOURCE belongs to (default {domains.DEFAULT_DOMAIN})")
     else:
         export.set_defaults(domain=domain.id)
-    add_set_option(export, "the export (e.g. mesh.*)", "--set mesh.sphere_radius=0.2")
+    add_set_option(export, "the export", "mesh.sphere_radius=0.2 for a structure")
     for spec, hooks in exporters:
         try:
             hooks.add_export_options(export)
@@ -232,8 +240,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="structgen",
         formatter_class=_Formatter,
-        description="Grow structures with neural cellular automata and other generators, judge them, and evolve "
-        f"the generators.\n\nDomains (structgen <domain> --help for their verbs):\n{listing}",
+        description="Generate designs with neural cellular automata and other generators, judge them, and "
+        f"evolve the generators.\n\nDomains (structgen <domain> --help for their verbs):\n{listing}",
     )
     parser.add_argument("--version", action="version", version=f"structgen {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log more, and show tracebacks on errors")
@@ -320,10 +328,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _classify(err: Exception) -> tuple[int, str]:
     """The exit code and one-line message for an error: the user's input (2), or a bug or broken environment (1)."""
     from evolution import RunFolderError
-    from structgen.config import ConfigError
-    from structgen.structure import StructureError
 
-    if isinstance(err, (InputError, StructureError, ConfigError, RunFolderError, domains.UnknownDomainError)):
+    if isinstance(err, (InputError, RunFolderError, domains.UnknownDomainError)):
         return EXIT_BAD_INPUT, str(err)
     if isinstance(err, FileNotFoundError):
         return EXIT_BAD_INPUT, f"{err.filename}: no such file"

@@ -14,6 +14,8 @@ from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from structgen.errors import InputError
+
 if TYPE_CHECKING:
     from structgen.domains import DomainSpec
 
@@ -29,10 +31,6 @@ __all__ = [
 ]
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
-
-
-class InputError(Exception):
-    """Bad input from the user (a file, an option value); reported in one line with exit code 2."""
 
 
 def add_set_option(parser: argparse.ArgumentParser | Any, tables: str, example: str) -> None:

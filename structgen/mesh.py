@@ -16,7 +16,7 @@ import numpy as np
 
 from physics.config import PhysicsConfig
 from structgen._fileio import atomic_write
-from structgen.structure import StructureError
+from structgen.errors import StructureError
 
 if TYPE_CHECKING:
     import trimesh
@@ -126,7 +126,7 @@ def structure_mesh(structure: Structure, style: MeshStyle | None = None) -> trim
 def _glb_bytes(structure: Structure, style: MeshStyle) -> bytes:
     import trimesh
 
-    from structgen import __version__
+    from structgen._version import __version__
 
     scene = trimesh.Scene()
     for name, part in zip(("vertices", "edges"), _parts(structure, style)):

@@ -54,7 +54,7 @@ import io
 import json
 import math
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -63,9 +63,11 @@ import torch
 
 from structgen._fileio import atomic_write
 from structgen.lattice import N_DIRECTIONS, N_NEIGHBOURS, OFFSETS
+from structgen.nca_config import INIT_SCALE, N_INPUTS, N_OUTPUTS, NCAConfig, n_params
 from structgen.structure import Structure
 
 __all__ = [
+    "INIT_SCALE",
     "LocalNCA",
     "NCAConfig",
     "grow",
@@ -75,58 +77,6 @@ __all__ = [
     "random_weights",
     "save_weights",
 ]
-
-N_INPUTS = 2 * N_NEIGHBOURS
-N_OUTPUTS = N_NEIGHBOURS
-#: Range of the uniform distribution random NCAs are drawn from (the paper's mutation and initial bias range).
-INIT_SCALE = 0.25
-
-
-@dataclass(frozen=True)
-class NCAConfig:
-    """Shape of the network and rules of growth. Defaults follow the paper.
-
-    Attributes:
-        hidden: size of the hidden layer (60 in the paper).
-        iterations: growth steps from the seed (5 in the paper).
-        cutoff: an output fires when its sigmoid exceeds this, in (0, 1) (0.5 in the paper; 0.6 among its variants).
-        build_down: whether vertices may grow below the seed's level; ``False`` is the paper's "no building down".
-        max_vertices: growth stops before a step that would leave more vertices than this.
-        max_extent: cells further than this from the seed along any axis are never built.
-    """
-
-    hidden: int = 60
-    iterations: int = 5
-    cutoff: float = 0.5
-    build_down: bool = True
-    max_vertices: int = 10_000
-    max_extent: int = 32
-
-    def __post_init__(self) -> None:
-        def need(ok: bool, name: str, what: str) -> None:
-            if not ok:
-                raise ValueError(f"NCA {name} must be {what}, got {getattr(self, name)!r}")
-
-        def is_int(value: Any) -> bool:
-            return isinstance(value, int) and not isinstance(value, bool)
-
-        need(is_int(self.hidden) and self.hidden >= 1, "hidden", "a positive integer")
-        need(is_int(self.iterations) and self.iterations >= 0, "iterations", "a non-negative integer")
-        need(
-            isinstance(self.cutoff, (int, float)) and not isinstance(self.cutoff, bool) and 0 < self.cutoff < 1,
-            "cutoff",
-            "a number strictly between 0 and 1",
-        )
-        need(isinstance(self.build_down, bool), "build_down", "true or false")
-        need(is_int(self.max_vertices) and self.max_vertices >= 1, "max_vertices", "a positive integer")
-        need(is_int(self.max_extent) and self.max_extent >= 1, "max_extent", "a positive integer")
-
-
-def n_params(config: NCAConfig | None = None) -> int:
-    """Length of the flat weight vector (4766 for the paper's 52-60-26 network)."""
-    hidden = (config or NCAConfig()).hidden
-    return N_INPUTS * hidden + hidden + hidden * N_OUTPUTS + N_OUTPUTS
-
 
 def random_weights(count: int, seed: int, config: NCAConfig | None = None, scale: float = INIT_SCALE) -> np.ndarray:
     """``(count, n_params)`` weight vectors drawn uniformly from ``[-scale, scale]``; the same seed gives the same array."""

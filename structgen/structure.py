@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from structgen._fileio import atomic_write
+from structgen.errors import StructureError
 from structgen.lattice import are_neighbours
 
 if TYPE_CHECKING:
@@ -35,10 +36,6 @@ __all__ = ["Structure", "StructureError"]
 # Far beyond any structure we can simulate, and small enough that coordinate differences cannot overflow int64.
 _MAX_ABS_COORDINATE = 1_000_000_000
 _FILE_FIELDS = ("vertices", "edges", "metadata")
-
-
-class StructureError(ValueError):
-    """A structure, or a file meant to hold one, is malformed. The message names the place and the problem."""
 
 
 def _prefix(source: str | None) -> str:

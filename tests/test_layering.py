@@ -1,5 +1,18 @@
-"""Dependencies point one way: structgen may use physics and evolution, never the reverse, and `import structgen`
-stays light (no physics, evolution, pybullet, ribs or trimesh until they are needed)."""
+"""Dependencies point one way, and the import graph has no circles.
+
+Layers, lowest first; a module may import from its own layer's modules and from lower layers only:
+
+1. ``physics`` and ``evolution``: libraries that import neither each other nor ``structgen``.
+2. structgen's core: the data types, generators, export and settings (``structure``, ``nca``, ``mesh``, ``config``...).
+3. ``structgen.domains.registry`` and ``structgen.commands``: how domains are described and how they add verbs.
+4. ``structgen.experiment`` and ``structgen.runs``: configurations and runs, for any domain.
+5. the domains (``structgen.domains.<name>``): none imports another domain.
+6. ``structgen.cli``: knows domains only through the registry.
+
+Imports inside functions count (they are edges all the same); those under ``if TYPE_CHECKING:`` do not (they never
+run).
+``import structgen`` stays light: no physics, evolution, pybullet, ribs, trimesh or torch until they are needed.
+"""
 
 from __future__ import annotations
 
@@ -11,28 +24,125 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("structgen", "physics", "evolution")
 
 
-def imported_modules(package: str) -> set[str]:
-    """Top-level names of every module imported anywhere in a package's source, including inside functions."""
-    names = set()
-    for path in (ROOT / package).rglob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-            if isinstance(node, ast.Import):
-                names.update(alias.name.split(".")[0] for alias in node.names)
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names.add(node.module.split(".")[0])
-    return names
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(path): path for package in PACKAGES for path in (ROOT / package).rglob("*.py")}
+
+
+def _runtime_nodes(tree: ast.AST) -> list[ast.AST]:
+    """Every node of ``tree`` except those inside ``if TYPE_CHECKING:`` blocks."""
+    nodes, stack = [], [tree]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, ast.If) and ast.unparse(node.test) in ("TYPE_CHECKING", "typing.TYPE_CHECKING"):
+            stack.extend(node.orelse)
+            continue
+        nodes.append(node)
+        stack.extend(ast.iter_child_nodes(node))
+    return nodes
+
+
+def imports_of(name: str) -> set[str]:
+    """The project modules ``name`` imports at run time, anywhere in its source."""
+    found = set()
+    for node in _runtime_nodes(ast.parse(MODULES[name].read_text(), filename=str(MODULES[name]))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            assert node.level == 0, f"{name}: relative import"
+            targets = [f"{node.module}.{alias.name}" for alias in node.names] + [node.module]
+        else:
+            continue
+        # `from a import b` imports the module a.b if there is one, else the name b from a.
+        found.update(t for t in targets if t in MODULES)
+    found.discard(name)
+    return found
+
+
+GRAPH = {name: imports_of(name) for name in MODULES}
+
+
+def layer(name: str) -> int:
+    top = name.split(".")[0]
+    if top in ("physics", "evolution"):
+        return 1
+    if name in ("structgen.domains", "structgen.domains.registry", "structgen.commands"):
+        return 3
+    if name in ("structgen.experiment", "structgen.runs"):
+        return 4
+    if name.startswith("structgen.domains."):
+        return 5
+    if name == "structgen.cli" or name == "structgen.__main__":
+        return 6
+    return 2
+
+
+def domain_of(name: str) -> str | None:
+    parts = name.split(".")
+    return parts[2] if name.startswith("structgen.domains.") and parts[2] != "registry" else None
+
+
+def test_the_graph_covers_the_project():
+    assert {"structgen.cli", "structgen.domains.structures.problem", "evolution.runfolder", "physics.statics"} <= set(GRAPH)
+    assert "structgen.domains" in GRAPH["structgen.experiment"]
+    assert "structgen.mesh" in GRAPH["structgen.structure"]  # imported inside a method: an edge all the same
+
+
+def test_the_import_graph_has_no_circles():
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+
+    def visit(name: str, path: list[str]) -> None:
+        state[name] = 1
+        for target in sorted(GRAPH[name]):
+            if state.get(target) == 1:
+                circle = path[path.index(target) :] + [target]
+                raise AssertionError("import circle: " + " -> ".join(circle))
+            if target not in state:
+                visit(target, [*path, target])
+        state[name] = 2
+
+    for name in sorted(GRAPH):
+        if name not in state:
+            visit(name, [name])
+
+
+def test_no_module_imports_from_a_higher_layer():
+    upward = [(a, b) for a in GRAPH for b in GRAPH[a] if layer(b) > layer(a)]
+    assert upward == []
 
 
 @pytest.mark.parametrize("package", ["physics", "evolution"])
 def test_libraries_never_import_structgen(package):
-    assert "structgen" not in imported_modules(package)
+    assert not [(a, b) for a in GRAPH if a.startswith(package) for b in GRAPH[a] if b.startswith("structgen")]
 
 
 def test_physics_and_evolution_do_not_import_each_other():
-    assert "evolution" not in imported_modules("physics")
-    assert "physics" not in imported_modules("evolution")
+    crossing = [(a, b) for a in GRAPH for b in GRAPH[a] if {a.split(".")[0], b.split(".")[0]} == {"physics", "evolution"}]
+    assert crossing == []
+
+
+def test_domains_do_not_import_each_other():
+    crossing = [(a, b) for a in GRAPH for b in GRAPH[a] if domain_of(a) and domain_of(b) and domain_of(a) != domain_of(b)]
+    assert crossing == []
+
+
+def test_the_command_line_names_no_domain():
+    from structgen import domains
+
+    import re
+
+    source = MODULES["structgen.cli"].read_text()
+    for spec in domains.specs():
+        for name in (spec.id, spec.group_name, *spec.aliases):
+            assert not re.search(rf"\b{re.escape(name)}\b", source), name
+        for verb in spec.shortcuts:  # a verb as a string literal ("check"; the word checkpoint is fine)
+            assert f'"{verb}"' not in source and f"'{verb}'" not in source, verb
 
 
 def loaded_after(statement: str) -> set[str]:
@@ -50,6 +160,11 @@ def test_growing_a_structure_still_needs_neither_library():
     loaded = loaded_after("import structgen; structgen.LocalNCA.random(0).grow()")
     assert "torch" in loaded
     assert not loaded & {"physics", "evolution", "pybullet", "ribs"}
+
+
+def test_listing_domains_and_building_the_command_line_load_no_engine():
+    loaded = loaded_after("from structgen import domains; domains.specs(); from structgen.cli import build_parser; build_parser()")
+    assert not loaded & {"torch", "pybullet", "ribs", "numba", "trimesh", "scipy", "matplotlib"}
 
 
 @pytest.mark.parametrize("package", ["physics", "evolution"])

@@ -76,7 +76,7 @@ def _add_mesh_options(parser: argparse.ArgumentParser, title: str) -> None:
 
 
 def _add_nca_options(parser: argparse.ArgumentParser) -> None:
-    from structgen.nca import NCAConfig
+    from structgen.nca_config import NCAConfig
 
     nca = NCAConfig()
     group = parser.add_argument_group("NCA (defaults follow the paper)")
@@ -110,7 +110,7 @@ def _add_physics_options(parser: argparse.ArgumentParser) -> None:
         help="faithful: the paper's protocol (1/240 s steps, 50 solver iterations, 30 s); fast: 1/120 s, "
         f"20 iterations, stop when settled, at most 2 s (default {default}; --set physics.preset=NAME is the same)",
     )
-    add_set_option(group, "the physics (physics.*)", "--set break_force=60 --set horizon=10")
+    add_set_option(group, "the physics (physics.*)", "break_force=60 or physics.horizon=10")
     group.add_argument(
         "--statics",
         action="store_true",
@@ -314,7 +314,7 @@ def _add_grow(subparsers: Any) -> None:
     grow.add_argument("-o", "--output", required=True, metavar="OUT", help="output file; format from the suffix")
     _add_nca_options(grow)
     _add_mesh_options(grow, "mesh dimensions (mesh formats only; defaults match the physics model)")
-    add_set_option(grow, "the NCA (nca.*) and the mesh (mesh.*)", "--set nca.cutoff=0.6")
+    add_set_option(grow, "the NCA (nca.*) and the mesh (mesh.*)", "nca.cutoff=0.6 or sphere_radius=0.2")
     grow.set_defaults(handler=cmd_grow)
 
 
