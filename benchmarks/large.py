@@ -39,7 +39,8 @@ def measure(run_dir: str, elite: str, iterations: int, max_extent: int, bullet_m
 
     folder, experiment = open_run(run_dir)
     config = replace(experiment.problem_settings.nca, iterations=iterations, max_extent=max_extent, max_vertices=10**6)
-    nca = LocalNCA(elite_genome(folder, experiment, elite), config)
+    problem = experiment.make_problem()
+    nca = LocalNCA(elite_genome(folder, problem, elite), config)
     before = peak_mb()
     started = time.perf_counter()
     structure = nca.grow()

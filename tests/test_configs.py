@@ -1,4 +1,5 @@
-"""The example configurations in configs/ stay valid."""
+"""The example configurations in configs/ stay valid: they load, their problem and optimiser work together, and what
+a run would record reads back to the same configuration."""
 
 from __future__ import annotations
 
@@ -16,6 +17,14 @@ def test_there_are_examples():
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.name for p in CONFIGS])
-def test_example_configuration_loads(path):
+def test_example_configuration_builds_and_round_trips(path, tmp_path):
     experiment = load_experiment(path)
-    assert experiment.run.generations >= 1
+    problem = experiment.make_problem()
+    try:
+        optimizer = experiment.make_optimizer(problem)
+        assert len(optimizer.ask()) >= 1
+    finally:
+        problem.close()
+    resolved = tmp_path / "config.toml"
+    resolved.write_text(experiment.to_toml())
+    assert load_experiment(resolved) == experiment

@@ -279,7 +279,9 @@ def test_evolve_with_the_static_evaluators_records_which_scored(tmp_path, capsys
     header, *rows = (run / "archive.csv").read_text().splitlines()
     column = header.split(",").index("evaluator")
     scored_by = {float(row.split(",")[column]) for row in rows}
-    assert scored_by == {0.0} if evaluator == "statics" else scored_by <= {0.0, 1.0}
+    # With statics+bullet, what statics predicts to fall keeps its score and what it predicts to stand is simulated:
+    # this run has both.
+    assert scored_by == ({0.0} if evaluator == "statics" else {0.0, 1.0})
 
 
 def test_an_option_that_is_a_setting_points_to_set(tmp_path, capsys):
