@@ -1,13 +1,14 @@
 # Two commands set up and use structgen on a fresh machine (see README.md):
 #   make run    create .venv, install structgen, run the main job (a short evolution run; prints its run folder)
-#   make test   create .venv, install structgen with test tools, run the test suite
+#   make test   create .venv, install structgen with test tools, lint, run the whole test suite
+# For the edit loop: make test-fast (the suite without the tests marked slow), make format (ruff formats the code).
 PYTHON ?= $(shell command -v python3.11 || command -v python3.10 || command -v python3)
 VENV ?= .venv
 BIN := $(VENV)/bin
 # Extra options for the main job, e.g. make run ARGS="--generations 10 --seed 3"
 ARGS ?=
 
-.PHONY: run test install clean
+.PHONY: run test test-fast lint format install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -18,8 +19,19 @@ install: $(BIN)/python
 run: install
 	$(BIN)/structgen evolve $(ARGS)
 
-test: install
+lint: install
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+test: lint
 	$(BIN)/python -m pytest -q
+
+test-fast: install
+	$(BIN)/python -m pytest -q -m "not slow"
+
+format: install
+	$(BIN)/ruff check --fix .
+	$(BIN)/ruff format .
 
 clean:
 	rm -rf $(VENV) runs

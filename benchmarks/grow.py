@@ -61,8 +61,8 @@ def main() -> None:
         edges = np.mean([s.n_edges for s in structures])
         for threads in args.threads:
             torch.set_num_threads(threads)
-            single = median_seconds(lambda: [grow(w, config) for w in weights], args.repeats)
-            batched = median_seconds(lambda: grow_population(weights, config), args.repeats)
+            single = median_seconds(lambda w=weights, c=config: [grow(x, c) for x in w], args.repeats)
+            batched = median_seconds(lambda w=weights, c=config: grow_population(w, c), args.repeats)
             print(
                 f"| {name} | {threads} | {vertices:.0f} | {edges:.0f} | {args.population / single:,.0f} "
                 f"| {args.population / batched:,.0f} | {single / batched:.1f}x |"

@@ -89,14 +89,20 @@ def main() -> None:
         return
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")), "?")
     print(f"machine: {cpu}, {os.cpu_count()} cores; Python {platform.python_version()}; run {args.run_dir} ({args.elite})\n")
-    print("| steps | vertices | edges | height | grow s | grow MB | statics s | statics MB | failure rounds | statics I | PyBullet fast s (CPU) | PyBullet I |")
+    print(
+        "| steps | vertices | edges | height | grow s | grow MB | statics s | statics MB | failure rounds | statics I | PyBullet fast s (CPU) | PyBullet I |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for iterations in args.iterations:
         command = [sys.executable, __file__, args.run_dir, "--elite", args.elite, "--one", str(iterations)]
         command += ["--max-extent", str(args.max_extent), "--bullet-max-joints", str(args.bullet_max_joints)]
         done = subprocess.run(command, capture_output=True, text=True, check=True)
         r = json.loads(done.stdout.strip().splitlines()[-1])
-        bullet = f"{r['bullet_s']:.1f} ({r['bullet_cpu_s']:.1f})" if "bullet_s" in r else f"not run (> {args.bullet_max_joints:,} joints)"
+        bullet = (
+            f"{r['bullet_s']:.1f} ({r['bullet_cpu_s']:.1f})"
+            if "bullet_s" in r
+            else f"not run (> {args.bullet_max_joints:,} joints)"
+        )
         bullet_i = f"{r['bullet_integrity']:.3f}" if "bullet_s" in r else "-"
         print(
             f"| {iterations} | {r['vertices']:,} | {r['edges']:,} | {r['height']} | {r['grow_s']:.2f} | {r['grow_mb']:.0f} "

@@ -80,7 +80,9 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2, help="evaluation processes (default 2)")
     args = parser.parse_args()
     print(f"machine: {os.cpu_count()} cores; Python {platform.python_version()}; budget {args.evaluations} evaluations\n")
-    print("| optimizer | seed | evaluations | minutes | best Q | its I | its H | its vertices | tallest standing H | first seen at evaluation |")
+    print(
+        "| optimizer | seed | evaluations | minutes | best Q | its I | its H | its vertices | tallest standing H | first seen at evaluation |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for name in OPTIMIZERS:
         for seed in args.seeds:

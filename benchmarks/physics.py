@@ -98,7 +98,9 @@ def fidelity_table(count: int, workers: int) -> None:
     intact = sum(r.intact for r in faithful)
     small = sizes <= 16
     print(f"Faithful verdicts: {intact} intact, {len(structures) - intact} broken.\n")
-    print("| preset | same verdict as faithful | Spearman rho of Q | mean abs dI | mean abs dH | CPU s per structure (median, <= 16 vertices) | CPU s per structure (median, all) | CPU s per structure (max, <= 16 vertices) | wall s for the set |")
+    print(
+        "| preset | same verdict as faithful | Spearman rho of Q | mean abs dI | mean abs dH | CPU s per structure (median, <= 16 vertices) | CPU s per structure (median, all) | CPU s per structure (max, <= 16 vertices) | wall s for the set |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for name, reports, wall in (("faithful", faithful, faithful_wall), ("fast", fast, fast_wall)):
         cpu = np.array([r.cpu_time for r in reports])
@@ -110,9 +112,16 @@ def fidelity_table(count: int, workers: int) -> None:
             f"| {name} | {agreement} | {correlation} | {di} | {dh} | {np.median(cpu[small]):.3f} | {np.median(cpu):.3f} "
             f"| {cpu[small].max():.3f} | {wall:.1f} |"
         )
-    disagreements = [(i, s.n_vertices, a.integrity, b.integrity) for i, (s, a, b) in enumerate(zip(structures, fast, faithful)) if a.intact != b.intact]
+    disagreements = [
+        (i, s.n_vertices, a.integrity, b.integrity)
+        for i, (s, a, b) in enumerate(zip(structures, fast, faithful))
+        if a.intact != b.intact
+    ]
     if disagreements:
-        print("\nVerdicts that differ (index, vertices, I fast, I faithful): " + ", ".join(f"({i}, {v}, {a:.2f}, {b:.2f})" for i, v, a, b in disagreements))
+        print(
+            "\nVerdicts that differ (index, vertices, I fast, I faithful): "
+            + ", ".join(f"({i}, {v}, {a:.2f}, {b:.2f})" for i, v, a, b in disagreements)
+        )
     print()
     return structures
 
@@ -135,13 +144,18 @@ def workers_table(structures: list[Structure]) -> None:
 def populations_table(workers: int) -> None:
     print("## Populations of 100, grown and checked end to end\n")
     print(f"Growth in this process, checks with the fast preset in {workers} worker processes (start-up included).\n")
-    print("| population | median vertices | max vertices | refused (over size caps) | intact | grow s | check s (wall) | total s |")
+    print(
+        "| population | median vertices | max vertices | refused (over size caps) | intact | grow s | check s (wall) | total s |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     populations = {
         "random NCAs, paper settings": (NCAConfig(), None),
         "random NCAs, cutoff 0.6, no build down": (NCAConfig(cutoff=0.6, build_down=False), None),
         "random NCAs, 2 steps, no build down": (NCAConfig(iterations=2, build_down=False), None),
-        "random lattice growth, 4-40 vertices": (None, lambda: [random_growth(4 + (i * 7) % 37, i, upward=0.1) for i in range(100)]),
+        "random lattice growth, 4-40 vertices": (
+            None,
+            lambda: [random_growth(4 + (i * 7) % 37, i, upward=0.1) for i in range(100)],
+        ),
     }
     for name, (config, make) in populations.items():
         started = time.perf_counter()

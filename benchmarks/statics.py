@@ -77,9 +77,19 @@ def reference(structures: list[Structure], path: Path, workers: int) -> dict[str
     for name in ("faithful", "fast"):
         started = time.perf_counter()
         reports = check_many(structures, PhysicsConfig.preset(name), workers=workers)
-        print(f"(simulated {len(structures)} structures with the {name} preset in {time.perf_counter() - started:.0f} s)", file=sys.stderr)
+        print(
+            f"(simulated {len(structures)} structures with the {name} preset in {time.perf_counter() - started:.0f} s)",
+            file=sys.stderr,
+        )
         results[name] = [
-            {"intact": r.intact, "integrity": r.integrity, "height": r.height, "score": r.score, "cpu": r.cpu_time, "error": r.error}
+            {
+                "intact": r.intact,
+                "integrity": r.integrity,
+                "height": r.height,
+                "score": r.score,
+                "cpu": r.cpu_time,
+                "error": r.error,
+            }
             for r in reports
         ]
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -97,7 +107,9 @@ def compare(predicted: list, simulated: list[dict]) -> tuple[float, float, float
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--reference", type=Path, default=Path("runs/statics_reference.json"), help="cache of the PyBullet results")
+    parser.add_argument(
+        "--reference", type=Path, default=Path("runs/statics_reference.json"), help="cache of the PyBullet results"
+    )
     parser.add_argument("--workers", type=int, default=2, help="processes for the simulations (default 2)")
     args = parser.parse_args()
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")), "?")
@@ -109,13 +121,17 @@ def main() -> None:
     sizes = np.array([s.n_vertices for s in structures])
     ref = reference(structures, args.reference, args.workers)
     faithful, fast = ref["faithful"], ref["fast"]
-    print(f"{len(structures)} structures, {sizes.min()} to {sizes.max()} vertices (median {np.median(sizes):.0f}); "
-          f"faithful verdicts: {sum(r['intact'] for r in faithful)} intact, {sum(not r['intact'] for r in faithful)} broken.\n")
+    print(
+        f"{len(structures)} structures, {sizes.min()} to {sizes.max()} vertices (median {np.median(sizes):.0f}); "
+        f"faithful verdicts: {sum(r['intact'] for r in faithful)} intact, {sum(not r['intact'] for r in faithful)} broken.\n"
+    )
 
     print("## Static prediction against PyBullet\n")
     print("Agreement with the faithful preset on all 240 structures, on the 120 the statics settings were fitted on")
     print("(even positions) and on the 120 held out (odd positions).\n")
-    print("| predictor | same verdict (all) | rho of Q (all) | same verdict (fitted half) | rho (fitted half) | same verdict (held-out half) | rho (held-out half) | mean abs dI |")
+    print(
+        "| predictor | same verdict (all) | rho of Q (all) | same verdict (fitted half) | rho (fitted half) | same verdict (held-out half) | rho (held-out half) | mean abs dI |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     halves = {"all": np.ones(len(structures), dtype=bool), "fit": np.arange(len(structures)) % 2 == 0}
     halves["held"] = ~halves["fit"]
@@ -149,7 +165,9 @@ def main() -> None:
     print()
 
     print("## Cost per structure\n")
-    print("Statics: CPU time of `check_statics` in this process, median of 3 repetitions. PyBullet: the simulating process's CPU time.\n")
+    print(
+        "Statics: CPU time of `check_statics` in this process, median of 3 repetitions. PyBullet: the simulating process's CPU time.\n"
+    )
     print("| vertices | structures | statics median ms | statics max ms | fast preset median ms | faithful preset median ms |")
     print("|---|---|---|---|---|---|")
     config = PhysicsConfig.preset("fast")

@@ -163,7 +163,9 @@ class DaskEvaluator(Evaluator):
         seeds = np.asarray(seeds)
         workers = max(1, sum(info.get("nthreads", 1) for info in self.client.scheduler_info()["workers"].values()))
         parts = _slices(len(seeds), self.slices or 4 * workers)
-        futures = [self.client.submit(_evaluate_slice, self._problem_future, _take(genomes, p), seeds[p], pure=False) for p in parts]
+        futures = [
+            self.client.submit(_evaluate_slice, self._problem_future, _take(genomes, p), seeds[p], pure=False) for p in parts
+        ]
         try:
             return Evaluation.concatenate(self.client.gather(futures))
         except (OSError, TimeoutError) as err:

@@ -20,7 +20,6 @@ import numpy as np
 from evolution.problem import Problem
 
 __all__ = [
-    "OPTIMIZERS",
     "CMAES",
     "CMAESSettings",
     "CMAMAESettings",
@@ -219,7 +218,7 @@ class CMAES(Optimizer):
         self._asked = None
 
 
-# -- quality diversity (settings here, built from pyribs in evolution.qd) ----------------------------------------------------------------
+# -- quality diversity (settings here, built from pyribs in evolution.qd) ----------------------------------------------
 @dataclass(frozen=True)
 class MapElitesSettings:
     """MAP-Elites on a pyribs grid archive.

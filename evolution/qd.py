@@ -94,6 +94,7 @@ class ProblemMutationEmitter(EmitterBase):
         batch[:] = genomes
         return batch
 
+
 def map_elites(problem: Problem, settings: MapElitesSettings, seed: int) -> Optimizer:
     # One seed for the archive, then two per emitter (its first genomes, its own generator).
     seeds = [int(x) for x in np.random.SeedSequence(seed).generate_state(1 + 2 * settings.emitters)]

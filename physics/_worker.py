@@ -1,8 +1,9 @@
 """The worker process of :class:`physics.parallel.CheckPool`: ``python -m physics._worker IN_FD OUT_FD``.
 
 Once its imports are done it sends ``"ready"``; then it reads ``(task, vertices, edges, config)`` messages from one
-inherited pipe and answers ``(task, report)`` on the other until it reads ``None`` or the pipe closes. Started as a fresh interpreter (not forked, not through
-multiprocessing's spawn), so it never re-runs the caller's main script and never inherits the caller's threads.
+inherited pipe and answers ``(task, report)`` on the other until it reads ``None`` or the pipe closes. Started as a
+fresh interpreter (not forked, not through multiprocessing's spawn), so it never re-runs the caller's main script and
+never inherits the caller's threads.
 """
 
 from __future__ import annotations

@@ -108,14 +108,12 @@ def _build(client: _Client, bodies: Bodies, config: PhysicsConfig) -> tuple[list
     rods: dict[float, int] = {}  # one collision shape per distinct length (three on a lattice)
     cylinders, joints = [], []
     radius = config.sphere_radius
-    for e, ((a, b), centre, orientation, length, direction) in enumerate(
-        zip(
-            bodies.edges.tolist(),
-            bodies.cylinder_positions.tolist(),
-            bodies.cylinder_orientations.tolist(),
-            bodies.cylinder_lengths.tolist(),
-            bodies.directions.tolist(),
-        )
+    for (a, b), centre, orientation, length, direction in zip(
+        bodies.edges.tolist(),
+        bodies.cylinder_positions.tolist(),
+        bodies.cylinder_orientations.tolist(),
+        bodies.cylinder_lengths.tolist(),
+        bodies.directions.tolist(),
     ):
         key = round(length, 9)
         if key not in rods:

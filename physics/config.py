@@ -125,9 +125,7 @@ class PhysicsConfig:
                     bound = "a non-negative" if item.name in _MAY_BE_ZERO else "a positive"
                     raise ValueError(f"physics {item.name} must be {bound} number, got {value!r}")
         if self.cylinder_radius > self.sphere_radius:
-            raise ValueError(
-                f"physics cylinder_radius {self.cylinder_radius} must not exceed sphere_radius {self.sphere_radius}"
-            )
+            raise ValueError(f"physics cylinder_radius {self.cylinder_radius} must not exceed sphere_radius {self.sphere_radius}")
         if 2 * self.sphere_radius >= self.spacing:
             raise ValueError(
                 f"physics sphere_radius {self.sphere_radius} must be less than half the spacing {self.spacing}, "

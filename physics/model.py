@@ -113,9 +113,7 @@ def place(vertices: np.ndarray, edges: np.ndarray, config: PhysicsConfig, *, enf
     """Bodies of a structure resting on the ground; raises InputError if an edge is too short or, with
     ``enforce_caps`` (the simulation's limits), if it is too large."""
     if enforce_caps and len(vertices) > config.max_vertices:
-        raise InputError(
-            f"structure has {len(vertices)} vertices, more than max_vertices = {config.max_vertices}"
-        )
+        raise InputError(f"structure has {len(vertices)} vertices, more than max_vertices = {config.max_vertices}")
     if enforce_caps and 2 * len(edges) > config.max_joints:
         raise InputError(
             f"structure has {len(edges)} edges ({2 * len(edges)} joints), more than max_joints = {config.max_joints}"

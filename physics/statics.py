@@ -205,7 +205,9 @@ def _solve_piece(
                 solution = cho_solve(cho_factor(system), force[free])
             else:
                 system = coo_matrix((values, (rows, cols)), shape=(nf, nf)).tocsc()
-                system = system + coo_matrix((np.full(len(spring_at), _PIN_SPRING * scale), (spring_at, spring_at)), shape=(nf, nf))
+                system = system + coo_matrix(
+                    (np.full(len(spring_at), _PIN_SPRING * scale), (spring_at, spring_at)), shape=(nf, nf)
+                )
                 solution = splu(system.tocsc()).solve(force[free])
         except (RuntimeError, np.linalg.LinAlgError, ValueError):  # singular: nothing holds it
             return None, supports
@@ -308,7 +310,9 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
             key = (nodes.tobytes(), members.tobytes(), one_sided[hanging].tobytes())
             if key not in solved:
                 found = len(supports) > 0
-                solved[key] = _solve_piece(frame, members, held_node[hanging], nodes, supports, bodies, config)[0] if found else None
+                solved[key] = (
+                    _solve_piece(frame, members, held_node[hanging], nodes, supports, bodies, config)[0] if found else None
+                )
             ends = solved[key]
             if ends is None:
                 falling_joints += [2 * members, 2 * members + 1, held_joint[hanging]]
@@ -353,7 +357,14 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
     n_joints = bodies.n_joints
     forces = np.where(np.isnan(result.first_forces), 0.0, result.first_forces)
     broken = tuple(
-        BrokenJoint(joint=int(j), edge=int(j // 2), vertex=int(edges[j // 2, j % 2]), time=float(result.broken_round[j]), force=float(forces[j]), torque=0.0)
+        BrokenJoint(
+            joint=int(j),
+            edge=int(j // 2),
+            vertex=int(edges[j // 2, j % 2]),
+            time=float(result.broken_round[j]),
+            force=float(forces[j]),
+            torque=0.0,
+        )
         for j in np.flatnonzero(result.broken)
     )
     final = bodies.sphere_positions.copy()

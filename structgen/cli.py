@@ -31,17 +31,14 @@ GENERIC_VERBS = ("list", "evolve", "resume", "export")
 # -- generic verbs --------------------------------------------------------------------------------------------------------
 def cmd_list(args: argparse.Namespace) -> int:
     if args.what == "domains":
-        rows = [
-            {"id": d.id, "group": d.group_name, "aliases": list(d.aliases), "summary": d.summary} for d in domains.specs()
-        ]
+        rows = [{"id": d.id, "group": d.group_name, "aliases": list(d.aliases), "summary": d.summary} for d in domains.specs()]
         key = "id"
     else:
         from evolution import OPTIMIZERS
         from structgen.config import to_table
 
         rows = [
-            {"name": name, "summary": spec.summary, "settings": to_table(spec.settings())}
-            for name, spec in OPTIMIZERS.items()
+            {"name": name, "summary": spec.summary, "settings": to_table(spec.settings())} for name, spec in OPTIMIZERS.items()
         ]
         key = "name"
     if args.json:
@@ -152,8 +149,7 @@ def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
         evolve.add_argument(
             "--domain",
             metavar="ID",
-            help="the domain to evolve (sets problem.name; `structgen list domains` lists them); without CONFIG, "
-            "its main job",
+            help="the domain to evolve (sets problem.name; `structgen list domains` lists them); without CONFIG, its main job",
         )
     else:
         evolve.set_defaults(domain=domain.id)

@@ -45,9 +45,7 @@ def add_set_option(parser: argparse.ArgumentParser | Any, tables: str, example: 
     )
 
 
-def settings_from_args(
-    roots: Mapping[str, Any], args: argparse.Namespace, shortcuts: Mapping[str, str] = {}
-) -> dict[str, Any]:
+def settings_from_args(roots: Mapping[str, Any], args: argparse.Namespace, shortcuts: Mapping[str, str] = {}) -> dict[str, Any]:
     """The settings objects in ``roots`` with the command's ``--set`` assignments applied, then its shortcut options.
 
     ``shortcuts`` maps an option's ``dest`` to the dotted setting it stands for (``{"iterations": "nca.iterations"}``);
@@ -77,9 +75,7 @@ class DomainCommands:
         print."""
         raise InputError(f"{source}: this domain has no files to export")
 
-    def export_elite(
-        self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]
-    ) -> str:
+    def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]) -> str:
         """Write what ``genome`` makes (a structure, a layout) to ``output``; ``origin`` names the run and elite it
         came from, for the file's metadata. Returns the line to print."""
         raise InputError(f"{output}: this domain has nothing to export")

@@ -16,9 +16,7 @@ import itertools
 import numpy as np
 
 #: (26, 3) int64: the neighbour offsets in lexicographic order, origin excluded.
-OFFSETS: np.ndarray = np.array(
-    [d for d in itertools.product((-1, 0, 1), repeat=3) if d != (0, 0, 0)], dtype=np.int64
-)
+OFFSETS: np.ndarray = np.array([d for d in itertools.product((-1, 0, 1), repeat=3) if d != (0, 0, 0)], dtype=np.int64)
 OFFSETS.setflags(write=False)
 
 #: Number of lattice neighbours of a cell.

@@ -1,8 +1,9 @@
 """Structures as triangle meshes: a sphere at every vertex, a cylinder along every edge, exported with trimesh.
 
 The default dimensions are read from the physics model's defaults (sphere radius 0.25 and cylinder radius 0.08 at
-lattice spacing 1, :class:`physics.PhysicsConfig`), and a cylinder runs from sphere surface to sphere surface as the simulated bodies do. Meshes are built
-from one template sphere and one template cylinder transformed with numpy, so large structures export quickly.
+lattice spacing 1, :class:`physics.PhysicsConfig`), and a cylinder runs from sphere surface to sphere surface as the
+simulated bodies do. Meshes are built from one template sphere and one template cylinder transformed with numpy, so
+large structures export quickly.
 """
 
 from __future__ import annotations

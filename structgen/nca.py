@@ -78,6 +78,7 @@ __all__ = [
     "save_weights",
 ]
 
+
 def random_weights(count: int, seed: int, config: NCAConfig | None = None, scale: float = INIT_SCALE) -> np.ndarray:
     """``(count, n_params)`` weight vectors drawn uniformly from ``[-scale, scale]``; the same seed gives the same array."""
     rng = np.random.default_rng(seed)
@@ -92,8 +93,7 @@ def _check_weights(weights: Any, config: NCAConfig) -> np.ndarray:
     expected = n_params(config)
     if array.ndim != 2 or array.shape[1] != expected:
         raise ValueError(
-            f"expected {expected} weights per NCA (52-{config.hidden}-26 network), got an array of shape "
-            f"{np.shape(weights)}"
+            f"expected {expected} weights per NCA (52-{config.hidden}-26 network), got an array of shape {np.shape(weights)}"
         )
     if not np.isfinite(array).all():
         raise ValueError("NCA weights must be finite numbers (found NaN or infinity)")
@@ -388,9 +388,7 @@ def load_weights(path: str | os.PathLike, config: NCAConfig | None = None) -> np
             if "weights" not in data:
                 raise ValueError(f"{path}: expected a list of numbers or an object with a 'weights' list")
             data = data["weights"]
-        if not isinstance(data, list) or not all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) for x in data
-        ):
+        if not isinstance(data, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in data):
             raise ValueError(f"{path}: weights must be a flat list of numbers")
         data = np.asarray(data, dtype=np.float64)
     else:
@@ -399,9 +397,7 @@ def load_weights(path: str | os.PathLike, config: NCAConfig | None = None) -> np
         raise ValueError(f"{path}: expected a 1-D array of numbers, got shape {data.shape} of {data.dtype}")
     expected = n_params(config)
     if len(data) != expected:
-        raise ValueError(
-            f"{path}: holds {len(data)} weights, but a 52-{config.hidden}-26 NCA has {expected}"
-        )
+        raise ValueError(f"{path}: holds {len(data)} weights, but a 52-{config.hidden}-26 NCA has {expected}")
     if not np.isfinite(data).all():
         raise ValueError(f"{path}: weights contain NaN or infinity")
     return data.astype(np.float64)

@@ -92,8 +92,14 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
     ]
     for column, (centres, segments, title) in enumerate(panels, start=1):
         axes = figure.add_subplot(1, 2, column, projection="3d")
-        ground = np.array([[middle[0] - half, middle[1] - half], [middle[0] + half, middle[1] - half],
-                           [middle[0] + half, middle[1] + half], [middle[0] - half, middle[1] + half]])
+        ground = np.array(
+            [
+                [middle[0] - half, middle[1] - half],
+                [middle[0] + half, middle[1] - half],
+                [middle[0] + half, middle[1] + half],
+                [middle[0] - half, middle[1] + half],
+            ]
+        )
         axes.plot_trisurf(ground[:, 0], ground[:, 1], np.zeros(4), color=GROUND, alpha=0.35, linewidth=0)
         _draw(axes, centres, segments, broken_edges, size, title)
         if column == 1 and 0 < len(report.broken_joints) <= _MAX_CROSSES:

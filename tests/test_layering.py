@@ -133,9 +133,9 @@ def test_domains_do_not_import_each_other():
 
 
 def test_the_command_line_names_no_domain():
-    from structgen import domains
-
     import re
+
+    from structgen import domains
 
     source = MODULES["structgen.cli"].read_text()
     for spec in domains.specs():
@@ -163,7 +163,9 @@ def test_growing_a_structure_still_needs_neither_library():
 
 
 def test_listing_domains_and_building_the_command_line_load_no_engine():
-    loaded = loaded_after("from structgen import domains; domains.specs(); from structgen.cli import build_parser; build_parser()")
+    loaded = loaded_after(
+        "from structgen import domains; domains.specs(); from structgen.cli import build_parser; build_parser()"
+    )
     assert not loaded & {"torch", "pybullet", "ribs", "numba", "trimesh", "scipy", "matplotlib"}
 
 

@@ -23,7 +23,18 @@ def site(tmp_path_factory) -> Path:
     as it was)."""
     target = tmp_path_factory.mktemp("site")
     subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--target", str(target), str(EXAMPLE)],
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(target),
+            str(EXAMPLE),
+        ],
         check=True,
         capture_output=True,
     )
@@ -66,7 +77,20 @@ def test_it_evolves_resumes_and_exports_through_the_generic_commands(site, tmp_p
 def test_its_own_verbs_and_quality_diversity_work(site, tmp_path):
     done = structgen(site, "dice", "roll", "--faces", "2,4", "--times", 5, cwd=tmp_path)
     assert done.returncode == 0 and set(done.stdout.split()) <= {"2", "4"} and len(done.stdout.split()) == 5
-    done = structgen(site, "dice", "evolve", "--optimizer", "map_elites", "--set", "cells=[6,6]", "--run-dir", "qd", "--generations", 2, cwd=tmp_path)
+    done = structgen(
+        site,
+        "dice",
+        "evolve",
+        "--optimizer",
+        "map_elites",
+        "--set",
+        "cells=[6,6]",
+        "--run-dir",
+        "qd",
+        "--generations",
+        2,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     index = (tmp_path / "qd" / "archive.csv").read_text().splitlines()[1].split(",")[0]
     done = structgen(site, "dice", "export", "qd", "elite.json", "--elite", f"index:{index}", cwd=tmp_path)

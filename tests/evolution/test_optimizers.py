@@ -41,6 +41,7 @@ def test_unknown_optimizer_lists_the_known_ones():
         make_optimizer("de", Sphere())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(OPTIMIZERS))
 def test_every_optimizer_improves_the_sphere(name):
     problem = Sphere()
@@ -144,7 +145,9 @@ def test_ga_crossover_uses_the_problems_recombination():
     assert Recorder.calls == 15
 
 
-@pytest.mark.parametrize("field, value", [("parents", 100), ("parents", 0), ("mutation_rate", 0.0), ("mutation_scale", -1.0), ("crossover_rate", 1.5)])
+@pytest.mark.parametrize(
+    "field, value", [("parents", 100), ("parents", 0), ("mutation_rate", 0.0), ("mutation_scale", -1.0), ("crossover_rate", 1.5)]
+)
 def test_ga_settings_are_checked(field, value):
     with pytest.raises(ValueError, match=field):
         GASettings(**{field: value})

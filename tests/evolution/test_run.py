@@ -107,7 +107,16 @@ def test_run_folder_contents(tmp_path):
     assert {"config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl", "archive.csv", "archive_solutions.npy"} <= names
     assert {"best", "objective.png", "archive.png"} <= names
     row = folder.metrics()[-1]
-    for key in ("generation", "evaluations", "best_objective", "mean_objective", "qd_score", "coverage", "wall_s", "best_distance"):
+    for key in (
+        "generation",
+        "evaluations",
+        "best_objective",
+        "mean_objective",
+        "qd_score",
+        "coverage",
+        "wall_s",
+        "best_distance",
+    ):
         assert key in row
     lines = (folder / "archive.csv").read_text().splitlines()
     assert lines[0] == "index,objective,x0,x1,threshold,distance"
@@ -193,8 +202,10 @@ def noisy_batch():
 
 
 def same(a, b) -> bool:
-    return np.array_equal(a.objective, b.objective) and np.array_equal(a.measures, b.measures) and all(
-        np.array_equal(a.fields[k], b.fields[k]) for k in a.fields
+    return (
+        np.array_equal(a.objective, b.objective)
+        and np.array_equal(a.measures, b.measures)
+        and all(np.array_equal(a.fields[k], b.fields[k]) for k in a.fields)
     )
 
 
@@ -250,7 +261,9 @@ def test_dask_evaluation_equals_serial_evaluation():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with DaskEvaluator(cluster.scheduler_address) as dask:
             assert same(dask.evaluate(problem, genomes, seeds), serial)
-            assert same(dask.evaluate(problem, genomes[:3], seeds[:3]), SerialEvaluator().evaluate(problem, genomes[:3], seeds[:3]))
+            assert same(
+                dask.evaluate(problem, genomes[:3], seeds[:3]), SerialEvaluator().evaluate(problem, genomes[:3], seeds[:3])
+            )
 
 
 def test_an_unreachable_cluster_is_an_evaluation_error():

@@ -26,7 +26,14 @@ G = 9.81
 @PRESETS
 @pytest.mark.parametrize(
     "structure, stands",
-    [(column(3), True), (column(4), False), (braced(4), True), (flat_edge(), True), (cantilever(1), True), (cantilever(2), False)],
+    [
+        (column(3), True),
+        (column(4), False),
+        (braced(4), True),
+        (flat_edge(), True),
+        (cantilever(1), True),
+        (cantilever(2), False),
+    ],
     ids=["column3", "column4", "braced4", "flat-edge", "cantilever1", "cantilever2"],
 )
 def test_calibration_structures_stand_or_fall_as_in_the_paper(config, structure, stands):
@@ -174,7 +181,8 @@ def test_size_caps_refuse_before_simulating():
 
 
 @pytest.mark.parametrize(
-    "field, value", [("timestep", 0.0), ("solver_iterations", 0), ("break_force", -1.0), ("height_mode", "top"), ("sphere_radius", 0.6)]
+    "field, value",
+    [("timestep", 0.0), ("solver_iterations", 0), ("break_force", -1.0), ("height_mode", "top"), ("sphere_radius", 0.6)],
 )
 def test_bad_settings_name_the_field(field, value):
     with pytest.raises(ValueError, match=field):

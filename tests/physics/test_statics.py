@@ -52,7 +52,14 @@ def test_forces_agree_with_pybullet_at_rest():
 
 @pytest.mark.parametrize(
     "structure, stands",
-    [(column(3), True), (column(4), False), (braced(4), True), (flat_edge(), True), (cantilever(1), True), (cantilever(3), False)],
+    [
+        (column(3), True),
+        (column(4), False),
+        (braced(4), True),
+        (flat_edge(), True),
+        (cantilever(1), True),
+        (cantilever(3), False),
+    ],
     ids=["column3", "column4", "braced4", "flat-edge", "cantilever1", "cantilever3"],
 )
 def test_calibration_verdicts_match_the_simulation(structure, stands):

@@ -8,7 +8,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 import trimesh
 
@@ -110,9 +109,7 @@ def test_export_with_dash_o_and_dimensions(tmp_path, capsys, good_file):
 
 
 def test_export_lighter_mesh_for_big_structures(tmp_path, capsys, good_file):
-    code, _, _ = run(
-        capsys, "export", good_file, tmp_path / "light.glb", "--sphere-subdivisions", 0, "--cylinder-sections", 6
-    )
+    code, _, _ = run(capsys, "export", good_file, tmp_path / "light.glb", "--sphere-subdivisions", 0, "--cylinder-sections", 6)
     assert code == 0
     light = trimesh.load(tmp_path / "light.glb", force="mesh")
     assert len(light.faces) == len(Structure.load(good_file).to_mesh(sphere_subdivisions=0, cylinder_sections=6).faces)

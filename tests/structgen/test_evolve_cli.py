@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -55,8 +54,14 @@ def cli(capsys, *argv) -> tuple[int, str, str]:
 
 def outcome(run: Path) -> dict:
     """What must be identical between two runs of the same configuration (everything but timings)."""
-    metrics = [{k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in (run / "metrics.jsonl").read_text().splitlines()]
-    files = {name: (run / name).read_bytes() for name in ("best/genome.npy", "best/best.json", "best/structure.json", "archive.csv", "archive_solutions.npy") if (run / name).exists()}
+    metrics = [
+        {k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in (run / "metrics.jsonl").read_text().splitlines()
+    ]
+    files = {
+        name: (run / name).read_bytes()
+        for name in ("best/genome.npy", "best/best.json", "best/structure.json", "archive.csv", "archive_solutions.npy")
+        if (run / name).exists()
+    }
     return {"metrics": metrics, "files": files}
 
 
@@ -91,12 +96,19 @@ def test_evolve_writes_a_complete_run_folder(tmp_path, capsys, optimizer):
     for key in ("evaluations", "best_objective", "mean_objective", "best_integrity", "best_height", "best_complexity", "wall_s"):
         assert key in rows[-1]
     assert ("qd_score" in rows[-1] and "coverage" in rows[-1]) is quality_diversity
-    assert {p.name for p in (run / "best").iterdir()} >= {"genome.npy", "structure.json", "structure.glb", "structure.png", "report.json"}
+    assert {p.name for p in (run / "best").iterdir()} >= {
+        "genome.npy",
+        "structure.json",
+        "structure.glb",
+        "structure.png",
+        "report.json",
+    }
     manifest = json.loads((run / "manifest.json").read_text())
     assert manifest["versions"]["pybullet"] and manifest["versions"]["torch"]
     assert f'name = "{optimizer}"' in (run / "config.toml").read_text()
 
 
+@pytest.mark.slow
 def test_same_config_and_seed_give_the_same_run(tmp_path, capsys):
     config = tiny_config(tmp_path)
     cli(capsys, "evolve", config, "--run-dir", tmp_path / "a")
@@ -136,6 +148,7 @@ def test_bad_configurations_fail_before_any_work(tmp_path, capsys, content, args
     assert not (tmp_path / "run").exists()
 
 
+@pytest.mark.slow
 def test_main_job_defaults_run(tmp_path, capsys):
     code, out, err = cli(capsys, "evolve", "--generations", 1, "--workers", 0, "--run-dir", tmp_path / "main")
     assert code == 0, err
@@ -145,6 +158,7 @@ def test_main_job_defaults_run(tmp_path, capsys):
 
 
 # -- resume -------------------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("optimizer", ["ga", "cma_mae"])
 def test_two_plus_two_generations_equal_four(tmp_path, capsys, optimizer):
     config = tiny_config(tmp_path, optimizer)
@@ -156,6 +170,7 @@ def test_two_plus_two_generations_equal_four(tmp_path, capsys, optimizer):
     assert "generations = 4" in (tmp_path / "split" / "config.toml").read_text()
 
 
+@pytest.mark.slow
 def test_killed_run_resumes_to_the_same_result(tmp_path, capsys):
     config = tiny_config(tmp_path)
     cli(capsys, "evolve", config, "--run-dir", tmp_path / "whole", "--generations", 12)
@@ -174,6 +189,7 @@ def test_killed_run_resumes_to_the_same_result(tmp_path, capsys):
     assert outcome(run) == outcome(tmp_path / "whole")
 
 
+@pytest.mark.slow
 def test_ctrl_c_finishes_the_generation_checkpoints_and_exits_130(tmp_path, capsys):
     config = tiny_config(tmp_path)
     run = tmp_path / "interrupted"
@@ -212,31 +228,53 @@ def test_resume_of_a_finished_run_does_nothing_and_bad_folders_fail(tmp_path, ca
 
 
 # -- evaluation on a Dask cluster ---------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_cluster_evaluation_gives_the_same_run(tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
     config = tiny_config(tmp_path)
     cli(capsys, "evolve", config, "--run-dir", tmp_path / "local", "--generations", 2)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         code, _, err = cli(
-            capsys, "evolve", config, "--run-dir", tmp_path / "cluster", "--generations", 2, "--cluster", cluster.scheduler_address
+            capsys,
+            "evolve",
+            config,
+            "--run-dir",
+            tmp_path / "cluster",
+            "--generations",
+            2,
+            "--cluster",
+            cluster.scheduler_address,
         )
     assert code == 0, err
     assert outcome(tmp_path / "cluster") == outcome(tmp_path / "local")
 
 
 # -- export -------------------------------------------------------------------------------------------------------------
-def test_export_the_best_and_an_archive_elite(tmp_path, capsys):
-    run = tmp_path / "qd"
-    cli(capsys, "evolve", tiny_config(tmp_path, "map_elites"), "--run-dir", run)
-    code, out, _ = cli(capsys, "export", run, "-o", tmp_path / "best.glb")
+@pytest.fixture(scope="module")
+def qd_run(tmp_path_factory) -> Path:
+    """A finished MAP-Elites run, shared by the tests that only read it."""
+    folder = tmp_path_factory.mktemp("qd")
+    assert main(["evolve", str(tiny_config(folder, "map_elites")), "--run-dir", str(folder / "run")]) == 0
+    return folder / "run"
+
+
+@pytest.fixture(scope="module")
+def ga_run(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("ga")
+    assert main(["evolve", str(tiny_config(folder)), "--run-dir", str(folder / "run"), "--generations", "1"]) == 0
+    return folder / "run"
+
+
+def test_export_the_best_and_an_archive_elite(tmp_path, capsys, qd_run):
+    code, out, _ = cli(capsys, "export", qd_run, "-o", tmp_path / "best.glb")
     assert code == 0
-    best = json.loads((run / "best" / "structure.json").read_text())
+    best = json.loads((qd_run / "best" / "structure.json").read_text())
     assert f"{len(best['vertices'])} vertices" in out
     assert trimesh.load(tmp_path / "best.glb").metadata["n_vertices"] == len(best["vertices"])
-    header, *rows = (run / "archive.csv").read_text().splitlines()
+    header, *rows = (qd_run / "archive.csv").read_text().splitlines()
     columns = header.split(",")
     row = dict(zip(columns, rows[-1].split(",")))
-    code, out, _ = cli(capsys, "export", run, "-o", tmp_path / "elite.json", "--elite", f"index:{row['index']}")
+    code, out, _ = cli(capsys, "export", qd_run, "-o", tmp_path / "elite.json", "--elite", f"index:{row['index']}")
     assert code == 0
     elite = json.loads((tmp_path / "elite.json").read_text())
     assert len(elite["vertices"]) == int(float(row["vertices"])) and elite["metadata"]["elite"] == f"index:{row['index']}"
@@ -246,23 +284,21 @@ def test_export_the_best_and_an_archive_elite(tmp_path, capsys):
     "elite, message",
     [("index:99999", "no elite in cell 99999"), ("top", "use 'best' or 'index:I'"), ("index:x", "use 'best' or 'index:I'")],
 )
-def test_export_of_unknown_elites_fails_clearly(tmp_path, capsys, elite, message):
-    run = tmp_path / "qd"
-    cli(capsys, "evolve", tiny_config(tmp_path, "map_elites"), "--run-dir", run, "--generations", 1)
-    code, _, err = cli(capsys, "export", run, "-o", tmp_path / "x.glb", "--elite", elite)
+def test_export_of_unknown_elites_fails_clearly(tmp_path, capsys, qd_run, elite, message):
+    code, _, err = cli(capsys, "export", qd_run, "-o", tmp_path / "x.glb", "--elite", elite)
     assert code == 2 and message in err and not (tmp_path / "x.glb").exists()
 
 
-def test_export_index_needs_an_archive(tmp_path, capsys):
-    run = tmp_path / "ga"
-    cli(capsys, "evolve", tiny_config(tmp_path), "--run-dir", run, "--generations", 1)
-    code, _, err = cli(capsys, "export", run, "-o", tmp_path / "x.glb", "--elite", "index:0")
+def test_export_index_needs_an_archive(tmp_path, capsys, ga_run):
+    code, _, err = cli(capsys, "export", ga_run, "-o", tmp_path / "x.glb", "--elite", "index:0")
     assert code == 2 and "has no archive" in err
 
 
 def test_export_from_a_toy_run_says_there_is_no_structure(tmp_path, capsys):
     config = tmp_path / "sphere.toml"
-    config.write_text("[run]\ngenerations = 1\nworkers = 0\n[problem]\nname = 'sphere'\n[optimizer]\nname = 'ga'\npopulation = 4\nparents = 1\n")
+    config.write_text(
+        "[run]\ngenerations = 1\nworkers = 0\n[problem]\nname = 'sphere'\n[optimizer]\nname = 'ga'\npopulation = 4\nparents = 1\n"
+    )
     cli(capsys, "evolve", config, "--run-dir", tmp_path / "toy")
     assert (tmp_path / "toy" / "best" / "genome.npy").exists()
     assert np.load(tmp_path / "toy" / "best" / "genome.npy").shape == (8,)
@@ -290,13 +326,11 @@ def test_an_option_that_is_a_setting_points_to_set(tmp_path, capsys):
     assert "unrecognized arguments: --evaluator statics (settings go through --set: --set evaluator=statics)" in err
 
 
-def test_grow_a_runs_best_further(tmp_path, capsys):
-    run = tmp_path / "run"
-    cli(capsys, "evolve", tiny_config(tmp_path), "--run-dir", run, "--generations", 1)
-    code, out, err = cli(capsys, "grow", "--run", run, "--iterations", 2, "--max-vertices", 5000, "-o", tmp_path / "more.json")
+def test_grow_a_runs_best_further(tmp_path, capsys, ga_run):
+    code, out, err = cli(capsys, "grow", "--run", ga_run, "--iterations", 2, "--max-vertices", 5000, "-o", tmp_path / "more.json")
     assert code == 0, err
     grown = json.loads((tmp_path / "more.json").read_text())
     assert grown["metadata"]["growth"]["iterations"] == 2 and grown["metadata"]["growth"]["max_vertices"] == 5000
-    assert grown["metadata"]["run"] == str(run)
+    assert grown["metadata"]["growth"]["hidden"] == 60 and grown["metadata"]["run"] == str(ga_run)
     code, _, err = cli(capsys, "grow", "--run", tmp_path / "nowhere", "-o", tmp_path / "x.json")
     assert code == 2 and "no such run folder" in err

@@ -71,7 +71,9 @@ def test_keys_may_be_shortened_to_any_tail_no_other_setting_shares():
     assert experiment.problem_settings.nca.cutoff == 0.6 and experiment.problem_settings.nca.hidden == 30
     assert experiment.problem_settings.physics.break_force == 60 and experiment.run.generations == 7
     assert load_experiment(overrides=["evaluator=statics"]).problem_settings.evaluator == "statics"
-    with pytest.raises(ConfigError, match=r"several settings have that name \(problem.nca.max_vertices, problem.physics.max_vertices\)"):
+    with pytest.raises(
+        ConfigError, match=r"several settings have that name \(problem.nca.max_vertices, problem.physics.max_vertices\)"
+    ):
         load_experiment(overrides=["max_vertices=10"])
     with pytest.raises(ConfigError, match=r"unknown setting 'cutof' \(did you mean cutoff\?\)"):
         load_experiment(overrides=["cutof=0.6"])
@@ -108,12 +110,20 @@ def test_combinations_that_cannot_work_fail_when_the_optimizer_is_built(tmp_path
         ("[run]\ngenerations = 3\nspeed = 1\n", [], r"unknown setting 'run.speed'"),
         ("[runs]\n", [], r"c.toml: unknown table \[runs\]"),
         ("[optimizer]\nname = 'de'\n", [], r"c.toml: unknown optimizer.name 'de'; choose one of ga, cma_es, map_elites, cma_mae"),
-        ("[optimizer]\nname = 'ga'\nsigma0 = 0.1\n", [], r"unknown setting 'optimizer.sigma0'; optimizer has: population, parents"),
+        (
+            "[optimizer]\nname = 'ga'\nsigma0 = 0.1\n",
+            [],
+            r"unknown setting 'optimizer.sigma0'; optimizer has: population, parents",
+        ),
         ("[optimizer]\npopulation = 10\nparents = 10\n", [], r"parents \(10\) must be fewer than population \(10\)"),
         ("[problem]\nname = 'maze'\n", [], r"c.toml: problem.name: unknown domain 'maze'; choose one of structures-v0, "),
         ("[problem.nca]\ncutoff = 1.5\n", [], r"NCA cutoff must be a number strictly between 0 and 1"),
         ("[problem.nca]\ncutof = 0.6\n", [], r"unknown setting 'problem.nca.cutof'"),
-        ("[problem.physics]\npreset = 'turbo'\n", [], r"problem.physics.preset: unknown preset 'turbo'; choose one of faithful, fast"),
+        (
+            "[problem.physics]\npreset = 'turbo'\n",
+            [],
+            r"problem.physics.preset: unknown preset 'turbo'; choose one of faithful, fast",
+        ),
         ("[problem.physics]\nbreak_force = 'strong'\n", [], r"problem.physics.break_force = 'strong': expected a number"),
         ("[problem]\nphysics = 3\n", [], r"problem.physics must be a table"),
         ("run = [", [], r"c.toml: not valid TOML"),

@@ -88,7 +88,11 @@ def test_unknown_format_is_refused_and_nothing_is_written(tmp_path):
 
 @pytest.mark.parametrize(
     "dimensions, message",
-    [({"sphere_radius": 0.5}, "less than half the spacing"), ({"cylinder_radius": -1.0}, "cylinder_radius"), ({"spacing": 0}, "spacing")],
+    [
+        ({"sphere_radius": 0.5}, "less than half the spacing"),
+        ({"cylinder_radius": -1.0}, "cylinder_radius"),
+        ({"spacing": 0}, "spacing"),
+    ],
 )
 def test_bad_dimensions_are_refused(tmp_path, dimensions, message):
     with pytest.raises(StructureError, match=message):

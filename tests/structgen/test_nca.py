@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from structgen import LocalNCA, NCAConfig, Structure, grow, grow_population, random_weights
-from structgen.lattice import OFFSETS, offset_index
+from structgen.lattice import offset_index
 from structgen.nca import load_weights, n_params, save_weights
 
 from .reference_nca import reference_grow
@@ -69,7 +69,8 @@ def test_weights_get_set_round_trip_and_copy():
 
 
 @pytest.mark.parametrize(
-    "bad, message", [(np.zeros(10), "expected 4766 weights"), (np.full(4766, np.nan), "finite"), (np.zeros((2, 4766)), "one flat vector")]
+    "bad, message",
+    [(np.zeros(10), "expected 4766 weights"), (np.full(4766, np.nan), "finite"), (np.zeros((2, 4766)), "one flat vector")],
 )
 def test_bad_weights_are_rejected(bad, message):
     with pytest.raises(ValueError, match=message):
@@ -110,7 +111,15 @@ def test_bad_weights_files_name_the_file_and_problem(tmp_path, name, content, me
 
 @pytest.mark.parametrize(
     "field, value",
-    [("cutoff", 0.0), ("cutoff", 1.0), ("iterations", -1), ("hidden", 0), ("max_vertices", 0), ("max_extent", 0), ("build_down", 1)],
+    [
+        ("cutoff", 0.0),
+        ("cutoff", 1.0),
+        ("iterations", -1),
+        ("hidden", 0),
+        ("max_vertices", 0),
+        ("max_extent", 0),
+        ("build_down", 1),
+    ],
 )
 def test_config_rejects_bad_values_naming_the_field(field, value):
     with pytest.raises(ValueError, match=field):

@@ -80,8 +80,12 @@ def _add_nca_options(parser: argparse.ArgumentParser) -> None:
 
     nca = NCAConfig()
     group = parser.add_argument_group("NCA (defaults follow the paper)")
-    group.add_argument("--iterations", type=int, metavar="N", help=f"growth steps from the seed vertex (default {nca.iterations})")
-    group.add_argument("--cutoff", type=float, metavar="X", help=f"an output fires above this sigmoid value (default {nca.cutoff})")
+    group.add_argument(
+        "--iterations", type=int, metavar="N", help=f"growth steps from the seed vertex (default {nca.iterations})"
+    )
+    group.add_argument(
+        "--cutoff", type=float, metavar="X", help=f"an output fires above this sigmoid value (default {nca.cutoff})"
+    )
     group.add_argument("--hidden", type=int, metavar="N", help=f"hidden layer size (default {nca.hidden})")
     group.add_argument(
         "--no-build-down",
@@ -267,7 +271,10 @@ def cmd_check(args: argparse.Namespace) -> int:
             ("score", f"{report.score:.4f}"),
             ("solved", f"{report.steps} failure rounds")
             if statics
-            else ("simulated", f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled")),
+            else (
+                "simulated",
+                f"{report.sim_time:.2f} s, {report.steps} steps, " + ("settled" if report.settled else "not settled"),
+            ),
             ("cpu", f"{report.cpu_time:.3f} s"),
         ]
         for name, value in rows:
@@ -374,9 +381,7 @@ class StructureCommands(DomainCommands):
         path = _write(structure, output, _mesh_style(args))
         return f"{path}: {_describe(structure)}"
 
-    def export_elite(
-        self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]
-    ) -> str:
+    def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]) -> str:
         structure = problem.structure_of(genome).with_metadata(**origin)
         path = _write(structure, output, _mesh_style(args))
         return f"{path}: {_describe(structure)}"
