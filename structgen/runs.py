@@ -36,10 +36,15 @@ LIBRARIES = ("numpy", "scipy", "ribs", "cma", "matplotlib", "distributed")
 
 
 def default_run_dir(experiment: Experiment) -> Path:
-    """``runs/<domain group>-<optimizer>-s<seed>-<date>-<time>`` under the current folder."""
+    """``runs/<domain group>-<optimizer>-s<seed>-<date>-<time>`` under the current folder, with ``-2``, ``-3``...
+    added if a run started in the same second already has that name."""
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     name = f"{experiment.spec.group_name}-{experiment.optimizer_name}-s{experiment.run.seed}-{stamp}"
-    return Path("runs") / name
+    path, n = Path("runs") / name, 1
+    while path.exists():
+        n += 1
+        path = Path("runs") / f"{name}-{n}"
+    return path
 
 
 def _libraries(experiment: Experiment) -> list[str]:
