@@ -236,11 +236,13 @@ def test_check_strict_passes_a_standing_structure(capsys, square):
     assert code == 0 and "stands" in out
 
 
-def test_check_set_overrides_a_physics_setting(capsys, column_4):
-    code, out, _ = run(capsys, "check", column_4, "--preset", "fast", "--set", "break_force=70", "--json")
+@pytest.mark.parametrize("key", ["break_force", "physics.break_force"])
+def test_check_set_overrides_a_physics_setting(capsys, column_4, key):
+    code, out, _ = run(capsys, "check", column_4, "--preset", "fast", "--set", f"{key}=70", "--json")
     assert code == 0
     report = json.loads(out)
     assert report["integrity"] == 1.0 and report["config"]["break_force"] == 70.0 and report["preset"] is None
+    assert report["config"]["timestep"] == 1 / 120  # on top of the fast preset
 
 
 @pytest.mark.parametrize(
@@ -297,3 +299,57 @@ def test_check_statics_predicts_without_simulating(capsys, column_4, square):
 def test_render_statics_writes_a_png(tmp_path, capsys, column_4):
     code, out, _ = run(capsys, "render", column_4, "--statics", "-o", tmp_path / "c.png", "--dpi", 40)
     assert code == 0 and "breaks" in out and (tmp_path / "c.png").read_bytes().startswith(b"\x89PNG")
+
+
+# -- the command line as a whole ------------------------------------------------------------------------------------------
+def all_parsers(parser=None, path=()):
+    """Every parser of the command line, with the words that reach it."""
+    import argparse
+
+    from structgen.cli import build_parser
+
+    parser = parser or build_parser()
+    yield path, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from all_parsers(sub, (*path, name))
+
+
+def test_every_verb_has_help_and_every_option_says_what_it_does(capsys):
+    import argparse
+
+    paths = [path for path, _ in all_parsers()]
+    for expected in [("list",), ("evolve",), ("export",), ("structures", "grow"), ("grow",), ("ones", "evolve")]:
+        assert expected in paths
+    for path, parser in all_parsers():
+        with pytest.raises(SystemExit) as done:
+            main([*path, "--help"])
+        assert done.value.code == 0 and "usage: structgen" in capsys.readouterr().out
+        for action in parser._actions:
+            if not isinstance(action, (argparse._HelpAction, argparse._SubParsersAction, argparse._VersionAction)):
+                assert action.help, f"structgen {' '.join(path)}: {action.option_strings or action.dest} has no help"
+
+
+def test_list_domains_and_optimizers(capsys):
+    code, out, _ = run(capsys, "list", "domains")
+    lines = out.splitlines()
+    assert code == 0 and lines[0].startswith("structures-v0 ") and any(line.startswith("ones-v0 ") for line in lines)
+    code, out, _ = run(capsys, "list", "domains", "--json")
+    rows = {row["id"]: row for row in json.loads(out)}
+    assert rows["structures-v0"]["group"] == "structures" and rows["structures-v0"]["aliases"] == ["structures"]
+    code, out, _ = run(capsys, "list", "optimizers", "--json")
+    rows = {row["name"]: row for row in json.loads(out)}
+    assert list(rows) == ["ga", "cma_es", "map_elites", "cma_mae"]
+    assert rows["ga"]["settings"]["population"] == 100 and rows["cma_mae"]["settings"]["cells"] == [16, 16]
+
+
+def test_grow_takes_settings_by_set_as_every_command_does(tmp_path, capsys):
+    code, _, err = run(capsys, "grow", "--seed", 3, "--set", "nca.iterations=2", "--set", "cutoff=0.6", "-o", tmp_path / "a.json")
+    assert code == 0, err
+    growth = Structure.load(tmp_path / "a.json").metadata["growth"]
+    assert growth["iterations"] == 2 and growth["cutoff"] == 0.6
+    code, _, _ = run(capsys, "grow", "--seed", 3, "--set", "iterations=9", "--iterations", 2, "-o", tmp_path / "b.json")
+    assert code == 0 and Structure.load(tmp_path / "b.json").metadata["growth"]["iterations"] == 2  # the option wins
+    code, _, err = run(capsys, "grow", "--set", "sphere_radius=0.2", "-o", tmp_path / "c.json")
+    assert code == 2 and "mesh dimensions only apply to mesh formats" in err

@@ -107,12 +107,17 @@ def _add_physics_options(parser: argparse.ArgumentParser) -> None:
 
     presets = PhysicsConfig.presets()
     default = next(name for name, preset in presets.items() if preset == PhysicsConfig())
+
+    def describe(name: str, preset: PhysicsConfig) -> str:
+        stop = f"stop when settled, at most {preset.horizon:g} s" if preset.early_stop else f"{preset.horizon:g} s"
+        return f"{name}: 1/{1 / preset.timestep:.0f} s steps, {preset.solver_iterations} solver iterations, {stop}"
+
     group = parser.add_argument_group("physics")
     group.add_argument(
         "--preset",
         choices=list(presets),
-        help="faithful: the paper's protocol (1/240 s steps, 50 solver iterations, 30 s); fast: 1/120 s, "
-        f"20 iterations, stop when settled, at most 2 s (default {default}; --set physics.preset=NAME is the same)",
+        help="; ".join(describe(name, preset) for name, preset in presets.items())
+        + f" (default {default}; --set physics.preset=NAME is the same)",
     )
     add_set_option(group, "the physics (physics.*)", "break_force=60 or physics.horizon=10")
     group.add_argument(
