@@ -26,7 +26,6 @@ import os
 import pickle
 import shutil
 import sys
-import uuid
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -34,12 +33,15 @@ from typing import Any
 
 import numpy as np
 
+from evolution.files import GiB, InputFileError, MiB, atomic_write, parse_json, read_bytes, read_json, read_npy, read_text
 from evolution.optimizers import Optimizer
 from evolution.problem import Problem
 
 __all__ = ["CHECKPOINT_SCHEMA", "Best", "RunFolder", "RunFolderError", "RunState", "atomic_write", "library_versions"]
 
 CHECKPOINT_SCHEMA = 1
+# Far above what any run writes; they turn a damaged or substituted file into a clear error.
+_MAX_TEXT, _MAX_TABLE, _MAX_STATE = 16 * MiB, 4 * GiB, 16 * GiB
 
 
 class RunFolderError(Exception):
@@ -68,29 +70,6 @@ class RunState:
     best: Best | None = None
     best_written: int = -1  # generation of the best candidate last written to best/
     extra: dict[str, Any] = field(default_factory=dict)
-
-
-def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename it into place.
-
-    Readers see either the old file or the complete new one; on any error the temporary file is removed and an
-    existing file at ``path`` is left untouched.
-    """
-    # structgen keeps its own copy (structgen/_fileio.py): `import structgen` must not load evolution, and evolution
-    # must not import structgen.
-    path = Path(path)
-    payload = data.encode("utf-8") if isinstance(data, str) else data
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp")
-    try:
-        with open(tmp, "xb") as handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
 
 
 def library_versions(names: list[str]) -> dict[str, str | None]:
@@ -155,17 +134,19 @@ class RunFolder:
         return folder
 
     def config_text(self) -> str:
-        return (self / self.CONFIG).read_text()
+        return read_text(self / self.CONFIG, _MAX_TEXT, what="TOML")
 
     def write_config(self, config_text: str) -> None:
         """Replace the configuration (atomically): a resume that runs longer than configured records it here."""
         atomic_write(self / self.CONFIG, config_text)
 
     def manifest(self) -> dict[str, Any]:
+        """The manifest, or an empty one if it is missing or damaged (it only informs)."""
         try:
-            return json.loads((self / self.MANIFEST).read_text())
-        except (OSError, json.JSONDecodeError):
+            manifest = read_json(self / self.MANIFEST, _MAX_TEXT)
+        except InputFileError:
             return {}
+        return manifest if isinstance(manifest, dict) else {}
 
     # -- checkpoint -----------------------------------------------------------------------------------------------------
     def save_checkpoint(self, state: RunState) -> None:
@@ -176,7 +157,9 @@ class RunFolder:
         if not path.is_file():
             raise RunFolderError(f"{self.path}: no checkpoint yet (the run stopped before its first generation ended)")
         try:
-            data = pickle.loads(path.read_bytes())
+            data = pickle.loads(read_bytes(path, _MAX_STATE))
+        except InputFileError:
+            raise
         except Exception as err:  # a checkpoint from another version, or a damaged file
             raise RunFolderError(f"{path}: cannot read the checkpoint ({type(err).__name__}: {err})") from None
         if not isinstance(data, dict) or data.get("schema") != CHECKPOINT_SCHEMA:
@@ -191,15 +174,26 @@ class RunFolder:
             os.fsync(handle.fileno())
 
     def metrics(self) -> list[dict[str, Any]]:
+        """One dict per generation. A last line cut short by a kill is left out; damage anywhere else is an error
+        naming the line."""
         path = self / self.METRICS
         if not path.exists():
             return []
+        text = read_text(path, _MAX_TABLE, what="JSON lines")
+        lines = text.split("\n")
         rows = []
-        for line in path.read_text().splitlines():
+        for number, line in enumerate(lines, start=1):
+            if not line:
+                continue
             try:
-                rows.append(json.loads(line))
-            except json.JSONDecodeError:  # a line cut short by a kill
-                break
+                row = parse_json(line, f"{path}, line {number}")
+            except InputFileError:
+                if number == len(lines):  # the unfinished last line of a killed run
+                    break
+                raise
+            if not isinstance(row, dict) or not isinstance(row.get("generation"), int):
+                raise InputFileError(f"{path}, line {number}: not a metrics row (an object with a 'generation')")
+            rows.append(row)
         return rows
 
     def truncate_metrics(self, generation: int) -> None:
@@ -227,10 +221,23 @@ class RunFolder:
     def best_genome(self, problem: Problem) -> Any:
         folder = self / self.BEST
         if problem.flat and (folder / "genome.npy").is_file():
-            return np.load(folder / "genome.npy", allow_pickle=False)
+            return self._vector(folder / "genome.npy", read_npy(folder / "genome.npy", _MAX_STATE), problem)
         if (folder / "genome.json").is_file():
-            return problem.genome_from_json(json.loads((folder / "genome.json").read_text()))
+            return self._from_json(folder / "genome.json", read_json(folder / "genome.json", _MAX_STATE), problem)
         raise RunFolderError(f"{self.path}: no best candidate yet")
+
+    @staticmethod
+    def _vector(source: Path, genome: np.ndarray, problem: Problem) -> np.ndarray:
+        if genome.shape != (problem.n_params,) or not np.isfinite(genome).all():
+            raise InputFileError(f"{source}: expected a genome of {problem.n_params} finite numbers, got shape {genome.shape}")
+        return genome.astype(np.float64)
+
+    @staticmethod
+    def _from_json(source: str | Path, data: Any, problem: Problem) -> Any:
+        try:
+            return problem.genome_from_json(data)
+        except (TypeError, ValueError, KeyError, IndexError) as err:
+            raise InputFileError(f"{source}: not a genome of {problem.name} ({err})") from None
 
     # -- the quality-diversity archive ----------------------------------------------------------------------------------
     def write_archive(self, archive: Any, problem: Problem) -> None:
@@ -262,24 +269,34 @@ class RunFolder:
         path = self / self.ARCHIVE
         if not path.is_file():
             raise RunFolderError(f"{self.path}: this run has no archive (only quality-diversity runs keep one)")
-        with open(path, newline="") as handle:
-            rows = list(csv.DictReader(handle))
-        positions = [r for r, row in enumerate(rows) if int(row["index"]) == index]
-        if not positions:
-            known = ", ".join(row["index"] for row in rows[:10])
+        rows = list(csv.DictReader(io.StringIO(read_text(path, _MAX_TABLE, what="CSV"), newline="")))
+        cells = []
+        for number, row in enumerate(rows, start=2):
+            try:
+                cells.append(int(row["index"]))
+            except (KeyError, TypeError, ValueError):
+                raise InputFileError(f"{path}, line {number}: no whole-number 'index' column") from None
+        if index not in cells:
+            known = ", ".join(str(cell) for cell in cells[:10])
             raise RunFolderError(f"{path}: no elite in cell {index} (cells held: {known}{', ...' if len(rows) > 10 else ''})")
-        position = positions[0]
+        position = cells.index(index)
         if "genome" in rows[position]:  # written by structgen 0.1, which kept object genomes in a CSV column
-            return problem.genome_from_json(json.loads(rows[position]["genome"]))
+            where = f"{path}, line {position + 2}"
+            return self._from_json(where, parse_json(rows[position]["genome"] or "", where), problem)
         if problem.flat:
-            genomes: Any = np.load(self / self.SOLUTIONS, allow_pickle=False)
+            genomes: Any = read_npy(self / self.SOLUTIONS, _MAX_STATE)
             source = self / self.SOLUTIONS
+            if genomes.ndim != 2:
+                raise InputFileError(f"{source}: expected one genome per row, got shape {genomes.shape}")
         else:
-            genomes = (self / self.GENOMES).read_text().splitlines()
             source = self / self.GENOMES
+            genomes = read_text(source, _MAX_STATE, what="JSON lines").splitlines()
         if len(genomes) != len(rows):
             raise RunFolderError(
                 f"{source}: holds {len(genomes)} genomes for the {len(rows)} rows of {path.name} (a write was cut "
                 "short); resume the run to rewrite both"
             )
-        return genomes[position] if problem.flat else problem.genome_from_json(json.loads(genomes[position]))
+        if problem.flat:
+            return self._vector(source, genomes[position], problem)
+        where = f"{source}, line {position + 1}"
+        return self._from_json(where, parse_json(genomes[position], where), problem)

@@ -323,9 +323,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _classify(err: Exception) -> tuple[int, str]:
     """The exit code and one-line message for an error: the user's input (2), or a bug or broken environment (1)."""
-    from evolution import RunFolderError
+    from evolution import InputFileError, RunFolderError
 
-    if isinstance(err, (InputError, RunFolderError, domains.UnknownDomainError)):
+    if isinstance(err, (InputError, InputFileError, RunFolderError, domains.UnknownDomainError)):
         return EXIT_BAD_INPUT, str(err)
     if isinstance(err, FileNotFoundError):
         return EXIT_BAD_INPUT, f"{err.filename}: no such file"

@@ -22,6 +22,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from evolution import DEFAULT_OPTIMIZER, OPTIMIZERS, Optimizer, Problem, RunSettings, make_optimizer
+from evolution.files import InputFileError, MiB, read_text
 from structgen import domains
 from structgen.config import ConfigError, build, parse_assignment, resolve_key, set_path, setting_paths, to_table
 
@@ -99,15 +100,21 @@ def main_job_tables(domain: str) -> dict[str, Any]:
     }
 
 
+#: Configuration files larger than this are refused before they are read.
+MAX_CONFIG_BYTES = 16 * MiB
+
+
 def _read_file(path: str | os.PathLike) -> dict[str, Any]:
     try:
-        text = open(path, "rb").read().decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a text file (expected TOML)") from None
+        text = read_text(path, MAX_CONFIG_BYTES, what="TOML")
+    except InputFileError as err:
+        raise ConfigError(str(err)) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(f"{path}: not valid TOML ({err})") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: not valid TOML (nested too deeply)") from None
 
 
 def _table(tables: Mapping[str, Any], name: str, source: str) -> dict[str, Any]:

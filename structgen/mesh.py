@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evolution.files import atomic_write
 from physics.config import PhysicsConfig
-from structgen._fileio import atomic_write
 from structgen.errors import StructureError
 
 if TYPE_CHECKING:

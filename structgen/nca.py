@@ -61,7 +61,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from structgen._fileio import atomic_write
+from evolution.files import MiB, atomic_write, read_json, read_npy
 from structgen.lattice import N_DIRECTIONS, N_NEIGHBOURS, OFFSETS
 from structgen.nca_config import INIT_SCALE, N_INPUTS, N_OUTPUTS, NCAConfig, n_params
 from structgen.structure import Structure
@@ -366,6 +366,10 @@ class _Growth:
         return structures
 
 
+#: Weight files larger than this are refused before they are read (a 52-60-26 network takes 38 KB).
+MAX_WEIGHTS_BYTES = 64 * MiB
+
+
 def load_weights(path: str | os.PathLike, config: NCAConfig | None = None) -> np.ndarray:
     """Read one flat weight vector from ``.npy`` (a 1-D array) or ``.json`` (a list of numbers, or an object with a
     ``"weights"`` list); raise ValueError naming the file and the problem if it does not fit ``config``."""
@@ -373,24 +377,19 @@ def load_weights(path: str | os.PathLike, config: NCAConfig | None = None) -> np
     config = config or NCAConfig()
     suffix = path.suffix.lower()
     if suffix == ".npy":
-        try:
-            data = np.load(path, allow_pickle=False)
-        except (ValueError, OSError) as err:
-            if isinstance(err, FileNotFoundError):
-                raise
-            raise ValueError(f"{path}: not a readable .npy array ({err})") from None
+        data = read_npy(path, MAX_WEIGHTS_BYTES)
     elif suffix == ".json":
-        try:
-            data = json.loads(path.read_text())
-        except (UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise ValueError(f"{path}: not valid JSON ({err})") from None
+        data = read_json(path, MAX_WEIGHTS_BYTES)
         if isinstance(data, dict):
             if "weights" not in data:
                 raise ValueError(f"{path}: expected a list of numbers or an object with a 'weights' list")
             data = data["weights"]
         if not isinstance(data, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in data):
             raise ValueError(f"{path}: weights must be a flat list of numbers")
-        data = np.asarray(data, dtype=np.float64)
+        try:
+            data = np.asarray(data, dtype=np.float64)
+        except OverflowError:  # an integer too large for a float
+            raise ValueError(f"{path}: a weight is too large to be a number") from None
     else:
         raise ValueError(f"{path}: unknown weights format {path.suffix!r}; use .npy or .json")
     if data.ndim != 1 or data.dtype.kind not in "iuf":

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from structgen._fileio import atomic_write
+from evolution.files import atomic_write
 
 if TYPE_CHECKING:
     from physics import StabilityReport

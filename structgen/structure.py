@@ -24,17 +24,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from structgen._fileio import atomic_write
+from evolution.files import InputFileError, MiB, atomic_write, read_json
 from structgen.errors import StructureError
 from structgen.lattice import are_neighbours
 
 if TYPE_CHECKING:
     import trimesh
 
-__all__ = ["Structure", "StructureError"]
+__all__ = ["MAX_COORDINATE", "MAX_FILE_BYTES", "Structure", "StructureError"]
 
-# Far beyond any structure we can simulate, and small enough that coordinate differences cannot overflow int64.
-_MAX_ABS_COORDINATE = 1_000_000_000
+#: Coordinates must lie in [-MAX_COORDINATE, MAX_COORDINATE]: far beyond any structure that can be grown, simulated
+#: or drawn, and small enough that nothing computed from coordinates (differences, squared lengths, grid indices)
+#: can overflow.
+MAX_COORDINATE = 1 << 20
+#: Structure files larger than this are refused before they are read (about 15 million vertices).
+MAX_FILE_BYTES = 512 * MiB
 _FILE_FIELDS = ("vertices", "edges", "metadata")
 
 
@@ -52,8 +56,8 @@ def _int_table(value: Any, name: str, width: int, source: str | None) -> np.ndar
         if value.ndim != 2 or value.shape[1] != width:
             raise StructureError(f"{where}{name}: expected shape (n, {width}) of {what}, got shape {value.shape}")
         kind = value.dtype.kind
-        if kind in "iu":
-            return value.astype(np.int64)
+        if kind not in "iuf" or value.dtype == np.bool_:
+            raise StructureError(f"{where}{name}: expected integers, got an array of dtype {value.dtype}")
         if kind == "f":
             bad = ~np.isfinite(value) | (value != np.round(value))
             if bad.any():
@@ -61,8 +65,14 @@ def _int_table(value: Any, name: str, width: int, source: str | None) -> np.ndar
                 raise StructureError(
                     f"{where}{name}[{i}] = {value[i].tolist()}: entry {j} is {value[i, j].item()!r}, not an integer"
                 )
-            return value.astype(np.int64)
-        raise StructureError(f"{where}{name}: expected integers, got an array of dtype {value.dtype}")
+        # Checked before converting: a float like 1e300 or a uint64 above 2**63 would wrap around in int64.
+        large = (value > MAX_COORDINATE) | (value < -MAX_COORDINATE) if kind != "u" else value > MAX_COORDINATE
+        if large.any():
+            i, j = np.argwhere(large)[0]
+            raise StructureError(
+                f"{where}{name}[{i}] = {value[i].tolist()}: entry {j} is out of range (at most {MAX_COORDINATE:,} in size)"
+            )
+        return value.astype(np.int64)
     if not isinstance(value, (list, tuple)):
         raise StructureError(f"{where}{name}: expected a list of {what}, got {type(value).__name__}")
     for i, row in enumerate(value):
@@ -75,8 +85,10 @@ def _int_table(value: Any, name: str, width: int, source: str | None) -> np.ndar
                 )
             if not isinstance(x, numbers.Integral) and not (math.isfinite(x) and float(x).is_integer()):
                 raise StructureError(f"{where}{name}[{i}] = {list(row)!r}: entry {j} is {x!r}, not an integer")
-            if abs(x) > _MAX_ABS_COORDINATE:
-                raise StructureError(f"{where}{name}[{i}] = {list(row)!r}: entry {j} is out of range")
+            if abs(x) > MAX_COORDINATE:
+                raise StructureError(
+                    f"{where}{name}[{i}] = {list(row)!r}: entry {j} is out of range (at most {MAX_COORDINATE:,} in size)"
+                )
     if not value:
         return np.zeros((0, width), dtype=np.int64)
     return np.array(value, dtype=np.float64 if _any_float(value) else np.int64).astype(np.int64)
@@ -111,7 +123,7 @@ class Structure:
         e = _int_table(edges, "edges", 2, source)
         if len(v) == 0:
             raise StructureError(f"{where}vertices: a structure needs at least one vertex")
-        if np.abs(v).max() > _MAX_ABS_COORDINATE:
+        if np.abs(v).max() > MAX_COORDINATE:
             i = int(np.argmax(np.abs(v).max(axis=1)))
             raise StructureError(f"{where}vertices[{i}] = {v[i].tolist()}: coordinate out of range")
         _check_unique_rows(v, "vertices", where, lambda i, j: f"vertices[{j}] duplicates vertices[{i}]")
@@ -141,11 +153,15 @@ class Structure:
             metadata = {}
         if not isinstance(metadata, Mapping) or not all(isinstance(k, str) for k in metadata):
             raise StructureError(f"{where}metadata: expected an object with string keys, got {metadata!r:.80}")
+        try:  # it goes into JSON and GLB files, which hold neither NaN nor infinity nor arbitrary objects
+            text = json.dumps(dict(metadata), allow_nan=False)
+        except (TypeError, ValueError, RecursionError) as err:
+            raise StructureError(f"{where}metadata: must be JSON with finite numbers ({err})") from None
         v.setflags(write=False)
         e.setflags(write=False)
         self._vertices = v
         self._edges = e
-        self._metadata = dict(metadata)
+        self._metadata = json.loads(text)
 
     @classmethod
     def _trusted(cls, vertices: np.ndarray, edges: np.ndarray, metadata: dict[str, Any]) -> Structure:
@@ -287,18 +303,14 @@ class Structure:
         """Read a structure from a JSON file.
 
         Raises:
-            FileNotFoundError: ``path`` does not exist.
-            StructureError: the file is not valid JSON or not a valid structure; the message names the file and the
-                field, index and value at fault.
+            StructureError: the file cannot be read (missing, not a regular file, larger than
+                :data:`MAX_FILE_BYTES`), is not valid JSON, or is not a valid structure; the message names the file
+                and the field, index and value at fault.
         """
-        path = Path(path)
-        raw = path.read_bytes()
         try:
-            data = json.loads(raw)
-        except UnicodeDecodeError:
-            raise StructureError(f"{path}: not a text file (expected structure JSON)") from None
-        except json.JSONDecodeError as err:
-            raise StructureError(f"{path}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
+            data = read_json(path, MAX_FILE_BYTES, what="structure JSON")
+        except InputFileError as err:
+            raise StructureError(str(err)) from None
         return cls.from_dict(data, source=str(path))
 
     # -- meshes -----------------------------------------------------------------------------------------------------

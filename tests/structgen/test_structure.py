@@ -162,9 +162,11 @@ def test_binary_file_is_rejected_cleanly(tmp_path):
         Structure.load(path)
 
 
-def test_missing_file_raises_file_not_found(tmp_path):
-    with pytest.raises(FileNotFoundError):
+def test_a_file_that_cannot_be_read_is_a_structure_error_naming_it(tmp_path):
+    with pytest.raises(StructureError, match="absent.json: no such file"):
         Structure.load(tmp_path / "absent.json")
+    with pytest.raises(StructureError, match="is a folder"):
+        Structure.load(tmp_path)
 
 
 def test_save_refuses_non_json_names(tmp_path):
@@ -173,11 +175,23 @@ def test_save_refuses_non_json_names(tmp_path):
     assert not (tmp_path / "s.glb").exists()
 
 
-def test_failed_save_leaves_the_existing_file_untouched(tmp_path):
+@pytest.mark.parametrize("metadata", [{"when": object()}, {"x": float("nan")}, {"x": [float("inf")]}])
+def test_metadata_that_json_cannot_hold_is_refused_when_made(metadata):
+    with pytest.raises(StructureError, match="metadata: must be JSON with finite numbers"):
+        Structure([[0, 0, 0]], [], metadata)
+
+
+def test_failed_save_leaves_the_existing_file_untouched(tmp_path, monkeypatch):
+    import errno
+
     path = l_shape().save(tmp_path / "s.json")
     before = path.read_bytes()
-    unserialisable = Structure([[0, 0, 0]], [], {"when": object()})
-    with pytest.raises(StructureError, match="not JSON-serialisable"):
-        unserialisable.save(path)
+
+    def disk_full(*args):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", disk_full)
+    with pytest.raises(OSError, match="No space left"):
+        l_shape().with_metadata(note="new").save(path)
     assert path.read_bytes() == before
     assert os.listdir(tmp_path) == ["s.json"]  # no temporary file left behind

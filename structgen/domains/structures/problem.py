@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from evolution import Evaluation, Problem
+from evolution.files import atomic_write
 from physics import PhysicsConfig, StabilityReport, check_stability, check_statics
-from structgen._fileio import atomic_write
 from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population, n_params
 from structgen.structure import Structure
 

@@ -1,0 +1,239 @@
+"""Reading and writing files safely: the one gate every file the tools read or write goes through.
+
+Reads:
+
+- :func:`read_bytes` opens without blocking and checks the open file itself: it must be a regular file (not a folder,
+  a FIFO, a device such as ``/dev/zero``, or a socket) no larger than a limit, so nothing hangs and nothing is read
+  without bound. Path problems (missing, a symbolic-link loop, a file used as a folder, a name too long, no
+  permission) become one-line :class:`InputFileError` messages that name the file.
+- :func:`read_text`, :func:`read_json` (UTF-8, no NaN or Infinity, nesting limited), :func:`parse_json` (the same
+  for text already read, such as one line of a JSON-lines file) and :func:`read_npy` (the header checked against
+  the data before anything is allocated; numbers only, never pickles).
+
+Writes: :func:`atomic_write` writes a temporary file beside the target and renames it into place, so readers see the
+old file or the complete new one; path problems are :class:`InputFileError` as for reads. :func:`check_output` runs
+the same checks before any work, so a command fails fast on a bad output path.
+
+Limits are generous (far above anything structgen writes) and exist to turn absurd inputs into clear errors.
+"""
+
+from __future__ import annotations
+
+import errno
+import io
+import json
+import os
+import stat
+import uuid
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "GiB",
+    "MiB",
+    "InputFileError",
+    "atomic_write",
+    "check_output",
+    "parse_json",
+    "read_bytes",
+    "read_json",
+    "read_npy",
+    "read_text",
+]
+
+MiB = 1 << 20
+GiB = 1 << 30
+#: JSON nested deeper than this is refused (our files nest a few levels).
+MAX_JSON_DEPTH = 200
+
+_PATH_PROBLEMS = {
+    errno.ENOENT: "no such file",
+    errno.ELOOP: "too many levels of symbolic links (a link loop?)",
+    errno.ENOTDIR: "a part of the path is a file, not a folder",
+    errno.ENAMETOOLONG: "file name too long",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+    errno.EISDIR: "is a folder",
+    errno.EROFS: "read-only file system",
+}
+
+
+class InputFileError(ValueError):
+    """A file cannot be read or written as asked: the message names the file and what is wrong with it."""
+
+
+def _path_error(path: str | os.PathLike, err: OSError, *, writing: bool = False) -> InputFileError | OSError:
+    """The user's mistake in ``err`` as an InputFileError naming ``path``; any other OSError unchanged."""
+    problem = _PATH_PROBLEMS.get(err.errno or 0)
+    if writing and err.errno == errno.ENOENT:
+        problem = "no such folder"
+    if writing and err.errno == errno.EEXIST:  # making a folder where a file is
+        problem = "a part of the path is a file, not a folder"
+    if problem is None:
+        return err
+    return InputFileError(f"{path}: {problem}")
+
+
+def _size(n: float) -> str:
+    return f"{n / MiB:,.0f} MiB" if n >= MiB else f"{n:,.0f} bytes"
+
+
+def read_bytes(path: str | os.PathLike, limit: int) -> bytes:
+    """The whole content of the regular file at ``path``, at most ``limit`` bytes."""
+    try:
+        # Non-blocking, so that a FIFO with no writer cannot hang us before fstat tells what it is.
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as err:
+        raise _path_error(path, err) from None
+    try:
+        info = os.fstat(descriptor)
+        if stat.S_ISDIR(info.st_mode):
+            raise InputFileError(f"{path}: is a folder, expected a file")
+        if not stat.S_ISREG(info.st_mode):
+            raise InputFileError(f"{path}: not a regular file (a FIFO, a device or a socket), refusing to read it")
+        if info.st_size > limit:
+            raise InputFileError(f"{path}: is {_size(info.st_size)}, more than the {_size(limit)} this file may hold")
+        os.set_blocking(descriptor, True)
+        chunks, total = [], 0
+        while True:  # read to the end: the size may have changed since fstat
+            chunk = os.read(descriptor, min(limit + 1 - total, 1 << 24) or 1)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:
+                raise InputFileError(f"{path}: grew past the {_size(limit)} this file may hold while being read")
+        return b"".join(chunks)
+    except OSError as err:
+        raise _path_error(path, err) from None
+    finally:
+        os.close(descriptor)
+
+
+def read_text(path: str | os.PathLike, limit: int, *, what: str = "text") -> str:
+    """The file at ``path`` as UTF-8 text."""
+    data = read_bytes(path, limit)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputFileError(f"{path}: not a text file (expected {what})") from None
+
+
+def _no_constants(name: str) -> Any:
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def parse_json(text: str, source: str) -> Any:
+    """``text`` as JSON, refusing NaN and Infinity and nesting deeper than :data:`MAX_JSON_DEPTH`; ``source`` names
+    where the text came from in error messages."""
+    try:
+        data = json.loads(text, parse_constant=_no_constants)
+    except json.JSONDecodeError as err:
+        raise InputFileError(f"{source}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
+    except ValueError as err:
+        raise InputFileError(f"{source}: not valid JSON ({err})") from None
+    except RecursionError:
+        raise InputFileError(f"{source}: JSON nested too deeply") from None
+    if _depth(data) > MAX_JSON_DEPTH:
+        raise InputFileError(f"{source}: JSON nested more than {MAX_JSON_DEPTH} levels deep")
+    return data
+
+
+def _depth(value: Any) -> int:
+    """How deeply ``value`` nests lists and objects, without recursion."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, dict):
+            item = list(item.values())
+        if isinstance(item, list):
+            deepest = max(deepest, depth)
+            stack.extend((child, depth + 1) for child in item if isinstance(child, (list, dict)))
+    return deepest
+
+
+def read_json(path: str | os.PathLike, limit: int, *, what: str = "JSON") -> Any:
+    """The JSON document in the file at ``path`` (see :func:`parse_json`)."""
+    return parse_json(read_text(path, limit, what=what), str(path))
+
+
+def read_npy(path: str | os.PathLike, limit: int) -> np.ndarray:
+    """The numeric array in the ``.npy`` file at ``path``.
+
+    The header is read first and checked against the bytes that follow, so a header that claims more data than the
+    file holds is an error, not an allocation; object arrays (pickles) and non-numeric types are refused.
+    """
+    data = read_bytes(path, limit)
+    stream = io.BytesIO(data)
+    try:
+        version = np.lib.format.read_magic(stream)
+        reader = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, fortran, dtype = reader(stream)
+    except Exception as err:  # numpy says ValueError for most damage, other errors for some
+        raise InputFileError(f"{path}: not a valid .npy file ({err})") from None
+    if dtype.hasobject or dtype.kind not in "biuf" or dtype.fields is not None:
+        raise InputFileError(f"{path}: holds {dtype} values; expected numbers")
+    count = int(np.prod(shape, dtype=object))
+    body = len(data) - stream.tell()
+    if count * dtype.itemsize != body:
+        raise InputFileError(
+            f"{path}: its header says shape {tuple(shape)} of {dtype} ({_size(count * dtype.itemsize)}), "
+            f"but {_size(body)} follow it (the file is cut short or damaged)"
+        )
+    array = np.frombuffer(data, dtype=dtype, count=count, offset=stream.tell())
+    return array.reshape(shape, order="F" if fortran else "C").copy()
+
+
+def check_output(path: str | os.PathLike) -> Path:
+    """Fail now, as writing would, if ``path`` cannot be written: it is a folder, a part of it is a file, a name is
+    too long, or the first folder that exists on the way is not writable. Missing folders are fine (they are made)."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputFileError(f"{path}: is a folder, expected an output file name")
+    limit = os.pathconf("/", "PC_NAME_MAX") if hasattr(os, "pathconf") else 255
+    for part in path.parts:
+        if len(os.fsencode(part)) > limit:
+            raise InputFileError(f"{path}: file name too long")
+    folder = path.parent
+    while not folder.exists():
+        if folder.is_symlink():  # a dangling link where a folder should be
+            raise InputFileError(f"{path}: {folder} is a broken symbolic link")
+        folder = folder.parent
+    if not folder.is_dir():
+        raise InputFileError(f"{path}: {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputFileError(f"{path}: permission denied (cannot write in {folder})")
+    return path
+
+
+def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename it into place.
+
+    Readers see either the old file or the complete new one. On any error the temporary file is removed and an
+    existing file at ``path`` is left untouched. Missing parent folders are created. A symbolic link at ``path`` is
+    replaced by the file, never written through.
+    """
+    path = Path(path)
+    payload = data.encode("utf-8") if isinstance(data, str) else data
+    # A name in the same folder keeps os.replace on one file system (rename is only atomic there); "x" mode makes
+    # the file with the user's umask, unlike mkstemp's 0600.
+    tmp = path.with_name(f".{path.name[:200]}.{uuid.uuid4().hex[:12]}.tmp")
+    try:
+        if path.is_dir() and not path.is_symlink():
+            raise InputFileError(f"{path}: is a folder, expected an output file name")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(tmp, "xb") as handle:
+            handle.write(payload)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except OSError as err:
+        if tmp.parent.is_dir():
+            tmp.unlink(missing_ok=True)
+        raise _path_error(path, err, writing=True) from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
