@@ -66,14 +66,15 @@ class RunSettings:
     plot_every: int = 10
 
     def __post_init__(self) -> None:
-        for name in ("generations", "checkpoint_every", "plot_every"):
+        def whole(name: str, low: int, high: int) -> None:
             value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"run {name} must be a positive integer, got {value!r}")
-        if not isinstance(self.workers, int) or isinstance(self.workers, bool) or self.workers < 0:
-            raise ValueError(f"run workers must be 0 or a positive integer, got {self.workers!r}")
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ValueError(f"run seed must be a non-negative integer, got {self.seed!r}")
+            if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
+                raise ValueError(f"run {name} must be a whole number from {low:,} to {high:,}, got {value!r}")
+
+        for name in ("generations", "checkpoint_every", "plot_every"):
+            whole(name, 1, 10**9)
+        whole("workers", 0, 1024)
+        whole("seed", 0, 2**63 - 1)
 
 
 @contextlib.contextmanager

@@ -19,13 +19,17 @@ Every file is replaced atomically, so a kill at any moment leaves either the old
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import fcntl
 import io
 import json
 import os
 import pickle
+import re
 import shutil
 import sys
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -40,6 +44,10 @@ from evolution.problem import Problem
 __all__ = ["CHECKPOINT_SCHEMA", "Best", "RunFolder", "RunFolderError", "RunState", "atomic_write", "library_versions"]
 
 CHECKPOINT_SCHEMA = 1
+#: The key and value in manifest.json that mark a folder as a run folder; --overwrite deletes nothing else.
+MARK, MARK_VALUE = "run_folder", "evolution run folder, format 1"
+# What atomic_write's temporary files look like (evolution.files).
+_LEFTOVER = re.compile(r"\..+\.[0-9a-f]{12}\.tmp")
 # Far above what any run writes; they turn a damaged or substituted file into a clear error.
 _MAX_TEXT, _MAX_TABLE, _MAX_STATE = 16 * MiB, 4 * GiB, 16 * GiB
 
@@ -94,6 +102,7 @@ class RunFolder:
 
     CONFIG, MANIFEST, CHECKPOINT, METRICS = "config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl"
     ARCHIVE, SOLUTIONS, GENOMES, BEST = "archive.csv", "archive_solutions.npy", "archive_genomes.jsonl", "best"
+    LOCK = ".lock"
     OBJECTIVE_PLOT, ARCHIVE_PLOT = "objective.png", "archive.png"
 
     def __init__(self, path: str | os.PathLike) -> None:
@@ -105,23 +114,79 @@ class RunFolder:
     # -- life cycle -----------------------------------------------------------------------------------------------------
     @classmethod
     def create(cls, path: str | os.PathLike, config_text: str, manifest: dict[str, Any], *, overwrite: bool = False) -> RunFolder:
-        """Make a new run folder. An existing folder is an error, unless ``overwrite`` and it is an empty folder or
-        a run folder (anything else is never deleted)."""
+        """Make a new run folder, marked as one in its manifest.
+
+        An existing folder is an error, unless it is empty, or ``overwrite`` is given and it is a run folder (its
+        manifest carries the mark) that no process is writing. Anything else is never deleted.
+        """
         folder = cls(path)
+        if folder.path.is_symlink():
+            raise RunFolderError(f"{folder.path}: is a symbolic link; give the run folder's own path")
         if folder.path.exists():
             if not folder.path.is_dir():
                 raise RunFolderError(f"{folder.path}: exists and is not a folder")
-            contents = list(folder.path.iterdir())
-            if contents:
+            if any(folder.path.iterdir()):
                 if not overwrite:
                     raise RunFolderError(f"{folder.path}: already exists; choose another --run-dir or pass --overwrite")
-                if not (folder / cls.CONFIG).exists():
-                    raise RunFolderError(f"{folder.path}: exists and is not a run folder; refusing to overwrite it")
-                shutil.rmtree(folder.path)
+                if not folder.is_marked():
+                    raise RunFolderError(
+                        f"{folder.path}: exists and is not a run folder (its manifest.json lacks the run-folder mark); "
+                        "refusing to overwrite it"
+                    )
+                with folder.locked():  # refuses if a run is writing it
+                    shutil.rmtree(folder.path)
         folder.path.mkdir(parents=True, exist_ok=True)
         folder.write_config(config_text)
-        atomic_write(folder / cls.MANIFEST, json.dumps(manifest, indent=2) + "\n")
+        atomic_write(folder / cls.MANIFEST, json.dumps({**manifest, MARK: MARK_VALUE}, indent=2) + "\n")
         return folder
+
+    def is_marked(self) -> bool:
+        """Whether the manifest says this is a run folder (or is a manifest of structgen 0.1, which had no mark)."""
+        manifest = self.manifest()
+        legacy = manifest.get("schema") == 1 and isinstance(manifest.get("versions"), dict) and "structgen" in manifest
+        return manifest.get(MARK) == MARK_VALUE or (legacy and (self / self.CONFIG).is_file())
+
+    def remove(self) -> None:
+        """Delete this run folder (it must carry the mark)."""
+        if not self.is_marked():
+            raise RunFolderError(f"{self.path}: not a run folder; refusing to delete it")
+        shutil.rmtree(self.path)
+
+    @contextlib.contextmanager
+    def locked(self) -> Iterator[RunFolder]:
+        """Hold the run folder's lock (an OS file lock on ``.lock``) for the block: only one process writes a run
+        at a time, and a second gets a RunFolderError saying which process holds it. The lock goes with the
+        process, so a killed run never leaves it held."""
+        path = self / self.LOCK
+        try:
+            descriptor = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0), 0o644)
+        except OSError as err:
+            raise RunFolderError(f"{path}: cannot open the run's lock ({err.strerror})") from None
+        try:
+            try:
+                fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(descriptor, 64, 0).decode("ascii", "replace").strip() or "another process"
+                raise RunFolderError(
+                    f"{self.path}: another structgen process (pid {holder}) is writing this run; wait for it to end or stop it"
+                ) from None
+            os.ftruncate(descriptor, 0)
+            os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)
+            yield self
+        finally:
+            os.close(descriptor)  # closing releases the lock
+
+    def remove_temporary_files(self) -> list[Path]:
+        """Delete what writes cut short by a kill left behind (``.NAME.XXXXXXXXXXXX.tmp``); call it holding the
+        lock. Returns what was removed."""
+        removed = []
+        for folder in (self.path, self / self.BEST):
+            if folder.is_dir() and not folder.is_symlink():
+                for leftover in folder.iterdir():
+                    if _LEFTOVER.fullmatch(leftover.name) and leftover.is_file() and not leftover.is_symlink():
+                        leftover.unlink()
+                        removed.append(leftover)
+        return removed
 
     @classmethod
     def open(cls, path: str | os.PathLike) -> RunFolder:
@@ -168,7 +233,15 @@ class RunFolder:
 
     # -- metrics --------------------------------------------------------------------------------------------------------
     def append_metrics(self, row: dict[str, Any]) -> None:
-        with open(self / self.METRICS, "a") as handle:
+        path = self / self.METRICS
+        flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+        try:
+            descriptor = os.open(path, flags, 0o644)
+        except OSError:
+            if path.is_symlink():
+                raise RunFolderError(f"{path}: is a symbolic link; refusing to write through it") from None
+            raise
+        with os.fdopen(descriptor, "a") as handle:
             handle.write(json.dumps(row) + "\n")
             handle.flush()
             os.fsync(handle.fileno())
@@ -204,6 +277,8 @@ class RunFolder:
     # -- the best candidate ---------------------------------------------------------------------------------------------
     def write_best(self, best: Best, problem: Problem) -> None:
         folder = self / self.BEST
+        if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+            raise RunFolderError(f"{folder}: is not a folder of this run (a symbolic link or a file); refusing to write there")
         folder.mkdir(exist_ok=True)
         if problem.flat:
             atomic_write(folder / "genome.npy", _npy_bytes(np.asarray(best.genome, dtype=np.float64)))

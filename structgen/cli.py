@@ -21,11 +21,23 @@ from pathlib import Path
 from typing import Any
 
 from structgen import __version__, domains
-from structgen.commands import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, InputError, add_set_option
+from structgen.commands import (
+    EXIT_BAD_INPUT,
+    EXIT_FAILURE,
+    EXIT_OK,
+    MAX_SEED,
+    InputError,
+    Parser,
+    add_set_option,
+    output_path,
+    whole_number,
+)
 
 log = logging.getLogger("structgen")
 
 GENERIC_VERBS = ("list", "evolve", "resume", "export")
+# Bounds of the run options given by name (RunSettings checks the same settings however they are given).
+MAX_GENERATIONS, MAX_WORKERS = 10**9, 1024
 
 
 # -- generic verbs --------------------------------------------------------------------------------------------------------
@@ -154,9 +166,13 @@ def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
     else:
         evolve.set_defaults(domain=domain.id)
     evolve.add_argument("--optimizer", metavar="NAME", help="ga, cma_es, map_elites or cma_mae (sets optimizer.name)")
-    evolve.add_argument("--generations", type=int, metavar="N", help="generations in total (sets run.generations)")
-    evolve.add_argument("--seed", type=int, metavar="N", help="the run's seed (sets run.seed)")
-    evolve.add_argument("--workers", type=int, metavar="N", help="local evaluation processes, 0 for none (run.workers)")
+    evolve.add_argument(
+        "--generations", type=whole_number(1, MAX_GENERATIONS), metavar="N", help="generations in total (sets run.generations)"
+    )
+    evolve.add_argument("--seed", type=whole_number(0, MAX_SEED), metavar="N", help="the run's seed (sets run.seed)")
+    evolve.add_argument(
+        "--workers", type=whole_number(0, MAX_WORKERS), metavar="N", help="local evaluation processes, 0 for none (run.workers)"
+    )
     evolve.add_argument("--cluster", metavar="ADDRESS", help="evaluate on the Dask scheduler at ADDRESS (run.cluster)")
     evolve.add_argument(
         "--run-dir", metavar="DIR", help="run folder to create (default runs/<domain>-<optimizer>-s<seed>-<time>)"
@@ -183,8 +199,18 @@ def _add_resume(commands: Any) -> None:
         "is the same as if it had never stopped.",
     )
     resume.add_argument("run_dir", metavar="RUN_DIR", help="run folder")
-    resume.add_argument("--generations", type=int, metavar="N", help="run up to N generations in total (default: as configured)")
-    resume.add_argument("--workers", type=int, metavar="N", help="local evaluation processes this time (results do not change)")
+    resume.add_argument(
+        "--generations",
+        type=whole_number(1, MAX_GENERATIONS),
+        metavar="N",
+        help="run up to N generations in total (default: as configured)",
+    )
+    resume.add_argument(
+        "--workers",
+        type=whole_number(0, MAX_WORKERS),
+        metavar="N",
+        help="local evaluation processes this time (results do not change)",
+    )
     resume.add_argument("--cluster", metavar="ADDRESS", help="evaluate on this Dask scheduler this time")
     resume.set_defaults(handler=cmd_resume)
 
@@ -198,8 +224,8 @@ def _add_export(commands: Any, exporters: list[tuple[domains.DomainSpec, Any]], 
         f"candidate, or an archive elite, made again from its genome) or a file of {which}.",
     )
     export.add_argument("source", metavar="SOURCE", help="run folder or file")
-    export.add_argument("output", nargs="?", metavar="OUT", help="output file (or use -o)")
-    export.add_argument("-o", dest="output_option", metavar="OUT", help="output file")
+    export.add_argument("output", nargs="?", type=output_path, metavar="OUT", help="output file (or use -o)")
+    export.add_argument("-o", dest="output_option", type=output_path, metavar="OUT", help="output file")
     export.add_argument(
         "--elite",
         default="best",
@@ -233,7 +259,7 @@ def _domain_hooks() -> list[tuple[domains.DomainSpec, Any]]:
 def build_parser() -> argparse.ArgumentParser:
     hooked = _domain_hooks()
     listing = "\n".join(f"  {spec.group_name:<12} {spec.summary}" for spec, _ in hooked)
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="structgen",
         formatter_class=_Formatter,
         description="Generate designs with neural cellular automata and other generators, judge them, and "

@@ -23,14 +23,55 @@ __all__ = [
     "EXIT_BAD_INPUT",
     "EXIT_FAILURE",
     "EXIT_OK",
+    "MAX_SEED",
     "DomainCommands",
     "InputError",
+    "Parser",
     "add_set_option",
+    "output_path",
     "settings_from_args",
     "verbs_wanted",
+    "whole_number",
 ]
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+#: Seeds are whole numbers from 0 to this (what numpy's generators take in one 64-bit word).
+MAX_SEED = 2**63 - 1
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with usage errors in one line (``structgen grow: error: argument --seed: ...``) and exit code 2,
+    like every other error of the command line, instead of the usage block and then the error."""
+
+    def error(self, message: str) -> Any:  # argparse's hook; it must not return
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def whole_number(low: int, high: int) -> Any:
+    """An argparse ``type`` for whole numbers from ``low`` to ``high``; anything else is a usage error naming the
+    option."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected a whole number from {low:,} to {high:,}, got {value:,}")
+        return value
+
+    return parse
+
+
+def output_path(text: str) -> Path:
+    """An argparse ``type`` for files a command will write: refused at once, before any work, if it cannot be
+    written (its folder is a file, its name is too long, it is a folder)."""
+    from evolution.files import InputFileError, check_output
+
+    try:
+        return check_output(text)
+    except InputFileError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def add_set_option(parser: argparse.ArgumentParser | Any, tables: str, example: str) -> None:

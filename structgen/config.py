@@ -52,7 +52,15 @@ T = TypeVar("T")
 
 
 class ConfigError(InputError):
-    """A setting is unknown, of the wrong type, or out of range; the message names it."""
+    """A setting is unknown, of the wrong type, or out of range; the message names it.
+
+    ``key`` is the dotted name of the setting at fault, or of the table whose own checks refused it, where known:
+    callers use it to say whether the value came from a file or from ``--set``.
+    """
+
+    def __init__(self, message: str, key: str | None = None) -> None:
+        super().__init__(message)
+        self.key = key
 
 
 # -- text ---------------------------------------------------------------------------------------------------------------
@@ -190,7 +198,7 @@ def _convert(value: Any, kind: Any, where: str) -> Any:
             return value
     elif kind is Any:
         return value
-    raise ConfigError(f"{where} = {value!r}: expected {_type_name(kind)}")
+    raise ConfigError(f"{where} = {value!r}: expected {_type_name(kind)}", where)
 
 
 def _default(cls: type, name: str) -> Any:
@@ -217,7 +225,7 @@ def build(cls: type[T], values: Mapping[str, Any], section: str = "", *, base: T
         name = values.pop("preset")
         if name not in presets:
             where = f"{section}.preset" if section else "preset"
-            raise ConfigError(f"{where}: unknown preset {name!r}; choose one of {', '.join(presets)}")
+            raise ConfigError(f"{where}: unknown preset {name!r}; choose one of {', '.join(presets)}", where)
         base = presets[name]
     known = _fields(cls)
     changes = {}
@@ -225,19 +233,21 @@ def build(cls: type[T], values: Mapping[str, Any], section: str = "", *, base: T
         where = f"{section}.{key}" if section else key
         if key not in known:
             names = (["preset"] if presets else []) + list(known)
-            raise ConfigError(f"unknown setting {where!r}; {section or 'the settings'} has: {', '.join(names)}")
+            raise ConfigError(f"unknown setting {where!r}; {section or 'the settings'} has: {', '.join(names)}", where)
         kind = known[key]
         if _is_settings(kind):
             if not isinstance(value, Mapping):
-                raise ConfigError(f"{where} must be a table, got {value!r}")
+                raise ConfigError(f"{where} must be a table, got {value!r}", where)
             nested_base = getattr(base, key) if base is not None else _default(cls, key)
             changes[key] = build(kind, value, where, base=nested_base)
         else:
             changes[key] = _convert(value, kind, where)
     try:
         return dataclasses.replace(base, **changes) if base is not None else cls(**changes)
+    except ConfigError:
+        raise
     except (ValueError, TypeError) as err:  # the dataclass's own range checks, which name the field
-        raise ConfigError(str(err)) from None
+        raise ConfigError(str(err), section) from None
 
 
 def to_table(settings: Any) -> dict[str, Any]:

@@ -208,7 +208,23 @@ def load_experiment(
     tables["problem"].pop("name", None)
     tables["optimizer"].pop("name", None)
 
-    run = build(RunSettings, _table(tables, "run", source), "run")
-    problem_settings = build(settings_type, _table(tables, "problem", source), "problem")
-    optimizer_settings = build(optimizer_type, _table(tables, "optimizer", source), "optimizer")
+    given = [resolve_key(key, paths, TABLES) for key, _ in assignments if key not in ("problem.name", "optimizer.name")]
+    given += [f"run.{key}" for key, value in (run_changes or {}).items() if value is not None]
+    try:
+        run = build(RunSettings, _table(tables, "run", source), "run")
+        problem_settings = build(settings_type, _table(tables, "problem", source), "problem")
+        optimizer_settings = build(optimizer_type, _table(tables, "optimizer", source), "optimizer")
+    except ConfigError as err:
+        raise _attributed(err, path, given) from None
     return Experiment(run, spec.id, problem_settings, optimizer_name, optimizer_settings)
+
+
+def _attributed(err: ConfigError, path: str | os.PathLike | None, given: list[str]) -> ConfigError:
+    """``err`` saying where the value at fault came from: the file, the command line, or both."""
+    key = err.key or ""
+    from_command_line = any(g == key or g.startswith(key + ".") or key.startswith(g + ".") for g in given) if key else False
+    if from_command_line and (path is None or err.key in given):
+        return ConfigError(f"--set {err}" if err.key in given else f"--set: {err}", err.key)
+    if path is not None:
+        return ConfigError(f"{path}{' with --set' if from_command_line else ''}: {err}", err.key)
+    return err

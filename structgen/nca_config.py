@@ -10,11 +10,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from structgen.lattice import N_NEIGHBOURS
+from structgen.structure import MAX_COORDINATE
 
 __all__ = ["INIT_SCALE", "N_INPUTS", "N_OUTPUTS", "NCAConfig", "n_params"]
 
 N_INPUTS = 2 * N_NEIGHBOURS
 N_OUTPUTS = N_NEIGHBOURS
+# Upper bounds of the settings: far above any use, low enough that nothing computed from them overflows.
+MAX_HIDDEN, MAX_ITERATIONS, MAX_VERTICES = 100_000, 100_000, 2**31 - 1
 #: Range of the uniform distribution random NCAs are drawn from (the paper's mutation and initial bias range).
 INIT_SCALE = 0.25
 
@@ -47,16 +50,28 @@ class NCAConfig:
         def is_int(value: Any) -> bool:
             return isinstance(value, int) and not isinstance(value, bool)
 
-        need(is_int(self.hidden) and self.hidden >= 1, "hidden", "a positive integer")
-        need(is_int(self.iterations) and self.iterations >= 0, "iterations", "a non-negative integer")
+        need(is_int(self.hidden) and 1 <= self.hidden <= MAX_HIDDEN, "hidden", f"an integer from 1 to {MAX_HIDDEN:,}")
+        need(
+            is_int(self.iterations) and 0 <= self.iterations <= MAX_ITERATIONS,
+            "iterations",
+            f"an integer from 0 to {MAX_ITERATIONS:,}",
+        )
         need(
             isinstance(self.cutoff, (int, float)) and not isinstance(self.cutoff, bool) and 0 < self.cutoff < 1,
             "cutoff",
             "a number strictly between 0 and 1",
         )
         need(isinstance(self.build_down, bool), "build_down", "true or false")
-        need(is_int(self.max_vertices) and self.max_vertices >= 1, "max_vertices", "a positive integer")
-        need(is_int(self.max_extent) and self.max_extent >= 1, "max_extent", "a positive integer")
+        need(
+            is_int(self.max_vertices) and 1 <= self.max_vertices <= MAX_VERTICES,
+            "max_vertices",
+            f"an integer from 1 to {MAX_VERTICES:,}",
+        )
+        need(
+            is_int(self.max_extent) and 1 <= self.max_extent <= MAX_COORDINATE,
+            "max_extent",
+            f"an integer from 1 to {MAX_COORDINATE:,}",
+        )
 
 
 def n_params(config: NCAConfig | None = None) -> int:

@@ -84,8 +84,15 @@ def evolve(
         optimizer = experiment.make_optimizer(problem)
         path = run_dir or default_run_dir(experiment)
         folder = RunFolder.create(path, experiment.to_toml(), _manifest(experiment), overwrite=overwrite)
-        state = RunState(optimizer=optimizer)
-        return folder, _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
+        state = RunState(optimizer=optimizer, extra={"config": experiment.to_mapping()})
+        try:
+            with folder.locked():
+                state = _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
+        except BaseException:
+            if not (folder / RunFolder.CHECKPOINT).exists():  # nothing to resume: leave nothing behind
+                folder.remove()
+            raise
+        return folder, state
     finally:
         problem.close()
 
@@ -115,27 +122,78 @@ def resume(
     run had never stopped. ``workers`` and ``cluster`` change only where evaluation happens, not its results.
     """
     folder, experiment = open_run(run_dir)
-    state = folder.load_checkpoint()
-    _warn_on_new_versions(folder)
-    if generations is not None:
-        if generations < state.generation:
-            raise ConfigError(f"--generations {generations} is fewer than the {state.generation} already run")
-        if generations != experiment.run.generations:
-            experiment = experiment.with_run(generations=generations)
-            folder.write_config(experiment.to_toml())
-    runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
-    if runtime:
-        experiment = experiment.with_run(**runtime)
-    folder.truncate_metrics(state.generation)
-    if state.generation >= experiment.run.generations:
-        log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)
+    with folder.locked():
+        for leftover in folder.remove_temporary_files():
+            log.info("removed %s, left by a write that was cut short", leftover)
+        state = folder.load_checkpoint()
+        _warn_on_new_versions(folder)
+        experiment = _reconcile(folder, experiment, state)
+        if generations is not None:
+            if generations < state.generation:
+                raise ConfigError(f"--generations {generations} is fewer than the {state.generation} already run")
+            if generations != experiment.run.generations:
+                experiment = experiment.with_run(generations=generations)
+                folder.write_config(experiment.to_toml())
+                state.extra["config"] = experiment.to_mapping()
+        runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
+        if runtime:
+            experiment = experiment.with_run(**runtime)
+        folder.truncate_metrics(state.generation)
+        if state.generation >= experiment.run.generations:
+            log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)
+            return folder, state
+        log.info("%s: resuming after generation %d of %d", folder.path, state.generation, experiment.run.generations)
+        problem = experiment.make_problem()
+        try:
+            state = _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
+        finally:
+            problem.close()
         return folder, state
-    log.info("%s: resuming after generation %d of %d", folder.path, state.generation, experiment.run.generations)
-    problem = experiment.make_problem()
-    try:
-        return folder, _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
-    finally:
-        problem.close()
+
+
+#: Settings of a run that may change between sessions: they decide how long and where it runs, not its results.
+EDITABLE = ("run.generations", "run.workers", "run.cluster", "run.checkpoint_every", "run.plot_every")
+
+
+def _leaves(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    found: dict[str, Any] = {}
+    for key, value in table.items():
+        found.update(_leaves(value, f"{prefix}{key}.") if isinstance(value, dict) else {prefix + key: value})
+    return found
+
+
+def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> Experiment:
+    """The configuration to resume with: config.toml, if it differs from what the run recorded only in settings
+    that cannot change results (applied, and recorded); otherwise an error naming each changed setting."""
+    current = experiment.to_mapping()
+    recorded = state.extra.get("config")
+    if recorded is None:  # a checkpoint from before runs recorded their configuration: the file is all there is
+        state.extra["config"] = current
+        return experiment
+    before, after = _leaves(recorded), _leaves(current)
+    changed = sorted(key for key in before.keys() | after.keys() if before.get(key) != after.get(key))
+    fixed = [key for key in changed if key not in EDITABLE]
+    if fixed:
+        listing = "; ".join(f"{key} {before.get(key, '(unset)')!r} -> {after.get(key, '(unset)')!r}" for key in fixed)
+        raise RunFolderError(
+            f"{folder / RunFolder.CONFIG}: edited since the run began, in settings a run cannot change: {listing}. "
+            f"Undo the edit to resume, or start a new run from it: structgen evolve {folder / RunFolder.CONFIG} "
+            "--run-dir NEW"
+        )
+    if changed:
+        if experiment.run.generations < state.generation:
+            raise ConfigError(
+                f"{folder / RunFolder.CONFIG}: run.generations = {experiment.run.generations} is fewer than the "
+                f"{state.generation} already run"
+            )
+        log.info(
+            "%s: applying edits: %s",
+            folder / RunFolder.CONFIG,
+            ", ".join(f"{k} {before.get(k)!r} -> {after.get(k)!r}" for k in changed),
+        )
+        state.extra["config"] = current
+        folder.write_config(experiment.to_toml())
+    return experiment
 
 
 def _warn_on_new_versions(folder: RunFolder) -> None:

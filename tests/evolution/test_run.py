@@ -157,20 +157,70 @@ def test_an_archive_whose_genome_file_was_cut_short_is_refused(tmp_path):
 
 
 # -- run folders are never overwritten by accident ---------------------------------------------------------------------
-def test_existing_folders_are_refused_unless_overwriting_a_run(tmp_path):
+def test_existing_folders_are_refused_unless_overwriting_a_marked_run(tmp_path):
     RunFolder.create(tmp_path / "run", "[run]\n", {})
     with pytest.raises(RunFolderError, match="already exists"):
         RunFolder.create(tmp_path / "run", "[run]\n", {})
     RunFolder.create(tmp_path / "run", "[run]\nnew = 1\n", {}, overwrite=True)
     assert "new = 1" in (tmp_path / "run" / "config.toml").read_text()
-    (tmp_path / "photos").mkdir()
-    (tmp_path / "photos" / "cat.jpg").write_bytes(b"\xff")
-    with pytest.raises(RunFolderError, match="not a run folder; refusing"):
-        RunFolder.create(tmp_path / "photos", "[run]\n", {}, overwrite=True)
-    assert (tmp_path / "photos" / "cat.jpg").exists()
+    # A project that happens to hold a config.toml is not a run folder: nothing in it is touched.
+    project = tmp_path / "proj"
+    (project / "src").mkdir(parents=True)
+    for name in ("config.toml", "important.txt", "src/main.py"):
+        (project / name).write_text("keep me")
+    with pytest.raises(RunFolderError, match="not a run folder .*lacks the run-folder mark.*refusing"):
+        RunFolder.create(project, "[run]\n", {}, overwrite=True)
+    assert sorted(str(p.relative_to(project)) for p in project.rglob("*")) == [
+        "config.toml",
+        "important.txt",
+        "src",
+        "src/main.py",
+    ]
+    (tmp_path / "link").symlink_to(tmp_path / "run")
+    with pytest.raises(RunFolderError, match="is a symbolic link"):
+        RunFolder.create(tmp_path / "link", "[run]\n", {}, overwrite=True)
     RunFolder.create(tmp_path / "empty", "[run]\n", {})  # a missing folder is fine
     (tmp_path / "blank").mkdir()
     RunFolder.create(tmp_path / "blank", "[run]\n", {})  # and so is an empty one
+
+
+def test_one_process_at_a_time_writes_a_run(tmp_path):
+    folder = RunFolder.create(tmp_path / "run", "[run]\n", {})
+    with folder.locked():
+        with pytest.raises(RunFolderError, match=rf"another structgen process \(pid {os.getpid()}\) is writing this run"):
+            with RunFolder(folder.path).locked():
+                pass
+        with pytest.raises(RunFolderError, match="is writing this run"):
+            RunFolder.create(folder.path, "[run]\n", {}, overwrite=True)
+    with RunFolder(folder.path).locked():  # released at the end of the block
+        pass
+
+
+def test_leftovers_of_cut_writes_are_removed_and_nothing_else(tmp_path):
+    folder = RunFolder.create(tmp_path / "run", "[run]\n", {})
+    (folder / "best").mkdir()
+    leftovers = [folder / ".archive.csv.0123456789ab.tmp", folder / "best" / ".genome.npy.abcdef012345.tmp"]
+    keep = [folder / "notes.tmp", folder / ".hidden", folder / "best" / "genome.npy"]
+    for path in leftovers + keep:
+        path.write_text("x")
+    assert sorted(folder.remove_temporary_files()) == sorted(leftovers)
+    assert all(path.exists() for path in keep) and not any(path.exists() for path in leftovers)
+
+
+def test_writes_never_follow_a_symbolic_link_out_of_the_run(tmp_path):
+    folder, problem, state, settings = new_run(tmp_path, "run", "ga-sphere", 1)
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (folder / "best").symlink_to(outside)
+    with pytest.raises(RunFolderError, match="best: is not a folder of this run"):
+        advance(folder, problem, state, settings, SerialEvaluator(), progress=False)
+    assert list(outside.iterdir()) == []
+    (folder / "best").unlink()
+    (folder / "metrics.jsonl").unlink(missing_ok=True)
+    (folder / "metrics.jsonl").symlink_to(outside / "stolen.jsonl")
+    with pytest.raises(RunFolderError, match="metrics.jsonl: is a symbolic link"):
+        folder.append_metrics({"generation": 1})
+    assert list(outside.iterdir()) == []
 
 
 def test_opening_and_resuming_broken_folders_fails_clearly(tmp_path):

@@ -18,11 +18,14 @@ from typing import Any
 from structgen.commands import (
     EXIT_FAILURE,
     EXIT_OK,
+    MAX_SEED,
     DomainCommands,
     InputError,
     add_set_option,
+    output_path,
     settings_from_args,
     verbs_wanted,
+    whole_number,
 )
 from structgen.structure import Structure
 
@@ -315,7 +318,9 @@ def _add_grow(subparsers: Any) -> None:
         "(structure JSON, or a mesh: .glb, .obj, .stl, .ply).",
     )
     source = grow.add_mutually_exclusive_group()
-    source.add_argument("--seed", type=int, default=0, metavar="N", help="random NCA drawn with this seed (default 0)")
+    source.add_argument(
+        "--seed", type=whole_number(0, MAX_SEED), default=0, metavar="N", help="random NCA drawn with this seed (default 0)"
+    )
     source.add_argument("--weights", metavar="FILE", help="NCA weights: .npy (1-D array) or .json (list of numbers)")
     source.add_argument(
         "--run",
@@ -323,7 +328,9 @@ def _add_grow(subparsers: Any) -> None:
         help="an evolution run's NCA (its settings, then any NCA options given here, e.g. more --iterations)",
     )
     grow.add_argument("--elite", default="best", metavar="best|index:I", help="with --run: which NCA (default best)")
-    grow.add_argument("-o", "--output", required=True, metavar="OUT", help="output file; format from the suffix")
+    grow.add_argument(
+        "-o", "--output", required=True, type=output_path, metavar="OUT", help="output file; format from the suffix"
+    )
     _add_nca_options(grow)
     _add_mesh_options(grow, "mesh dimensions (mesh formats only; defaults match the physics model)")
     add_set_option(grow, "the NCA (nca.*) and the mesh (mesh.*)", "nca.cutoff=0.6 or sphere_radius=0.2")
@@ -365,8 +372,8 @@ def _add_render(subparsers: Any) -> None:
         "it as placed and as it ended up, broken joints in red, to a PNG image (no display needed).",
     )
     render.add_argument("file", metavar="FILE", help="structure JSON file")
-    render.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image to write")
-    render.add_argument("--dpi", type=int, default=110, help="image resolution (default 110)")
+    render.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png", help="image to write")
+    render.add_argument("--dpi", type=whole_number(10, 1200), default=110, help="image resolution, 10..1200 (default 110)")
     _add_physics_options(render)
     render.set_defaults(handler=cmd_render)
 

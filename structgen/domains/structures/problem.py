@@ -72,8 +72,9 @@ class StructuresSettings:
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.init_scale, (int, float)) and self.init_scale > 0):
-            raise ValueError(f"problem init_scale must be a positive number, got {self.init_scale!r}")
+        scale = self.init_scale
+        if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0 < scale < 1e6):
+            raise ValueError(f"problem init_scale must be a positive number below 1e6, got {scale!r}")
         if self.evaluator not in EVALUATORS:
             raise ValueError(f"problem evaluator must be one of {', '.join(EVALUATORS)}, got {self.evaluator!r}")
 

@@ -1,0 +1,126 @@
+"""Run folders are owned: one writer at a time, edits to config.toml applied only where sound, leftovers of killed
+writes cleaned, and a run that fails before its first checkpoint leaves nothing behind."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import structgen.experiment
+from evolution.toys import Sphere
+from structgen.cli import main
+from structgen.experiment import load_experiment
+from structgen.runs import evolve
+
+SPHERE = "[run]\ngenerations = {generations}\nworkers = 0\nseed = 2\n[problem]\nname = 'sphere-v0'\n[optimizer]\nname = 'ga'\npopulation = 8\nparents = 2\n"
+
+
+def config(tmp_path: Path, generations: int = 4) -> Path:
+    path = tmp_path / "sphere.toml"
+    path.write_text(SPHERE.format(generations=generations))
+    return path
+
+
+def metrics(run: Path) -> list[dict]:
+    return [
+        {k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in (run / "metrics.jsonl").read_text().splitlines()
+    ]
+
+
+def cli(capsys, *argv) -> tuple[int, str]:
+    code = main([str(a) for a in argv])
+    return code, capsys.readouterr().err
+
+
+def test_a_second_writer_is_refused_while_a_run_is_going(tmp_path, capsys):
+    slow = tmp_path / "slow.toml"
+    # The structures domain with faithful physics: slow enough to be caught in the middle.
+    slow.write_text(
+        "[run]\ngenerations = 50\nworkers = 0\n[problem.nca]\nmax_vertices = 16\n[problem.physics]\npreset = 'faithful'\n[optimizer]\npopulation = 4\nparents = 1\n"
+    )
+    run = tmp_path / "run"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "structgen", "evolve", str(slow), "--run-dir", str(run)], stderr=subprocess.PIPE
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (run / "metrics.jsonl").exists():
+            assert process.poll() is None and time.monotonic() < deadline, process.stderr.read().decode()
+            time.sleep(0.1)
+        code, err = cli(capsys, "resume", run)
+        assert code == 2 and f"another structgen process (pid {process.pid}) is writing this run" in err
+        code, err = cli(capsys, "evolve", slow, "--run-dir", run, "--overwrite")
+        assert code == 2 and "is writing this run" in err
+        assert run.exists() and process.poll() is None
+    finally:
+        process.kill()
+        process.wait()
+    rows = metrics(run)
+    assert [row["generation"] for row in rows] == list(range(1, len(rows) + 1))  # one writer, nothing interleaved
+
+
+def test_editing_how_long_a_run_goes_is_applied_and_recorded(tmp_path, capsys):
+    cli(capsys, "evolve", config(tmp_path, 4), "--run-dir", tmp_path / "whole")
+    assert cli(capsys, "evolve", config(tmp_path, 2), "--run-dir", tmp_path / "run")[0] == 0
+    path = tmp_path / "run" / "config.toml"
+    path.write_text(path.read_text().replace("generations = 2", "generations = 4").replace("plot_every = 10", "plot_every = 3"))
+    assert cli(capsys, "resume", tmp_path / "run")[0] == 0
+    assert metrics(tmp_path / "run") == metrics(tmp_path / "whole")
+    assert "plot_every = 3" in path.read_text()
+
+
+@pytest.mark.parametrize("edit, named", [("population = 8", "optimizer.population 8 -> 9"), ("seed = 2", "run.seed 2 -> 3")])
+def test_editing_what_a_run_computes_is_refused_naming_the_setting(tmp_path, capsys, edit, named):
+    run = tmp_path / "run"
+    cli(capsys, "evolve", config(tmp_path, 2), "--run-dir", run)
+    before = {name: (run / name).read_bytes() for name in ("metrics.jsonl", "checkpoint.pkl")}
+    path = run / "config.toml"
+    path.write_text(path.read_text().replace(edit, edit[:-1] + str(int(edit[-1]) + 1)))
+    code, err = cli(capsys, "resume", run, "--generations", 4)
+    assert code == 2 and "edited since the run began, in settings a run cannot change" in err and named in err
+    assert len(err.strip().splitlines()) == 1
+    assert {name: (run / name).read_bytes() for name in before} == before
+
+
+def test_leftovers_of_a_killed_write_are_cleaned_on_resume(tmp_path, capsys):
+    run = tmp_path / "run"
+    cli(capsys, "evolve", config(tmp_path, 2), "--run-dir", run)
+    leftover = run / ".checkpoint.pkl.0123456789ab.tmp"
+    leftover.write_bytes(b"half a checkpoint")
+    assert cli(capsys, "resume", run, "--generations", 3)[0] == 0
+    assert not leftover.exists()
+
+
+class Failing(Sphere):
+    def evaluate(self, genomes, seeds):
+        raise RuntimeError("the simulator broke")
+
+
+def test_a_run_that_fails_before_its_first_checkpoint_leaves_no_folder(tmp_path, monkeypatch):
+    monkeypatch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: Failing())
+    experiment = load_experiment(config(tmp_path))
+    with pytest.raises(RuntimeError, match="the simulator broke"):
+        evolve(experiment, tmp_path / "run", progress=False)
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_run_that_fails_later_keeps_its_folder_to_resume(tmp_path, monkeypatch):
+    calls = {"n": 0}
+
+    class FailsSecond(Sphere):
+        def evaluate(self, genomes, seeds):
+            calls["n"] += 1
+            if calls["n"] == 2:
+                raise RuntimeError("the simulator broke")
+            return super().evaluate(np.asarray(genomes), seeds)
+
+    monkeypatch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: FailsSecond())
+    with pytest.raises(RuntimeError):
+        evolve(load_experiment(config(tmp_path)), tmp_path / "run", progress=False)
+    assert (tmp_path / "run" / "checkpoint.pkl").exists()
