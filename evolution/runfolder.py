@@ -5,7 +5,8 @@ A run folder holds:
 - ``config.toml``: the resolved configuration (written by the caller; ``resume`` reads only this).
 - ``manifest.json``: library versions, start time, command line.
 - ``checkpoint.pkl``: the loop's :class:`RunState` after the last checkpointed generation, written atomically
-  (temporary file, then rename) and only between generations. Pickle is only for resuming.
+  (temporary file, then rename) and only between generations. Pickle is only for resuming, and loading one runs
+  nothing it contains (:mod:`evolution.checkpoint`).
 - ``metrics.jsonl``: one JSON object per generation; on resume it is cut back to the checkpoint.
 - ``archive.csv``: the quality-diversity archive, one row per elite, numbers only (``pandas.read_csv`` reads it as
   it is). The genome of each row, in the same order, is in ``archive_solutions.npy`` for flat genomes and in
@@ -37,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from evolution import checkpoint
 from evolution.files import GiB, InputFileError, MiB, atomic_write, parse_json, read_bytes, read_json, read_npy, read_text
 from evolution.optimizers import Optimizer
 from evolution.problem import Problem
@@ -222,9 +224,11 @@ class RunFolder:
         if not path.is_file():
             raise RunFolderError(f"{self.path}: no checkpoint yet (the run stopped before its first generation ended)")
         try:
-            data = pickle.loads(read_bytes(path, _MAX_STATE))
+            data = checkpoint.loads(read_bytes(path, _MAX_STATE))
         except InputFileError:
             raise
+        except checkpoint.UnsafeCheckpointError as err:
+            raise RunFolderError(f"{path}: refusing to load this checkpoint: {err}") from None
         except Exception as err:  # a checkpoint from another version, or a damaged file
             raise RunFolderError(f"{path}: cannot read the checkpoint ({type(err).__name__}: {err})") from None
         if not isinstance(data, dict) or data.get("schema") != CHECKPOINT_SCHEMA:

@@ -18,7 +18,18 @@ from structgen.cli import main
 from structgen.experiment import load_experiment
 from structgen.runs import evolve
 
-SPHERE = "[run]\ngenerations = {generations}\nworkers = 0\nseed = 2\n[problem]\nname = 'sphere-v0'\n[optimizer]\nname = 'ga'\npopulation = 8\nparents = 2\n"
+SPHERE = """\
+[run]
+generations = {generations}
+workers = 0
+seed = 2
+[problem]
+name = "sphere-v0"
+[optimizer]
+name = "ga"
+population = 8
+parents = 2
+"""
 
 
 def config(tmp_path: Path, generations: int = 4) -> Path:
@@ -38,6 +49,7 @@ def cli(capsys, *argv) -> tuple[int, str]:
     return code, capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_second_writer_is_refused_while_a_run_is_going(tmp_path, capsys):
     slow = tmp_path / "slow.toml"
     # The structures domain with faithful physics: slow enough to be caught in the middle.

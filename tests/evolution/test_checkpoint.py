@@ -1,0 +1,101 @@
+"""Checkpoints load without running anything they contain: crafted ones are refused before any of their code runs,
+and every checkpoint the engine writes loads to the same objects as plain unpickling would give."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import pickletools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evolution import RunFolder, RunFolderError, RunSettings, RunState, SerialEvaluator, advance, checkpoint, make_optimizer
+from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
+from evolution.toys import Ones, Sphere
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "runs_0.1.0"
+
+
+class RunsACommand:
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return os.system, (f"touch {self.marker}",)
+
+
+def global_call(module: str, name: str, *args) -> bytes:
+    """A hand-made pickle that calls module.name(*args) with protocol 2 instructions."""
+    body = b"c" + f"{module}\n{name}\n".encode() + pickle.dumps(args, protocol=2)[2:-1] + pickle.REDUCE + pickle.STOP
+    return pickle.PROTO + b"\x02" + body
+
+
+def test_a_checkpoint_that_runs_a_command_is_refused_before_it_runs(tmp_path):
+    marker = tmp_path / "PWNED"
+    folder = RunFolder.create(tmp_path / "run", "", {})
+    (folder / "checkpoint.pkl").write_bytes(pickle.dumps({"schema": 1, "state": RunsACommand(marker)}))
+    with pytest.raises(RunFolderError, match=r"refusing to load this checkpoint: it names (posix|os)\.system"):
+        folder.load_checkpoint()
+    assert not marker.exists()
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (global_call("builtins", "eval", "print('hi')"), "it names builtins.eval"),
+        (global_call("builtins", "getattr", 1, "real"), "it names builtins.getattr"),
+        (global_call("subprocess", "Popen", ["true"]), "it names subprocess.Popen"),
+        (global_call("numpy", "memmap", "/tmp/x", "uint8", "w+", 0, (1,)), "it names numpy.memmap"),
+        # A class of an optimiser library is admitted, but may not be called: calling runs its __init__.
+        (global_call("cma.evolution_strategy", "CMAEvolutionStrategy", [0.0, 0.0], 1.0), "it asks to call"),
+        (global_call("evolution.runfolder", "RunFolder", "/"), "it asks to call 'RunFolder'"),
+        (b"(cos\nsystem\nS'true'\no.", "it names os.system"),
+        (b"(i__builtin__\nobject\n.", "call constructors"),
+    ],
+)
+def test_crafted_pickles_are_refused(data, message):
+    with pytest.raises(checkpoint.UnsafeCheckpointError, match=message):
+        checkpoint.loads(data)
+
+
+def test_a_module_import_hidden_in_pyribs_state_is_refused():
+    from ribs.archives import GridArchive
+
+    store = GridArchive(solution_dim=2, dims=(2, 2), ranges=[(0, 1), (0, 1)])._store
+    data = pickle.dumps(store)
+    state_name = b"array_api_compat.numpy"
+    crafted = data.replace(bytes([len(state_name)]) + state_name, bytes([len(b"antigravity")]) + b"antigravity")
+    assert crafted != data
+    with pytest.raises(checkpoint.UnsafeCheckpointError, match="import the module 'antigravity'"):
+        checkpoint.loads(crafted)
+
+
+OPTIMIZERS = {
+    "ga": (Sphere, GASettings(population=6, parents=2)),
+    "cma_es": (Sphere, CMAESSettings(population=6)),
+    "map_elites": (Ones, MapElitesSettings(cells=(4, 4), batch_size=6)),
+    "cma_mae": (Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3)),
+}
+
+
+@pytest.mark.parametrize("name", list(OPTIMIZERS))
+def test_every_optimizers_checkpoint_loads_as_plain_unpickling_would(tmp_path, name):
+    problem_type, settings = OPTIMIZERS[name]
+    problem = problem_type()
+    folder = RunFolder.create(tmp_path / name, "", {})
+    state = RunState(make_optimizer(name, problem, settings, seed=1))
+    advance(folder, problem, state, RunSettings(generations=2, workers=0), SerialEvaluator(), progress=False)
+    data = (folder / "checkpoint.pkl").read_bytes()
+    assert pickle.dumps(checkpoint.loads(data)) == pickle.dumps(pickle.loads(data))
+    assert folder.load_checkpoint().generation == 2
+
+
+@pytest.mark.parametrize("run", sorted(p.name for p in FIXTURES.iterdir() if p.is_dir()))
+def test_checkpoints_of_structgen_0_1_load(run):
+    data = (FIXTURES / run / "checkpoint.pkl").read_bytes()
+    assert pickle.dumps(checkpoint.loads(data)) == pickle.dumps(pickle.loads(data))
+    # Every instruction that names something is one the loader had to admit: none of them is a call it refused.
+    assert any(op.name in ("GLOBAL", "STACK_GLOBAL") for op, _, _ in pickletools.genops(data))
+    assert np.isfinite(checkpoint.loads(data)["state"].best.objective)
