@@ -54,7 +54,8 @@ def test_a_second_writer_is_refused_while_a_run_is_going(tmp_path, capsys):
     slow = tmp_path / "slow.toml"
     # The structures domain with faithful physics: slow enough to be caught in the middle.
     slow.write_text(
-        "[run]\ngenerations = 50\nworkers = 0\n[problem.nca]\nmax_vertices = 16\n[problem.physics]\npreset = 'faithful'\n[optimizer]\npopulation = 4\nparents = 1\n"
+        "[run]\ngenerations = 50\nworkers = 0\n[problem.nca]\nmax_vertices = 16\n"
+        "[problem.physics]\npreset = 'faithful'\n[optimizer]\npopulation = 4\nparents = 1\n"
     )
     run = tmp_path / "run"
     process = subprocess.Popen(
