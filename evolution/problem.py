@@ -32,11 +32,14 @@ class Evaluation:
         objective: ``(n,)`` float, higher is better.
         measures: ``(n, m)`` float behaviour descriptors for quality diversity; ``(n, 0)`` if the problem has none.
         fields: extra per-candidate numbers, each ``(n,)`` float (integrity, vertex count, ...).
+        failed: ``(n,)`` bool: candidates that could not be evaluated at all (their worker died or hung twice) and
+            carry the scores of :meth:`Problem.failed_evaluation` instead. All False unless an evaluator says so.
     """
 
     objective: np.ndarray
     measures: np.ndarray
     fields: dict[str, np.ndarray] = field(default_factory=dict)
+    failed: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         objective = np.asarray(self.objective, dtype=np.float64).reshape(-1)
@@ -48,9 +51,11 @@ class Evaluation:
                 raise ValueError(f"field {name!r} has {len(values)} values for {n} candidates")
         if not np.isfinite(objective).all() or not np.isfinite(measures).all():
             raise ValueError("objective and measures must be finite numbers (a problem returned NaN or infinity)")
+        failed = np.zeros(n, dtype=bool) if self.failed is None else np.asarray(self.failed, dtype=bool).reshape(n)
         object.__setattr__(self, "objective", objective)
         object.__setattr__(self, "measures", measures)
         object.__setattr__(self, "fields", fields)
+        object.__setattr__(self, "failed", failed)
 
     def __len__(self) -> int:
         return len(self.objective)
@@ -63,6 +68,7 @@ class Evaluation:
             objective=np.concatenate([p.objective for p in parts]),
             measures=np.concatenate([p.measures for p in parts]),
             fields={name: np.concatenate([p.fields[name] for p in parts]) for name in names},
+            failed=np.concatenate([p.failed for p in parts]),
         )
 
     def row(self, i: int) -> dict[str, Any]:
@@ -109,6 +115,18 @@ class Problem:
     def evaluate(self, genomes: Any, seeds: np.ndarray) -> Evaluation:
         """Evaluate a batch; ``seeds[i]`` is the seed for candidate ``i`` (deterministic problems may ignore it)."""
         raise NotImplementedError
+
+    def failed_evaluation(self, count: int) -> Evaluation:
+        """What ``count`` candidates that could not be evaluated at all score: the objective floor, the low corner of
+        the measure space, zero in every field, flagged as failed. They stay in the run (an optimiser needs a result
+        for every candidate it asked for) and lose to anything that was evaluated."""
+        low = [low for low, _ in self.measure_ranges]
+        return Evaluation(
+            objective=np.full(count, self.objective_floor),
+            measures=np.tile(np.asarray(low, dtype=np.float64), (count, 1)).reshape(count, len(low)),
+            fields={name: np.zeros(count) for name in self.field_names},
+            failed=np.ones(count, dtype=bool),
+        )
 
     def mutate(self, genome: Any, rng: np.random.Generator) -> Any:
         """A mutated copy of ``genome`` (required for object genomes; never modify the argument)."""

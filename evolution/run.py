@@ -56,6 +56,8 @@ class RunSettings:
         workers: local evaluation processes; 0 evaluates in the main process.
         cluster: address of a Dask scheduler; when set, evaluation goes there instead of local processes.
         plot_every: redraw the plots every this many generations (and always at the end).
+        evaluation_timeout: seconds one candidate may take in a worker process before the worker is taken for hung
+            and replaced (its candidates are tried once more, then scored as failed); 0 for no limit.
     """
 
     generations: int = 20
@@ -64,6 +66,7 @@ class RunSettings:
     workers: int = 2
     cluster: str = ""
     plot_every: int = 10
+    evaluation_timeout: float = 600.0
 
     def __post_init__(self) -> None:
         def whole(name: str, low: int, high: int) -> None:
@@ -75,6 +78,9 @@ class RunSettings:
             whole(name, 1, 10**9)
         whole("workers", 0, 1024)
         whole("seed", 0, 2**63 - 1)
+        timeout = self.evaluation_timeout
+        if not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or not 0 <= timeout < math.inf:
+            raise ValueError(f"run evaluation_timeout must be a number of seconds, 0 for no limit, got {timeout!r}")
 
 
 @contextlib.contextmanager
@@ -122,6 +128,9 @@ def _metrics_row(state: RunState, evaluation: Evaluation, optimizer: Optimizer, 
                 "num_elites": int(stats.num_elites),
             }
         )
+    failed = int(evaluation.failed.sum())
+    if failed:  # candidates that could not be evaluated at all (see PoolEvaluator); absent when there are none
+        row["failed_evaluations"] = failed
     row["wall_s"] = round(state.elapsed, 3)
     return row
 

@@ -63,7 +63,8 @@ def _manifest(experiment: Experiment) -> dict[str, Any]:
 
 
 def _advance(folder: RunFolder, experiment: Experiment, problem: Problem, state: RunState, **options: Any) -> RunState:
-    with make_evaluator(experiment.run.workers, experiment.run.cluster) as evaluator:
+    timeout = experiment.run.evaluation_timeout or None
+    with make_evaluator(experiment.run.workers, experiment.run.cluster, timeout) as evaluator:
         return advance(folder, problem, state, experiment.run, evaluator, **options)
 
 
@@ -152,7 +153,14 @@ def resume(
 
 
 #: Settings of a run that may change between sessions: they decide how long and where it runs, not its results.
-EDITABLE = ("run.generations", "run.workers", "run.cluster", "run.checkpoint_every", "run.plot_every")
+EDITABLE = (
+    "run.generations",
+    "run.workers",
+    "run.cluster",
+    "run.checkpoint_every",
+    "run.plot_every",
+    "run.evaluation_timeout",
+)
 
 
 def _leaves(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:

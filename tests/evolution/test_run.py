@@ -289,19 +289,6 @@ def test_the_pool_sends_the_problem_to_its_workers_once():
     assert CountsPickles.pickled == 1
 
 
-class Crashing(Sphere):
-    """Kills the process that evaluates it: stands in for a simulator crashing inside a worker."""
-
-    def evaluate(self, genomes, seeds):
-        os._exit(3)
-
-
-def test_a_dying_worker_raises_an_evaluation_error():
-    problem, genomes, seeds = noisy_batch()
-    with PoolEvaluator(1) as pool, pytest.raises(EvaluationError, match="worker process died"):
-        pool.evaluate(Crashing(), genomes, seeds)
-
-
 def test_dask_evaluation_equals_serial_evaluation():
     distributed = pytest.importorskip("distributed")
     from evolution import DaskEvaluator
