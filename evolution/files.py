@@ -190,21 +190,23 @@ def check_output(path: str | os.PathLike) -> Path:
     """Fail now, as writing would, if ``path`` cannot be written: it is a folder, a part of it is a file, a name is
     too long, or the first folder that exists on the way is not writable. Missing folders are fine (they are made)."""
     path = Path(path)
-    if path.is_dir():
-        raise InputFileError(f"{path}: is a folder, expected an output file name")
     limit = os.pathconf("/", "PC_NAME_MAX") if hasattr(os, "pathconf") else 255
-    for part in path.parts:
-        if len(os.fsencode(part)) > limit:
-            raise InputFileError(f"{path}: file name too long")
-    folder = path.parent
-    while not folder.exists():
-        if folder.is_symlink():  # a dangling link where a folder should be
-            raise InputFileError(f"{path}: {folder} is a broken symbolic link")
-        folder = folder.parent
-    if not folder.is_dir():
-        raise InputFileError(f"{path}: {folder} is a file, not a folder")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise InputFileError(f"{path}: permission denied (cannot write in {folder})")
+    if any(len(os.fsencode(part)) > limit for part in path.parts):
+        raise InputFileError(f"{path}: file name too long")
+    try:
+        if path.is_dir():
+            raise InputFileError(f"{path}: is a folder, expected an output file name")
+        folder = path.parent
+        while not folder.exists():
+            if folder.is_symlink():  # a dangling link where a folder should be
+                raise InputFileError(f"{path}: {folder} is a broken symbolic link")
+            folder = folder.parent
+        if not folder.is_dir():
+            raise InputFileError(f"{path}: {folder} is a file, not a folder")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise InputFileError(f"{path}: permission denied (cannot write in {folder})")
+    except OSError as err:
+        raise _path_error(path, err, writing=True) from None
     return path
 
 

@@ -348,7 +348,10 @@ class RunFolder:
         path = self / self.ARCHIVE
         if not path.is_file():
             raise RunFolderError(f"{self.path}: this run has no archive (only quality-diversity runs keep one)")
-        rows = list(csv.DictReader(io.StringIO(read_text(path, _MAX_TABLE, what="CSV"), newline="")))
+        reader = csv.DictReader(io.StringIO(read_text(path, _MAX_TABLE, what="CSV"), newline=""))
+        if not reader.fieldnames or reader.fieldnames[:2] != ["index", "objective"]:
+            raise InputFileError(f"{path}: not an archive (its first line should name the columns index, objective, ...)")
+        rows = list(reader)
         cells = []
         for number, row in enumerate(rows, start=2):
             try:

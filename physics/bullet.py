@@ -65,6 +65,7 @@ class Outcome:
     steps: int
     settled: bool
     exploded: bool
+    final_speeds: np.ndarray  # (V,) each vertex's speed at the last check, m/s
 
 
 def simulate(bodies: Bodies, config: PhysicsConfig) -> Outcome:
@@ -168,6 +169,7 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
     peak_sq = 0.0
     quiet_checks, settled, exploded = 0, False, False
     steps_done = 0
+    sphere_speeds = np.zeros(len(spheres))
     for n in range(1, n_steps + 1):
         step(physicsClientId=cid)
         steps_done = n
@@ -198,7 +200,8 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
         ):
             exploded = True
             break
-        quiet_checks = quiet_checks + 1 if speed[: len(spheres)].max() < config.settle_speed else 0
+        sphere_speeds = speed[: len(spheres)]
+        quiet_checks = quiet_checks + 1 if sphere_speeds.max() < config.settle_speed else 0
         settled = quiet_checks >= quiet_needed
         if settled and config.early_stop:
             break
@@ -221,4 +224,5 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
         steps=steps_done,
         settled=settled,
         exploded=exploded,
+        final_speeds=sphere_speeds,
     )

@@ -57,6 +57,14 @@ class PhysicsConfig:
         max_vertices: structures with more vertices are refused before simulating.
         max_joints: structures with more joints (two per edge) are refused; PyBullet's first step costs time
             growing with the square of the joint count.
+        max_memory_mb: the static analysis refuses structures whose solve it estimates to need more memory than
+            this (MiB; about 20,000 vertices by default).
+        max_steps: a check that would take more simulation steps than this (``horizon / timestep``) is refused
+            when the settings are made: a tiny timestep would otherwise run for days.
+        fall_speed: a vertex still faster than this (m/s) when the simulation ends is still falling (faster than a
+            fall from half a lattice unit): it adds no height, and the structure is not said to stand. Settling
+            debris moves far slower (at most 2.5 m/s at the end of the fast preset's 2 s, measured on 600 random
+            structures).
         max_speed: a body faster than this (m/s) means the simulation exploded.
         max_distance: a body further than this from where it started (m) means the simulation exploded.
         statics_load_factor: the static analysis (``physics.statics``) multiplies the part of a joint's force along
@@ -99,6 +107,9 @@ class PhysicsConfig:
     height_mode: Literal["max", "mean"] = "max"
     max_vertices: int = 2000
     max_joints: int = 3000
+    max_memory_mb: float = 4096.0
+    max_steps: int = 100_000
+    fall_speed: float = 3.0
     max_speed: float = 100.0
     max_distance: float = 1000.0
     statics_load_factor: float = 1.05
@@ -133,6 +144,12 @@ class PhysicsConfig:
             )
         if self.timestep > self.horizon:
             raise ValueError(f"physics timestep {self.timestep} is longer than the horizon {self.horizon}")
+        steps = self.horizon / self.timestep
+        if steps > self.max_steps:
+            raise ValueError(
+                f"physics horizon {self.horizon:g} s in steps of {self.timestep:g} s is {steps:,.0f} steps, more than "
+                f"max_steps = {self.max_steps:,}; use a longer timestep or a shorter horizon (or raise max_steps)"
+            )
 
     @classmethod
     def presets(cls) -> Mapping[str, PhysicsConfig]:

@@ -48,9 +48,13 @@ class StabilityReport:
     """The outcome of simulating one structure under gravity.
 
     ``integrity`` (I) is the share of joints still unbroken, ``height`` (H) the final height in lattice units (see
-    ``PhysicsConfig.height_mode``), ``complexity`` (C) the vertex count, and ``score`` (Q) the paper's
-    ``I + (W_h * H + W_c * C) * I``. A simulation that exploded, or a check that failed, reports I = 0 and Q = 0.
-    Positions are in metres, z up, with the ground at z = 0.
+    ``PhysicsConfig.height_mode``) of the vertices that are not still falling, ``complexity`` (C) the vertex count,
+    and ``score`` (Q) the paper's ``I + (W_h * H + W_c * C) * I``. A simulation that exploded, or a check that
+    failed, reports I = 0 and Q = 0. Positions are in metres, z up, with the ground at z = 0.
+
+    ``falling`` counts the vertices still faster than ``PhysicsConfig.fall_speed`` when the simulation ended (a
+    piece dropping from above, cut short by the horizon): they add no height. ``final_speed`` is the fastest
+    vertex's speed then. :attr:`stands` is the verdict: no joint broke and everything came to rest.
     """
 
     integrity: float
@@ -74,11 +78,40 @@ class StabilityReport:
     cpu_time: float = 0.0
     config: PhysicsConfig = field(default_factory=PhysicsConfig)
     method: str = "bullet"  # "bullet": simulated; "statics": predicted by physics.statics
+    falling: int = 0
+    final_speed: float = 0.0
 
     @property
     def intact(self) -> bool:
         """No joint broke and the simulation ran normally."""
         return not self.broken_joints and not self.exploded and self.error is None
+
+    @property
+    def stands(self) -> bool:
+        """The verdict: no joint broke, and the structure came to rest (settled, nothing still falling). An intact
+        structure that was still moving when the simulation ended is not said to stand: its fate is unknown."""
+        return self.intact and self.settled and self.falling == 0
+
+    def verdict(self) -> str:
+        """The outcome in a few words: stands, breaks, still falling, still moving, exploded, or failed."""
+        if self.error:
+            return f"check failed: {self.error}"
+        if self.exploded:
+            return "the simulation exploded (scored as collapsed)"
+        if self.broken_joints:
+            return f"breaks: {len(self.broken_joints)} of {self.n_joints} joints broke"
+        if self.falling:
+            return (
+                f"still falling when the simulation ended: {self.falling} "
+                f"{'vertex' if self.falling == 1 else 'vertices'} faster than {self.config.fall_speed:g} m/s, which add "
+                "no height"
+            )
+        if not self.settled:
+            return (
+                f"no joint broke, but it was still moving when the simulation ended (fastest vertex "
+                f"{self.final_speed:.2f} m/s after {self.sim_time:g} s): not judged to stand; a longer horizon decides"
+            )
+        return "stands: no joint broke, and it came to rest"
 
     @property
     def broken_edges(self) -> np.ndarray:
@@ -93,12 +126,15 @@ class StabilityReport:
             "complexity": self.complexity,
             "score": self.score,
             "intact": self.intact,
+            "stands": self.stands,
             "n_joints": self.n_joints,
             "broken_joints": [asdict(b) for b in self.broken_joints],
             "peak_force": self.peak_force,
             "sim_time": self.sim_time,
             "steps": self.steps,
             "settled": self.settled,
+            "falling": self.falling,
+            "final_speed": self.final_speed,
             "exploded": self.exploded,
             "error": self.error,
             "wall_time": self.wall_time,

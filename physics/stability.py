@@ -48,11 +48,13 @@ def check_stability(
         BrokenJoint(joint=j, edge=j // 2, vertex=int(edges[j // 2, j % 2]), time=t, force=f, torque=q)
         for j, t, f, q in outcome.broken
     )
+    falling = outcome.final_speeds > config.fall_speed
     if outcome.exploded:
         integrity, height = 0.0, 0.0
     else:
         integrity = integrity_of(len(broken), n_joints)
-        height = height_of(outcome.final_positions[:, 2], config)
+        # A vertex still dropping when the simulation ended is not where it will come to rest.
+        height = height_of(outcome.final_positions[~falling, 2], config)
     complexity = len(vertices)
     return StabilityReport(
         integrity=integrity,
@@ -71,6 +73,8 @@ def check_stability(
         steps=outcome.steps,
         settled=outcome.settled,
         exploded=outcome.exploded,
+        falling=int(falling.sum()),
+        final_speed=float(outcome.final_speeds.max(initial=0.0)),
         wall_time=time.perf_counter() - started_wall,
         cpu_time=time.process_time() - started_cpu,
         config=config,

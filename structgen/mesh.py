@@ -17,6 +17,7 @@ import numpy as np
 
 from evolution.files import atomic_write
 from physics.config import PhysicsConfig
+from structgen.budget import check_memory
 from structgen.errors import StructureError
 
 if TYPE_CHECKING:
@@ -82,9 +83,25 @@ def _rotations_z_to(directions: np.ndarray) -> np.ndarray:
     return rotations
 
 
+# Peak memory of an export per triangle, measured on lines of 20,000 to 100,000 vertices (GLB, several resolutions).
+_BYTES_PER_TRIANGLE = 200
+
+
+def triangles(structure: Structure, style: MeshStyle) -> int:
+    """How many triangles the mesh of ``structure`` has: 20 * 4**subdivisions per sphere, 4 * sections per cylinder."""
+    return structure.n_vertices * 20 * 4**style.sphere_subdivisions + structure.n_edges * 4 * style.cylinder_sections
+
+
 def _parts(structure: Structure, style: MeshStyle) -> tuple[trimesh.Trimesh, trimesh.Trimesh | None]:
     """The spheres and the cylinders as two meshes (cylinders ``None`` if there are no edges), z-up."""
     import trimesh
+
+    count = triangles(structure, style)
+    check_memory(
+        count * _BYTES_PER_TRIANGLE,
+        f"a mesh of {structure.n_vertices:,} vertices and {structure.n_edges:,} edges ({count:,} triangles)",
+        "use a lighter mesh (--sphere-subdivisions 0 --cylinder-sections 3)",
+    )
 
     centres = structure.vertices.astype(np.float64) * style.spacing
     ball = trimesh.creation.icosphere(subdivisions=style.sphere_subdivisions, radius=style.sphere_radius)

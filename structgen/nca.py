@@ -62,6 +62,7 @@ import numpy as np
 import torch
 
 from evolution.files import MiB, atomic_write, read_json, read_npy
+from structgen.budget import check_memory
 from structgen.lattice import N_DIRECTIONS, N_NEIGHBOURS, OFFSETS
 from structgen.nca_config import INIT_SCALE, N_INPUTS, N_OUTPUTS, NCAConfig, n_params
 from structgen.structure import Structure
@@ -182,6 +183,11 @@ def _gamma(n: int) -> float:
     return n * _U32 / (1 - n * _U32)
 
 
+# Memory of growth, per cell of the grids (state, wishes, masks and the step's copies) and per vertex that reads its
+# neighbourhood in a step (inputs, hidden layer, outputs, margins); generous, so the check never refuses work that fits.
+_BYTES_PER_CELL, _BYTES_PER_ROW = 100, 600
+
+
 class _Growth:
     """State of a population's growth as flat grids; every step is a few gathers, two batched matrix products and
     shifted elementwise operations, with no sorting.
@@ -218,6 +224,12 @@ class _Growth:
         self.radius = min(config.iterations, config.max_extent)
         side = self.side = 2 * self.radius + 3
         self.volume = side**3
+        check_memory(
+            _BYTES_PER_CELL * (self.population + 1) * self.volume
+            + _BYTES_PER_ROW * self.population * min(self.volume, config.max_vertices),
+            f"growing {self.population:,} NCA{'s' if self.population != 1 else ''} in boxes of {side}^3 cells",
+            "use fewer --iterations or a smaller --max-extent",
+        )
         offsets = torch.tensor(OFFSETS.tolist(), dtype=torch.int64)
         self.delta = offsets[:, 0] * side * side + offsets[:, 1] * side + offsets[:, 2]  # (26,) number steps
         self.forward_step = self.delta[N_DIRECTIONS:].tolist()  # positive steps of directions 13..25

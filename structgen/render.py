@@ -21,17 +21,6 @@ INTACT, BROKEN, VERTEX, GROUND = "#5b6f8a", "#d62728", "#e0703c", "#d9d4c7"
 _MAX_CROSSES = 200
 
 
-def _verdict(report: StabilityReport) -> str:
-    if report.error:
-        return f"check failed: {report.error}"
-    if report.exploded:
-        return "simulation exploded"
-    broken = len(report.broken_joints)
-    if broken == 0:
-        return "stands: no joint broke"
-    return f"breaks: {broken} of {report.n_joints} joints"
-
-
 def _after_title(report: StabilityReport) -> str:
     if report.method == "statics":
         rounds = report.steps
@@ -82,7 +71,7 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
     figure = Figure(figsize=(10, 5.2))
     FigureCanvasAgg(figure)
     summary = (
-        f"{_verdict(report)}   I = {report.integrity:.2f}, H = {report.height:.2f}, C = {report.complexity}, "
+        f"{report.verdict()}   I = {report.integrity:.2f}, H = {report.height:.2f}, C = {report.complexity}, "
         f"Q = {report.score:.2f}"
     )
     figure.suptitle(summary, fontsize=11)

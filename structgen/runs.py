@@ -179,10 +179,11 @@ def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> Ex
         state.extra["config"] = current
         return experiment
     before, after = _leaves(recorded), _leaves(current)
-    changed = sorted(key for key in before.keys() | after.keys() if before.get(key) != after.get(key))
+    # Settings only one side knows were added or removed by another version of structgen, not by an edit.
+    changed = sorted(key for key in before.keys() & after.keys() if before[key] != after[key])
     fixed = [key for key in changed if key not in EDITABLE]
     if fixed:
-        listing = "; ".join(f"{key} {before.get(key, '(unset)')!r} -> {after.get(key, '(unset)')!r}" for key in fixed)
+        listing = "; ".join(f"{key} {before[key]!r} -> {after[key]!r}" for key in fixed)
         raise RunFolderError(
             f"{folder / RunFolder.CONFIG}: edited since the run began, in settings a run cannot change: {listing}. "
             f"Undo the edit to resume, or start a new run from it: structgen evolve {folder / RunFolder.CONFIG} "
@@ -197,7 +198,7 @@ def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> Ex
         log.info(
             "%s: applying edits: %s",
             folder / RunFolder.CONFIG,
-            ", ".join(f"{k} {before.get(k)!r} -> {after.get(k)!r}" for k in changed),
+            ", ".join(f"{key} {before[key]!r} -> {after[key]!r}" for key in changed),
         )
         state.extra["config"] = current
         folder.write_config(experiment.to_toml())

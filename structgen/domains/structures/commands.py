@@ -261,9 +261,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         print(json.dumps({"file": str(args.file), **report.to_dict()}))
     else:
         broken = len(report.broken_joints)
-        verdict = "stands (no joint broke)" if report.intact else f"breaks ({broken} of {report.n_joints} joints broke)"
-        if report.exploded:
-            verdict = "the simulation exploded (scored as collapsed)"
+        verdict = report.verdict()
         statics = report.method == "statics"
         preset = report.config.preset_name
         rows = [
@@ -292,7 +290,7 @@ def cmd_check(args: argparse.Namespace) -> int:
             print(f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) {when}, {joint.force:.1f} N")
         if broken > 10:
             print(f"broken      ... and {broken - 10} more (--json lists all)")
-    if args.strict and not report.intact:
+    if args.strict and not report.stands:
         return EXIT_FAILURE
     return EXIT_OK
 
@@ -305,7 +303,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise InputError(f"{output}: render writes PNG images; give a name ending in .png")
     _, report = _checked(args)
     render_check(report, output, dpi=args.dpi)
-    print(f"{output}: {'stands' if report.intact else 'breaks'}, I = {report.integrity:.3f}, Q = {report.score:.3f}")
+    print(f"{output}: {report.verdict()}; I = {report.integrity:.3f}, Q = {report.score:.3f}")
     return EXIT_OK
 
 
@@ -355,11 +353,13 @@ def _add_check(subparsers: Any) -> None:
         description="Build FILE as rigid bodies (a sphere per vertex, a cylinder per edge, breakable fixed joints), "
         "rest it on the ground under gravity, and report integrity I (share of joints unbroken), height H, "
         "complexity C (vertex count) and the score Q = I + (Wh*H + Wc*C)*I. Exits 0 whether or not it stands "
-        "(1 with --strict if it breaks).",
+        "(1 with --strict unless it stands: no joint broke and it came to rest).",
     )
     check.add_argument("file", metavar="FILE", help="structure JSON file")
     check.add_argument("--json", action="store_true", help="print the whole report as one JSON object")
-    check.add_argument("--strict", action="store_true", help="exit with 1 if any joint breaks")
+    check.add_argument(
+        "--strict", action="store_true", help="exit with 1 unless it stands (a joint broke, or it never came to rest)"
+    )
     _add_physics_options(check)
     check.set_defaults(handler=cmd_check)
 

@@ -17,7 +17,8 @@ the check refuses (over its size caps) score 0.
 whole numbers, so a structure that sags from height 3 to 2.998 stays in the cell of height 3.
 
 ## Fields
-``integrity``, ``height``, ``complexity``, ``standing_height`` (the height if no joint broke, else 0), ``edges``,
+``integrity``, ``height``, ``complexity``, ``standing_height`` (the height if no joint broke and nothing was still
+falling when the simulation ended, else 0), ``edges``,
 ``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the check refused the structure), ``capped`` (0/1: growth
 stopped at the NCA's vertex cap) and ``evaluator`` (0: scored by the static solve, 1: by the simulation). Metrics
 record each generation's maximum of every field, so the tallest standing structure of a run is there even when it
@@ -117,7 +118,7 @@ class StableStructures(Problem):
             "integrity": [r.integrity for r in reports],
             "height": [r.height for r in reports],
             "complexity": [r.complexity for r in reports],
-            "standing_height": [r.height if r.intact else 0.0 for r in reports],
+            "standing_height": [r.height if r.intact and not r.falling else 0.0 for r in reports],
             "edges": [s.n_edges for s in structures],
             "broken_joints": [len(r.broken_joints) for r in reports],
             "settled": [float(r.settled) for r in reports],
