@@ -20,13 +20,25 @@ import numpy as np
 
 from evolution.problem import Evaluation, Problem
 
-__all__ = ["DaskEvaluator", "EvaluationError", "Evaluator", "PoolEvaluator", "SerialEvaluator", "make_evaluator"]
+__all__ = [
+    "DaskEvaluator",
+    "EvaluationError",
+    "Evaluator",
+    "PoolEvaluator",
+    "SerialEvaluator",
+    "UnreachableClusterError",
+    "make_evaluator",
+]
 
 log = logging.getLogger(__name__)
 
 
 class EvaluationError(RuntimeError):
-    """Evaluation could not complete (a worker died, the cluster went away)."""
+    """Evaluation could not complete (the problem raised an exception, the cluster went away)."""
+
+
+class UnreachableClusterError(EvaluationError):
+    """No Dask scheduler answers at the address given: the address is wrong, or the cluster is not running."""
 
 
 def _slices(count: int, parts: int) -> list[slice]:
@@ -243,7 +255,7 @@ class DaskEvaluator(Evaluator):
         try:
             self.client = Client(address, timeout=f"{timeout}s")
         except OSError as err:
-            raise EvaluationError(f"cannot reach the Dask scheduler at {address}: {err}") from None
+            raise UnreachableClusterError(f"cannot reach the Dask scheduler at {address}: {err}") from None
         self.slices = slices
         self._problem: Problem | None = None
         self._problem_future: Any = None

@@ -221,7 +221,7 @@ class RunFolder:
 
     def load_checkpoint(self) -> RunState:
         path = self / self.CHECKPOINT
-        if not path.is_file():
+        if not path.exists() and not path.is_symlink():
             raise RunFolderError(f"{self.path}: no checkpoint yet (the run stopped before its first generation ended)")
         try:
             data = checkpoint.loads(read_bytes(path, _MAX_STATE))

@@ -350,8 +350,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _classify(err: Exception) -> tuple[int, str]:
     """The exit code and one-line message for an error: the user's input (2), or a bug or broken environment (1)."""
     from evolution import InputFileError, RunFolderError
+    from evolution.evaluators import UnreachableClusterError
 
-    if isinstance(err, (InputError, InputFileError, RunFolderError, domains.UnknownDomainError)):
+    if isinstance(err, (InputError, InputFileError, RunFolderError, UnreachableClusterError, domains.UnknownDomainError)):
         return EXIT_BAD_INPUT, str(err)
     if isinstance(err, FileNotFoundError):
         return EXIT_BAD_INPUT, f"{err.filename}: no such file"

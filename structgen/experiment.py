@@ -202,6 +202,7 @@ def load_experiment(
     for key, value in (run_changes or {}).items():
         if value is not None:
             set_path(tables, f"run.{key}", value)
+    tables = {name: _table(tables, name, source) for name in TABLES}  # a --set may have put a value there
     if path is None:  # the main job's size for the chosen optimiser, under whatever was set explicitly
         sizes = spec.main_job.optimizers.get(optimizer_name, {})
         tables["optimizer"] = {**copy.deepcopy(dict(sizes)), **tables["optimizer"]}

@@ -53,8 +53,9 @@ class MeshStyle:
     def __post_init__(self) -> None:
         for name in ("sphere_radius", "cylinder_radius", "spacing"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-                raise StructureError(f"mesh {name} must be a positive number, got {value!r}")
+            # The upper bound keeps every coordinate of the largest structure a finite float32, as glTF stores it.
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and 0 < value <= 1e6):
+                raise StructureError(f"mesh {name} must be a positive number up to 1e6, got {value!r}")
         if self.sphere_radius * 2 >= self.spacing:
             raise StructureError(
                 f"mesh sphere_radius {self.sphere_radius} must be less than half the spacing {self.spacing}, "

@@ -82,6 +82,8 @@ __all__ = [
 
 def random_weights(count: int, seed: int, config: NCAConfig | None = None, scale: float = INIT_SCALE) -> np.ndarray:
     """``(count, n_params)`` weight vectors drawn uniformly from ``[-scale, scale]``; the same seed gives the same array."""
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     rng = np.random.default_rng(seed)
     return rng.uniform(-scale, scale, size=(count, n_params(config)))
 
