@@ -118,7 +118,7 @@ class StableStructures(Problem):
             "integrity": [r.integrity for r in reports],
             "height": [r.height for r in reports],
             "complexity": [r.complexity for r in reports],
-            "standing_height": [r.height if r.intact and not r.falling else 0.0 for r in reports],
+            "standing_height": [r.height if r.stands else 0.0 for r in reports],
             "edges": [s.n_edges for s in structures],
             "broken_joints": [len(r.broken_joints) for r in reports],
             "settled": [float(r.settled) for r in reports],
