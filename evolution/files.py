@@ -37,6 +37,7 @@ __all__ = [
     "atomic_write",
     "check_output",
     "parse_json",
+    "path_error",
     "read_bytes",
     "read_json",
     "read_npy",
@@ -64,7 +65,7 @@ class InputFileError(ValueError):
     """A file cannot be read or written as asked: the message names the file and what is wrong with it."""
 
 
-def _path_error(path: str | os.PathLike, err: OSError, *, writing: bool = False) -> InputFileError | OSError:
+def path_error(path: str | os.PathLike, err: OSError, *, writing: bool = False) -> InputFileError | OSError:
     """The user's mistake in ``err`` as an InputFileError naming ``path``; any other OSError unchanged."""
     problem = _PATH_PROBLEMS.get(err.errno or 0)
     if writing and err.errno == errno.ENOENT:
@@ -86,7 +87,7 @@ def read_bytes(path: str | os.PathLike, limit: int) -> bytes:
         # Non-blocking, so that a FIFO with no writer cannot hang us before fstat tells what it is.
         descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as err:
-        raise _path_error(path, err) from None
+        raise path_error(path, err) from None
     try:
         info = os.fstat(descriptor)
         if stat.S_ISDIR(info.st_mode):
@@ -107,7 +108,7 @@ def read_bytes(path: str | os.PathLike, limit: int) -> bytes:
                 raise InputFileError(f"{path}: grew past the {_size(limit)} this file may hold while being read")
         return b"".join(chunks)
     except OSError as err:
-        raise _path_error(path, err) from None
+        raise path_error(path, err) from None
     finally:
         os.close(descriptor)
 
@@ -206,7 +207,7 @@ def check_output(path: str | os.PathLike) -> Path:
         if not os.access(folder, os.W_OK | os.X_OK):
             raise InputFileError(f"{path}: permission denied (cannot write in {folder})")
     except OSError as err:
-        raise _path_error(path, err, writing=True) from None
+        raise path_error(path, err, writing=True) from None
     return path
 
 
@@ -234,7 +235,7 @@ def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
     except OSError as err:
         if tmp.parent.is_dir():
             tmp.unlink(missing_ok=True)
-        raise _path_error(path, err, writing=True) from None
+        raise path_error(path, err, writing=True) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

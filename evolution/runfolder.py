@@ -39,7 +39,18 @@ from typing import Any
 import numpy as np
 
 from evolution import checkpoint
-from evolution.files import GiB, InputFileError, MiB, atomic_write, parse_json, read_bytes, read_json, read_npy, read_text
+from evolution.files import (
+    GiB,
+    InputFileError,
+    MiB,
+    atomic_write,
+    parse_json,
+    path_error,
+    read_bytes,
+    read_json,
+    read_npy,
+    read_text,
+)
 from evolution.optimizers import Optimizer
 from evolution.problem import Problem
 
@@ -122,25 +133,31 @@ class RunFolder:
         manifest carries the mark) that no process is writing. Anything else is never deleted.
         """
         folder = cls(path)
-        if folder.path.is_symlink():
-            raise RunFolderError(f"{folder.path}: is a symbolic link; give the run folder's own path")
-        if folder.path.exists():
-            if not folder.path.is_dir():
-                raise RunFolderError(f"{folder.path}: exists and is not a folder")
-            if any(folder.path.iterdir()):
+        try:
+            folder._make(config_text, manifest, overwrite)
+        except OSError as err:  # the path itself is at fault: a file on the way, a name too long, no permission
+            raise RunFolderError(str(path_error(folder.path, err, writing=True))) from None
+        return folder
+
+    def _make(self, config_text: str, manifest: dict[str, Any], overwrite: bool) -> None:
+        if self.path.is_symlink():
+            raise RunFolderError(f"{self.path}: is a symbolic link; give the run folder's own path")
+        if self.path.exists():
+            if not self.path.is_dir():
+                raise RunFolderError(f"{self.path}: exists and is not a folder")
+            if any(self.path.iterdir()):
                 if not overwrite:
-                    raise RunFolderError(f"{folder.path}: already exists; choose another --run-dir or pass --overwrite")
-                if not folder.is_marked():
+                    raise RunFolderError(f"{self.path}: already exists; choose another --run-dir or pass --overwrite")
+                if not self.is_marked():
                     raise RunFolderError(
-                        f"{folder.path}: exists and is not a run folder (its manifest.json lacks the run-folder mark); "
+                        f"{self.path}: exists and is not a run folder (its manifest.json lacks the run-folder mark); "
                         "refusing to overwrite it"
                     )
-                with folder.locked():  # refuses if a run is writing it
-                    shutil.rmtree(folder.path)
-        folder.path.mkdir(parents=True, exist_ok=True)
-        folder.write_config(config_text)
-        atomic_write(folder / cls.MANIFEST, json.dumps({**manifest, MARK: MARK_VALUE}, indent=2) + "\n")
-        return folder
+                with self.locked():  # refuses if a run is writing it
+                    shutil.rmtree(self.path)
+        self.path.mkdir(parents=True, exist_ok=True)
+        self.write_config(config_text)
+        atomic_write(folder / self.MANIFEST, json.dumps({**manifest, MARK: MARK_VALUE}, indent=2) + "\n")
 
     def is_marked(self) -> bool:
         """Whether the manifest says this is a run folder (or is a manifest of structgen 0.1, which had no mark)."""
