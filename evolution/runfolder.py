@@ -157,7 +157,7 @@ class RunFolder:
                     shutil.rmtree(self.path)
         self.path.mkdir(parents=True, exist_ok=True)
         self.write_config(config_text)
-        atomic_write(folder / self.MANIFEST, json.dumps({**manifest, MARK: MARK_VALUE}, indent=2) + "\n")
+        atomic_write(self / self.MANIFEST, json.dumps({**manifest, MARK: MARK_VALUE}, indent=2) + "\n")
 
     def is_marked(self) -> bool:
         """Whether the manifest says this is a run folder (or is a manifest of structgen 0.1, which had no mark)."""
