@@ -137,3 +137,29 @@ def test_a_run_that_fails_later_keeps_its_folder_to_resume(tmp_path, monkeypatch
     with pytest.raises(RuntimeError):
         evolve(load_experiment(config(tmp_path)), tmp_path / "run", progress=False)
     assert (tmp_path / "run" / "checkpoint.pkl").exists()
+
+
+@pytest.mark.slow
+def test_killing_evolve_leaves_no_worker_behind(tmp_path):
+    import psutil
+
+    config = tmp_path / "slow.toml"
+    config.write_text(
+        "[run]\ngenerations = 1000\nworkers = 2\n[problem.nca]\nmax_vertices = 16\n[optimizer]\npopulation = 8\nparents = 2\n"
+    )
+    run = tmp_path / "run"
+    parent = subprocess.Popen(
+        [sys.executable, "-m", "structgen", "evolve", str(config), "--run-dir", str(run)], stderr=subprocess.DEVNULL
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (run / "metrics.jsonl").exists():  # a generation done: the workers are up
+            assert parent.poll() is None and time.monotonic() < deadline
+            time.sleep(0.1)
+        workers = psutil.Process(parent.pid).children(recursive=True)
+        assert len(workers) == 2
+    finally:
+        parent.kill()
+        parent.wait()
+    gone, alive = psutil.wait_procs(workers, timeout=5)
+    assert alive == []
