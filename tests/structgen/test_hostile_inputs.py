@@ -174,19 +174,42 @@ def test_a_piece_still_falling_when_the_simulation_ends_adds_no_height_and_does_
 
 
 def test_exports_and_static_solves_beyond_the_memory_budget_are_refused_before_allocating(tmp_path, capsys, monkeypatch):
-    n = 200_000
+    n = 20_000
     line = Structure(
         np.stack([np.arange(n), np.zeros(n, int), np.zeros(n, int)], 1), np.stack([np.arange(n - 1), np.arange(1, n)], 1)
     )
     line.save(tmp_path / "line.json")
+    monkeypatch.setenv("STRUCTGEN_MEMORY_MB", "32")
     refused(
         capsys,
         "export",
         tmp_path / "line.json",
         tmp_path / "line.glb",
-        fragments=("memory budget of 4,096 MiB", "STRUCTGEN_MEMORY_MB"),
+        fragments=("memory budget of 32 MiB", "STRUCTGEN_MEMORY_MB"),
     )
-    refused(capsys, "check", tmp_path / "line.json", "--statics", fragments=("max_memory_mb = 4,096",))
-    monkeypatch.setenv("STRUCTGEN_MEMORY_MB", "32")
+    refused(
+        capsys,
+        "check",
+        tmp_path / "line.json",
+        "--statics",
+        "--set",
+        "max_memory_mb=8",
+        fragments=("max_memory_mb = 8",),
+    )
     refused(capsys, "grow", "--iterations", 40, "-o", tmp_path / "g.json", fragments=("growing 1 NCA", "budget of 32 MiB"))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["line.json"]
+
+
+def test_the_memory_budget_defaults_to_4_gib_and_refuses_a_nonsense_setting(monkeypatch):
+    from structgen.budget import check_memory, memory_budget_mb
+    from structgen.errors import InputError
+
+    monkeypatch.delenv("STRUCTGEN_MEMORY_MB", raising=False)
+    assert memory_budget_mb() == 4096
+    check_memory(4000 * 2**20, "a mesh")
+    with pytest.raises(InputError, match="more than the memory budget of 4,096 MiB"):
+        check_memory(5000 * 2**20, "a mesh")
+    for text in ("lots", "0", "-5", "inf", "nan"):
+        monkeypatch.setenv("STRUCTGEN_MEMORY_MB", text)
+        with pytest.raises(InputError, match=f"STRUCTGEN_MEMORY_MB='{text}'"):
+            memory_budget_mb()
