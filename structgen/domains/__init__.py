@@ -10,30 +10,7 @@ Domains import neither each other nor the command line; what two domains share s
 >>> problem = domains.make("structures-v0")      # the problem with default settings
 """
 
-from structgen.domains.registry import (
-    BUILTIN,
-    DEFAULT_DOMAIN,
-    ENTRY_POINT_GROUP,
-    DomainSpec,
-    MainJob,
-    UnknownDomainError,
-    load_reference,
-    make,
-    register,
-    spec,
-    specs,
-)
+from structgen.domains import registry as _registry
+from structgen.domains.registry import *  # noqa: F403  (the registry's public names are this package's)
 
-__all__ = [
-    "BUILTIN",
-    "DEFAULT_DOMAIN",
-    "ENTRY_POINT_GROUP",
-    "DomainSpec",
-    "MainJob",
-    "UnknownDomainError",
-    "load_reference",
-    "make",
-    "register",
-    "spec",
-    "specs",
-]
+__all__ = list(_registry.__all__)
