@@ -387,8 +387,14 @@ MAX_WEIGHTS_BYTES = 64 * MiB
 def load_weights(path: str | os.PathLike, config: NCAConfig | None = None) -> np.ndarray:
     """Read one flat weight vector from ``.npy`` (a 1-D array) or ``.json`` (a list of numbers, or an object with a
     ``"weights"`` list); raise ValueError naming the file and the problem if it does not fit ``config``."""
-    path = Path(path)
     config = config or NCAConfig()
+    return read_weights(path, n_params(config), f"a 52-{config.hidden}-26 NCA")
+
+
+def read_weights(path: str | os.PathLike, expected: int, network: str) -> np.ndarray:
+    """Read a flat vector of ``expected`` finite numbers (the weights of ``network``, named in errors) from ``.npy``
+    or ``.json``; raise ValueError naming the file and the problem otherwise."""
+    path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".npy":
         data = read_npy(path, MAX_WEIGHTS_BYTES)
@@ -408,9 +414,8 @@ def load_weights(path: str | os.PathLike, config: NCAConfig | None = None) -> np
         raise ValueError(f"{path}: unknown weights format {path.suffix!r}; use .npy or .json")
     if data.ndim != 1 or data.dtype.kind not in "iuf":
         raise ValueError(f"{path}: expected a 1-D array of numbers, got shape {data.shape} of {data.dtype}")
-    expected = n_params(config)
     if len(data) != expected:
-        raise ValueError(f"{path}: holds {len(data)} weights, but a 52-{config.hidden}-26 NCA has {expected}")
+        raise ValueError(f"{path}: holds {len(data)} weights, but {network} has {expected}")
     if not np.isfinite(data).all():
         raise ValueError(f"{path}: weights contain NaN or infinity")
     return data.astype(np.float64)

@@ -51,6 +51,9 @@ BUILTIN = (
     "structgen.domains.structures:DOMAIN",
     "structgen.domains.toys:SPHERE",
     "structgen.domains.toys:ONES",
+    "structgen.domains.warehouse:WAREHOUSE",
+    "structgen.domains.warehouse:MANUFACTURING",
+    "structgen.domains.warehouse:MAZE",
 )
 #: The domain of ``structgen evolve`` with no configuration, and of configurations that name none.
 DEFAULT_DOMAIN = "structures-v0"

@@ -1,0 +1,58 @@
+"""The 2D layout domains of the warehouse paper: warehouses, manufacturing floors and mazes grown by a conv NCA.
+
+- :mod:`.layouts`: tiles, sizes, seed blocks and fixed parts of each kind;
+- :mod:`.measures`: shelf components, pattern entropy, similarity, and the independent validity check;
+- :mod:`.repair`: the fewest-changes repair as a MILP solved by HiGHS, with a greedy start for large maps;
+- :mod:`.maze`: start and goal of a maze, and agents that walk it;
+- :mod:`.problem`: the three problems; :mod:`.commands`: ``generate``, ``repair``, ``show``, ``measure``.
+
+This file only describes the domains; torch and HiGHS load on first use.
+"""
+
+from structgen.domains.registry import DomainSpec, MainJob
+
+_PACKAGE = "structgen.domains.warehouse"
+
+# The main job of each: the original's CMA-MAE shape (5 emitters of 10, sigma0 0.2) for a few generations.
+_MAIN = MainJob(
+    run={"generations": 4, "seed": 0},
+    optimizer="cma_mae",
+    optimizers={"cma_mae": {"emitters": 5, "batch_size": 10, "sigma0": 0.2, "cells": [100, 100]}},
+)
+
+WAREHOUSE = DomainSpec(
+    id="warehouse-v0",
+    entry_point=f"{_PACKAGE}.problem:LayoutProblem",
+    settings=f"{_PACKAGE}.problem:WarehouseSettings",
+    summary="warehouse layouts grown by a conv NCA, repaired by a MILP (objective: similarity until the simulator)",
+    commands=f"{_PACKAGE}.commands:WAREHOUSE_COMMANDS",
+    libraries=("torch", "highspy"),
+    main_job=_MAIN,
+    test_settings={"size": "6x8", "shelves": 6, "iterations": 5, "hidden": 8, "repair_node_limit": 50},
+)
+
+MANUFACTURING = DomainSpec(
+    id="manufacturing-v0",
+    entry_point=f"{_PACKAGE}.problem:LayoutProblem",
+    settings=f"{_PACKAGE}.problem:ManufacturingSettings",
+    summary="manufacturing floors (three station kinds) grown by a conv NCA, repaired by a MILP",
+    commands=f"{_PACKAGE}.commands:MANUFACTURING_COMMANDS",
+    libraries=("torch", "highspy"),
+    main_job=_MAIN,
+    test_settings={"size": "5x6", "iterations": 5, "hidden": 8, "agents": 2, "repair_node_limit": 5},
+)
+
+MAZE = DomainSpec(
+    id="maze-v0",
+    entry_point=f"{_PACKAGE}.problem:LayoutProblem",
+    settings=f"{_PACKAGE}.problem:MazeSettings",
+    summary="mazes grown by a conv NCA, walked by scripted agents (objective: solvable)",
+    commands=f"{_PACKAGE}.commands:MAZE_COMMANDS",
+    libraries=("torch",),
+    main_job=MainJob(
+        run={"generations": 10, "seed": 0},
+        optimizer="cma_mae",
+        optimizers={"cma_mae": {"emitters": 5, "batch_size": 30, "sigma0": 0.2, "cells": [100, 162]}},
+    ),
+    test_settings={"size": "8x8", "iterations": 5, "hidden": 8, "episodes": 2},
+)

@@ -1,0 +1,172 @@
+"""Measures of a layout as the original code computes them, and an independent validity check of repaired layouts.
+
+- :func:`shelf_components`: 4-connected groups of shelves (stations, for manufacturing).
+- :func:`pattern_entropy`: entropy of the 2x2 tile patterns, base (number of patterns), in [0, 1]; for warehouses
+  over the storage area only (81 patterns of ``.@e``), for manufacturing over the whole map (625 of ``.012e``).
+- :func:`similarity`: the share of cells the repair left alone (manufacturing: stations weigh 5).
+- :func:`violations`: what makes a layout invalid, found by counting and breadth-first search, not by the MILP, so the
+  tests can check the repair with it.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+from scipy import ndimage
+
+from structgen.domains.warehouse.layouts import WAREHOUSE, LayoutKind
+
+__all__ = ["pattern_entropy", "shelf_components", "similarity", "violations"]
+
+_FOUR = ndimage.generate_binary_structure(2, 1)
+
+
+def shelf_components(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE) -> int:
+    """Number of 4-connected groups of shelves (warehouse) or stations (manufacturing)."""
+    blocking = _blocking_tiles(kind)
+    _, count = ndimage.label(np.isin(tiles, blocking), structure=_FOUR)
+    return int(count)
+
+
+def _blocking_tiles(kind: LayoutKind) -> list[int]:
+    chars = "@" if kind.name == "warehouse" else "012"
+    return [kind.vocabulary.index(c) for c in chars]
+
+
+def pattern_entropy(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE) -> float:
+    """Entropy of the distribution of 2x2 tile patterns over the NCA's tiles, in base (number of patterns).
+
+    The original counts every pattern of its alphabet, zeros included, and normalises by ``log(len(alphabet)**4)``;
+    a pattern holding a tile outside the alphabet (a workstation) cannot occur in the area it measures."""
+    area = kind.storage(tiles) if kind.name == "warehouse" else np.asarray(tiles)
+    n = kind.nca_tiles
+    area = np.asarray(area, dtype=np.int64)
+    if area.max(initial=0) >= n:
+        raise ValueError(f"pattern entropy counts tiles {kind.vocabulary[:n]!r} only; the area holds others")
+    codes = ((area[:-1, :-1] * n + area[:-1, 1:]) * n + area[1:, :-1]) * n + area[1:, 1:]
+    counts = np.bincount(codes.ravel(), minlength=n**4).astype(np.float64)
+    total = counts.sum()
+    if total == 0:
+        return 0.0
+    p = counts[counts > 0] / total
+    return max(0.0, float(-(p * np.log(p)).sum() / np.log(n**4)))
+
+
+def similarity(unrepaired: np.ndarray, repaired: np.ndarray, kind: LayoutKind = WAREHOUSE) -> tuple[int, float]:
+    """(Hamming distance, similarity score) between a layout and its repair, over the whole map.
+
+    Warehouse: ``1 - Hamming / cells``. Manufacturing: matching cells count 5 where the unrepaired tile is a station
+    and 1 elsewhere, divided by ``5 * cells``, as the original's ``sw=5`` runs."""
+    unrepaired, repaired = np.asarray(unrepaired), np.asarray(repaired)
+    if unrepaired.shape != repaired.shape:
+        raise ValueError(f"layouts differ in shape: {unrepaired.shape} and {repaired.shape}")
+    same = unrepaired == repaired
+    hamming = int((~same).sum())
+    if kind.name == "manufacturing":
+        weight = np.where(np.isin(unrepaired, _blocking_tiles(kind)), 5.0, 1.0)
+        return hamming, float((weight * same).sum() / (5.0 * same.size))
+    return hamming, 1.0 - hamming / same.size
+
+
+def _neighbours(mask: np.ndarray) -> np.ndarray:
+    """How many of each cell's four neighbours are in ``mask``."""
+    m = mask.astype(np.int16)
+    count = np.zeros_like(m)
+    count[1:] += m[:-1]
+    count[:-1] += m[1:]
+    count[:, 1:] += m[:, :-1]
+    count[:, :-1] += m[:, 1:]
+    return count
+
+
+def _unreached(passable: np.ndarray, targets: np.ndarray, starts: list[tuple[int, int]]) -> int:
+    """How many ``targets`` cells are neither passable-and-reached from ``starts`` nor next to such a cell."""
+    rows, cols = passable.shape
+    seen = np.zeros_like(passable)
+    for start in starts:
+        seen[start] = True
+    queue = deque(starts)
+    while queue:
+        r, c = queue.popleft()
+        for nr, nc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+            if 0 <= nr < rows and 0 <= nc < cols and passable[nr, nc] and not seen[nr, nc]:
+                seen[nr, nc] = True
+                queue.append((nr, nc))
+    touched = seen | (_neighbours(seen) > 0)
+    reached = np.where(passable, seen, touched)
+    return int((targets & ~reached).sum())
+
+
+def violations(
+    tiles: np.ndarray,
+    kind: LayoutKind,
+    *,
+    shelves: int | None = None,
+    fixed: np.ndarray | None = None,
+    agents: int = 0,
+) -> list[str]:
+    """Every rule the layout breaks, in words; empty if it is valid.
+
+    Warehouse: the shelf count (when given), the fixed workstation columns (``fixed``: the whole map they come from),
+    every shelf next to an endpoint and every endpoint next to a shelf, and every floor, endpoint and workstation cell
+    reachable from a workstation through floor and endpoints. Manufacturing: at least one station of each kind, at
+    least ``agents`` non-station cells, every station next to an endpoint and every endpoint next to a station, every
+    non-station cell connected.
+    """
+    tiles = np.asarray(tiles)
+    found: list[str] = []
+    code = kind.vocabulary.index
+    if kind.name == "warehouse":
+        shelf, endpoint = tiles == code("@"), tiles == code("e")
+        station = np.isin(tiles, [code("w"), code("r"), code("s")])
+        if shelves is not None and int(shelf.sum()) != shelves:
+            found.append(f"{int(shelf.sum())} shelves, expected {shelves}")
+        if fixed is not None:
+            border = np.ones(tiles.shape, dtype=bool)
+            border[:, WAREHOUSE.border : -WAREHOUSE.border] = False
+            changed = int((border & (np.asarray(fixed) != tiles)).sum())
+            if changed:
+                found.append(f"{changed} cells of the fixed workstation columns changed")
+        passable = ~shelf & ~station
+        targets = ~shelf
+        starts = np.argwhere(station)
+    elif kind.name == "manufacturing":
+        stations = [tiles == code(c) for c in "012"]
+        shelf = stations[0] | stations[1] | stations[2]
+        endpoint = np.isin(tiles, [code("e"), code("s")])
+        for n, mask in enumerate(stations):
+            if not mask.any():
+                found.append(f"no station of kind {n}")
+        free = int((~shelf).sum())
+        if free < agents:
+            found.append(f"{free} cells free of stations, fewer than {agents} agents")
+        passable = targets = ~shelf
+        starts = np.argwhere(passable)
+    else:
+        raise ValueError(f"no validity rules for {kind.name} layouts")
+    lonely_shelves = int((shelf & (_neighbours(endpoint) == 0)).sum())
+    if lonely_shelves:
+        found.append(f"{lonely_shelves} {'shelves' if kind.name == 'warehouse' else 'stations'} with no endpoint next to them")
+    lonely_endpoints = int((endpoint & (_neighbours(shelf) == 0)).sum())
+    if lonely_endpoints:
+        found.append(f"{lonely_endpoints} endpoints with no {'shelf' if kind.name == 'warehouse' else 'station'} next to them")
+    if len(starts) == 0:
+        found.append("nowhere to start: no workstation" if kind.name == "warehouse" else "no free cell")
+    else:
+        start = tuple(int(i) for i in starts[0])
+        if kind.name == "warehouse":
+            # The first workstation is the source: flow leaves it into every free neighbour.
+            free_next = [
+                (start[0] + dr, start[1] + dc)
+                for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1))
+                if 0 <= start[0] + dr < tiles.shape[0]
+                and 0 <= start[1] + dc < tiles.shape[1]
+                and passable[start[0] + dr, start[1] + dc]
+            ]
+            unreached = int(targets.sum()) if not free_next else _unreached(passable, targets, free_next)
+        else:
+            unreached = _unreached(passable, targets, [start])
+        if unreached:
+            found.append(f"{unreached} cells not connected to the rest")
+    return found

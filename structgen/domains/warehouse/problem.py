@@ -1,0 +1,199 @@
+"""The three layout domains as problems: a genome is the conv NCA's weights; evaluating grows a layout from the seed
+block, repairs it (warehouse, manufacturing) and measures it.
+
+Until the multi-robot simulator lands (the next part of this work), the objective of the warehouse and manufacturing
+domains is the original's similarity term alone, ``alpha * similarity`` (its throughput term is missing): search
+then favours NCAs whose layouts need little repair. The maze's objective is the original's: 1 if solvable, else 0.
+Measures are the original's: shelf components and pattern entropy (warehouse), station count and pattern entropy
+(manufacturing), pattern entropy and the agent's mean path length (maze).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from evolution.problem import Evaluation, Problem
+from structgen.conv_nca import ConvNCA
+from structgen.domains.warehouse.layouts import KINDS, LayoutKind
+from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity
+from structgen.domains.warehouse.repair import RepairError, repair
+
+__all__ = ["LayoutProblem", "ManufacturingSettings", "MazeSettings", "WarehouseSettings"]
+
+
+def _positive_int(name: str, value, low: int = 1, high: int = 10**6) -> None:
+    if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
+        raise ValueError(f"problem {name} must be an integer from {low} to {high:,}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class WarehouseSettings:
+    """Attributes:
+    size: map size, full map with workstation columns (``"33x36"``, ..., ``"101x102"``; ``"9x16"`` for quick runs).
+    iterations: NCA steps (0: the paper's for the size, 50 or 200).
+    shelves: exact shelf count of the repair (0: the paper's for the size; required for sizes it did not use).
+    alpha: weight of the similarity score in the objective.
+    uneven: left workstations five times likelier as goals (used by the simulator; recorded until then).
+    repair_time_limit: seconds HiGHS may spend on one layout.
+    repair_threads: HiGHS's threads per repair.
+    repair_node_limit: stop each repair after this many branch-and-bound nodes (0: no limit). Repairs cut short
+        by the time limit depend on the machine's speed; set this for runs that must repeat exactly.
+    hidden: the NCA's hidden channels (32 in the paper).
+    """
+
+    size: str = "33x36"
+    iterations: int = 0
+    shelves: int = 0
+    alpha: float = 5.0
+    uneven: bool = False
+    repair_time_limit: float = 60.0
+    repair_threads: int = 1
+    repair_node_limit: int = 0
+    hidden: int = 32
+
+    kind = "warehouse"
+
+    def __post_init__(self) -> None:
+        KINDS[self.kind].size(self.size)
+        _positive_int("iterations", self.iterations, 0, 100_000)
+        _positive_int("shelves", self.shelves, 0, 10**7)
+        _positive_int("repair_threads", self.repair_threads, 1, 1024)
+        _positive_int("repair_node_limit", self.repair_node_limit, 0, 10**9)
+        _positive_int("hidden", self.hidden, 1, 1024)
+        if not (isinstance(self.alpha, (int, float)) and np.isfinite(self.alpha)):
+            raise ValueError(f"problem alpha must be a finite number, got {self.alpha!r}")
+        if not (isinstance(self.repair_time_limit, (int, float)) and 0 < self.repair_time_limit <= 86400):
+            raise ValueError(f"problem repair_time_limit must be from 0 to 86400 seconds, got {self.repair_time_limit!r}")
+
+
+@dataclass(frozen=True)
+class ManufacturingSettings(WarehouseSettings):
+    """Attributes (beyond the warehouse's): agents: cells that must stay free of stations (200 in the paper)."""
+
+    agents: int = 200
+    kind = "manufacturing"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _positive_int("agents", self.agents, 0, 10**7)
+
+
+@dataclass(frozen=True)
+class MazeSettings:
+    """Attributes:
+    size: the maze inside its outer wall (``"16x16"``, ``"32x32"``, ``"64x64"``, ``"96x96"``, or ``"RxC"``).
+    iterations: NCA steps (0: 50).
+    agent: ``oracle``, ``wall_follower``, ``explorer`` or ``random_walk``.
+    episodes: episodes per maze (50 in the paper).
+    hidden: the NCA's hidden channels.
+    """
+
+    size: str = "16x16"
+    iterations: int = 0
+    agent: str = "explorer"
+    episodes: int = 50
+    hidden: int = 32
+
+    kind = "maze"
+
+    def __post_init__(self) -> None:
+        from structgen.domains.warehouse.maze import AGENTS
+
+        KINDS[self.kind].size(self.size)
+        _positive_int("iterations", self.iterations, 0, 100_000)
+        _positive_int("episodes", self.episodes, 1, 10_000)
+        _positive_int("hidden", self.hidden, 1, 1024)
+        if self.agent not in AGENTS:
+            raise ValueError(f"problem agent must be one of {', '.join(AGENTS)}, got {self.agent!r}")
+
+
+class LayoutProblem(Problem):
+    """Grow, repair and measure layouts of one kind."""
+
+    objective_floor = 0.0
+
+    def __init__(self, settings) -> None:
+        self.settings = settings
+        self.kind: LayoutKind = KINDS[settings.kind]
+        self.size = self.kind.size(settings.size)
+        self.iterations = settings.iterations or self.size.iterations
+        self.nca = ConvNCA(self.kind.nca_tiles, settings.hidden)
+        self.n_params = self.nca.n_params
+        self.seed_tiles = self.kind.seed(self.size.grown)
+        self.name = self.kind.name
+        self.shelves = getattr(settings, "shelves", 0) or self.size.shelves
+        full = self.kind.complete(self.seed_tiles).shape
+        if self.kind.name == "warehouse":
+            low, high = (140.0, 240.0) if settings.size == "33x36" else (0.0, float(max(self.size.shelves, 1)))
+            self.measure_names = ("shelf_components", "entropy")
+            self.measure_ranges = ((low, high), (0.0, 1.0))
+            self.field_names = ("similarity", "hamming", "optimal", "failed")
+        elif self.kind.name == "manufacturing":
+            self.measure_names = ("stations", "entropy")
+            self.measure_ranges = ((0.0, 600.0 if settings.size == "33x36" else float(full[0] * full[1])), (0.0, 1.0))
+            self.field_names = ("similarity", "hamming", "optimal", "failed")
+        else:
+            self.measure_names = ("entropy", "path_length")
+            self.measure_ranges = ((0.0, 1.0), (0.0, float(2 * full[0] * full[1])))
+            self.field_names = ("success_rate", "shortest_path", "walls")
+        self.plot_fields = self.field_names[:2]
+
+    def initial_genomes(self, count: int, rng: np.random.Generator) -> np.ndarray:
+        # The original starts its emitters at zero with step size 0.2.
+        return rng.normal(0.0, 0.2, size=(count, self.n_params))
+
+    def grow(self, genomes: np.ndarray, device: str | None = None) -> np.ndarray:
+        """Whole unrepaired maps, ``(P, H, W)``."""
+        grown = self.nca.grow(np.asarray(genomes), self.seed_tiles, self.iterations, device)
+        return np.stack([self.kind.complete(g) for g in grown])
+
+    def evaluate(self, genomes: np.ndarray, seeds: np.ndarray) -> Evaluation:
+        maps = self.grow(genomes)
+        rows = [self._judge(tiles, int(seed)) for tiles, seed in zip(maps, seeds)]
+        objective = np.array([r[0] for r in rows], dtype=np.float64)
+        measures = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), len(self.measure_names))
+        fields = {name: np.array([r[2][name] for r in rows], dtype=np.float64) for name in self.field_names}
+        return Evaluation(objective, measures, fields)
+
+    def _judge(self, tiles: np.ndarray, seed: int):
+        if self.kind.name == "maze":
+            from structgen.domains.warehouse.maze import run_episodes
+
+            grown = self.kind.storage(tiles)
+            stats = run_episodes(grown, self.settings.agent, episodes=self.settings.episodes, seed=seed)
+            solvable = 1.0 if stats.shortest_path >= 1 else 0.0
+            fields = {
+                "success_rate": stats.success_rate,
+                "shortest_path": stats.shortest_path,
+                "walls": float((grown == 1).sum()),
+            }
+            return solvable, (pattern_entropy(grown, self.kind), stats.mean_steps), fields
+        try:
+            result = repair(
+                tiles,
+                self.kind,
+                shelves=self.shelves if self.kind.name == "warehouse" else None,
+                agents=getattr(self.settings, "agents", 0),
+                time_limit=self.settings.repair_time_limit,
+                seed=seed % (2**31),
+                threads=self.settings.repair_threads,
+                node_limit=self.settings.repair_node_limit or None,
+            )
+        except RepairError:
+            low = [lo for lo, _ in self.measure_ranges]
+            return self.objective_floor, low, {name: 1.0 if name == "failed" else 0.0 for name in self.field_names}
+        hamming, score = similarity(tiles, result.tiles, self.kind)
+        first = (
+            shelf_components(result.tiles, self.kind)
+            if self.kind.name == "warehouse"
+            else float(np.isin(result.tiles, [self.kind.vocabulary.index(c) for c in "012"]).sum())
+        )
+        fields = {
+            "similarity": score,
+            "hamming": hamming,
+            "optimal": float(result.optimal),
+            "failed": 0.0,
+        }
+        return self.settings.alpha * score, (first, pattern_entropy(result.tiles, self.kind)), fields

@@ -1,0 +1,506 @@
+"""Repair: the fewest tile changes that make a grown layout valid, as a mixed-integer program solved by HiGHS.
+
+The model follows the original's (research notes 1.4), written from its description:
+
+- one tile per cell; binary ``x[t, i]`` for each tile ``t`` the cell may take;
+- warehouse: the exact shelf count; the workstation columns fixed (so only the storage area has variables); every
+  shelf next to an endpoint and every endpoint next to a shelf; every floor, endpoint and workstation cell reached by
+  a single-commodity flow from one workstation, which cannot leave a shelf or another workstation;
+- manufacturing: at least one station of each kind, at most ``cells - agents`` stations, every station next to an
+  endpoint and the other way round, one endpoint chosen as the flow's source (written back as an endpoint), stations
+  blocking the flow;
+- objective: the number of changed cells (the original weighs each change 40, which moves no optimum).
+
+At large sizes (more than :data:`GREEDY_FIRST_CELLS` cells, by default) a cheap greedy repair runs first and is
+given to HiGHS as its starting solution, so a valid answer exists whatever the time limit. A layout that the rules
+cannot satisfy raises :class:`RepairError`; a repair never returns an invalid layout (every result is checked by the
+independent :func:`~structgen.domains.warehouse.measures.violations`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse
+
+from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
+from structgen.domains.warehouse.measures import violations
+from structgen.errors import InputError
+
+__all__ = ["GREEDY_FIRST_CELLS", "RepairError", "RepairResult", "greedy_repair", "repair"]
+
+#: Above this many cells the greedy repair runs first and seeds the MILP.
+GREEDY_FIRST_CELLS = 4000
+
+
+class RepairError(InputError):
+    """The layout cannot be repaired under the rules (or no valid layout was found in time)."""
+
+
+@dataclass(frozen=True)
+class RepairResult:
+    """A repaired layout and how it was found.
+
+    Attributes:
+        tiles: the whole repaired map.
+        hamming: cells changed.
+        optimal: whether HiGHS proved no repair changes fewer cells.
+        gap: relative MIP gap at the end (0 when optimal).
+        seconds: wall time of the whole repair.
+        method: ``"milp"``, ``"milp from greedy"`` or ``"greedy"`` (the MILP found nothing better in time).
+        status: HiGHS's model status, in its words.
+    """
+
+    tiles: np.ndarray
+    hamming: int
+    optimal: bool
+    gap: float
+    seconds: float
+    method: str
+    status: str
+
+
+def _grid_edges(rows: int, cols: int) -> np.ndarray:
+    """Directed 4-neighbour edges (from, to) between flat cell indices."""
+    index = np.arange(rows * cols).reshape(rows, cols)
+    pairs = [
+        np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1),
+        np.stack([index[:-1, :].ravel(), index[1:, :].ravel()], 1),
+    ]
+    undirected = np.concatenate(pairs)
+    return np.concatenate([undirected, undirected[:, ::-1]])
+
+
+class _Model:
+    """Columns and rows of a MILP gathered as arrays, then handed to HiGHS in one piece."""
+
+    def __init__(self) -> None:
+        self.lower: list[np.ndarray] = []
+        self.upper: list[np.ndarray] = []
+        self.integer: list[np.ndarray] = []
+        self.n_cols = 0
+        self.rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (row ids, col ids, values)
+        self.row_lower: list[np.ndarray] = []
+        self.row_upper: list[np.ndarray] = []
+        self.n_rows = 0
+        self.cost: np.ndarray | None = None
+
+    def columns(self, count: int, lower: float, upper: float, integer: bool) -> np.ndarray:
+        ids = np.arange(self.n_cols, self.n_cols + count)
+        self.n_cols += count
+        self.lower.append(np.full(count, lower, dtype=np.float64))
+        self.upper.append(np.full(count, upper, dtype=np.float64))
+        self.integer.append(np.full(count, 1 if integer else 0, dtype=np.int32))
+        return ids
+
+    def constraints(self, count: int, row: np.ndarray, col: np.ndarray, value, lower, upper) -> None:
+        """``count`` rows; entries ``(row[k], col[k], value[k])`` with rows numbered from 0 within this call."""
+        self.rows.append((np.asarray(row) + self.n_rows, np.asarray(col), np.broadcast_to(value, np.shape(row))))
+        self.row_lower.append(np.broadcast_to(np.asarray(lower, dtype=np.float64), (count,)))
+        self.row_upper.append(np.broadcast_to(np.asarray(upper, dtype=np.float64), (count,)))
+        self.n_rows += count
+
+    def solve(self, time_limit: float, seed: int, threads: int, start: np.ndarray | None, node_limit: int | None = None):
+        import highspy
+
+        inf = highspy.kHighsInf
+        lp = highspy.HighsLp()
+        lp.num_col_, lp.num_row_ = self.n_cols, self.n_rows
+        lp.col_cost_ = self.cost
+        lp.col_lower_ = np.concatenate(self.lower)
+        lp.col_upper_ = np.concatenate(self.upper)
+        lp.row_lower_ = np.where(np.isinf(np.concatenate(self.row_lower)), -inf, np.concatenate(self.row_lower))
+        lp.row_upper_ = np.where(np.isinf(np.concatenate(self.row_upper)), inf, np.concatenate(self.row_upper))
+        row = np.concatenate([r for r, _, _ in self.rows])
+        col = np.concatenate([c for _, c, _ in self.rows])
+        value = np.concatenate([np.asarray(v, dtype=np.float64) for _, _, v in self.rows])
+        matrix = sparse.csc_matrix((value, (row, col)), shape=(self.n_rows, self.n_cols))
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        lp.a_matrix_.start_ = matrix.indptr
+        lp.a_matrix_.index_ = matrix.indices
+        lp.a_matrix_.value_ = matrix.data
+        lp.integrality_ = [highspy.HighsVarType(int(i)) for i in np.concatenate(self.integer)]
+        h = highspy.Highs()
+        h.setOptionValue("output_flag", False)
+        h.setOptionValue("time_limit", float(time_limit))
+        h.setOptionValue("random_seed", int(seed))
+        h.setOptionValue("threads", int(threads))
+        h.setOptionValue("mip_rel_gap", 0.0)
+        if node_limit is not None:  # unlike the time limit, a node limit stops at the same answer on every machine
+            h.setOptionValue("mip_max_nodes", int(node_limit))
+        h.passModel(lp)
+        if start is not None:
+            solution = highspy.HighsSolution()
+            solution.col_value = list(map(float, start))
+            solution.value_valid = True
+            h.setSolution(solution)
+        h.run()
+        status = h.getModelStatus()
+        info = h.getInfo()
+        values = np.asarray(h.getSolution().col_value) if info.primal_solution_status == 2 else None
+        return values, h.modelStatusToString(status), status == highspy.HighsModelStatus.kOptimal, float(info.mip_gap)
+
+
+def repair(
+    tiles: np.ndarray,
+    kind: LayoutKind = WAREHOUSE,
+    *,
+    shelves: int | None = None,
+    agents: int = 0,
+    time_limit: float = 60.0,
+    seed: int = 0,
+    threads: int = 1,
+    greedy_first: bool | None = None,
+    node_limit: int | None = None,
+) -> RepairResult:
+    """Repair a whole map (for warehouses, with its workstation columns).
+
+    Args:
+        tiles: the map as tile numbers of ``kind``.
+        shelves: the exact shelf count (warehouse; required there).
+        agents: manufacturing only: the number of cells that must stay free of stations.
+        time_limit: seconds for HiGHS; the best layout found by then is returned (with ``optimal`` False).
+        seed: HiGHS's random seed.
+        threads: HiGHS's threads.
+        greedy_first: run the greedy repair first and start HiGHS from it; None: above :data:`GREEDY_FIRST_CELLS`.
+        node_limit: stop HiGHS after this many branch-and-bound nodes. A repair stopped by the time limit depends
+            on the machine's speed; one stopped by a node limit does not, so runs that must repeat exactly use it.
+
+    Raises:
+        RepairError: no valid layout exists under the rules, or none was found within the time limit.
+    """
+    began = time.perf_counter()
+    tiles = np.asarray(tiles).astype(np.int64)
+    if kind.name == "warehouse":
+        if shelves is None:
+            raise ValueError("a warehouse repair needs the shelf count")
+        build = _warehouse_model
+    elif kind.name == "manufacturing":
+        build = _manufacturing_model
+    else:
+        raise ValueError(f"{kind.name} layouts have no repair")
+    if not time_limit > 0:
+        raise ValueError(f"time_limit must be positive, got {time_limit!r}")
+    model, decode, encode = build(tiles, shelves=shelves, agents=agents)
+    greedy = None
+    if greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS:
+        greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
+    values, status, optimal, gap = model.solve(
+        time_limit, seed, threads, None if greedy is None else encode(greedy), node_limit
+    )
+    if values is None:
+        if greedy is not None:
+            result, method = greedy, "greedy"
+        elif status == "Infeasible":
+            raise RepairError(f"no {kind.name} layout of this size satisfies the rules ({_rules(kind, shelves, agents)})")
+        else:
+            raise RepairError(f"the repair found no valid layout within {time_limit:g} s ({status}); allow more time")
+    else:
+        result = decode(values)
+        method = "milp" if greedy is None else "milp from greedy"
+    broken = violations(result, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
+    if broken:  # the model and the checker disagree: never hand out an invalid layout
+        raise RepairError(f"the repaired {kind.name} layout is invalid: {'; '.join(broken)}")
+    hamming = int((result != tiles).sum())
+    return RepairResult(
+        result.astype(np.uint8), hamming, optimal, 0.0 if optimal else gap, time.perf_counter() - began, method, status
+    )
+
+
+def _rules(kind: LayoutKind, shelves: int | None, agents: int) -> str:
+    if kind.name == "warehouse":
+        return f"{shelves} shelves, each next to an endpoint, all floor connected"
+    return f"at least one station of each kind, {agents} cells free, all floor connected"
+
+
+def _warehouse_model(tiles: np.ndarray, *, shelves: int | None, agents: int):
+    rows, cols = tiles.shape
+    code = WAREHOUSE.vocabulary.index
+    border = WAREHOUSE.border
+    storage = np.zeros((rows, cols), dtype=bool)
+    storage[:, border:-border] = True
+    grown = tiles[storage]
+    if np.isin(grown, [code("."), code("@"), code("e")], invert=True).any():
+        raise RepairError("the storage area holds tiles other than floor, shelf and endpoint")
+    n_cells = rows * cols
+    cell_var = -np.ones(n_cells, dtype=np.int64)  # storage cell -> its position among the storage cells
+    cell_var[storage.ravel()] = np.arange(int(storage.sum()))
+    n_storage = int(storage.sum())
+    if shelves > n_storage or shelves < 0:
+        raise RepairError(f"{shelves} shelves do not fit in a storage area of {n_storage} cells")
+    station = np.isin(tiles, [code("w"), code("r"), code("s")]).ravel() & ~storage.ravel()
+    stations = np.flatnonzero(station)
+    if len(stations) == 0:
+        raise RepairError("the map has no workstation for the flow to start from")
+    source = int(stations[0])
+
+    model = _Model()
+    x = model.columns(3 * n_storage, 0, 1, True).reshape(3, n_storage)  # floor, shelf, endpoint per storage cell
+    edges = _grid_edges(rows, cols)
+    # No flow leaves a workstation other than the source, and none needs to enter the source.
+    keep = ~(station[edges[:, 0]] & (edges[:, 0] != source)) & (edges[:, 1] != source)
+    edges = edges[keep]
+    big = float(n_cells)
+    flow = model.columns(len(edges), 0, big, False)
+
+    # One tile per storage cell.
+    k = np.arange(n_storage)
+    model.constraints(n_storage, np.repeat(k, 3), x.T.ravel(), 1.0, 1.0, 1.0)
+    # The exact shelf count.
+    model.constraints(1, np.zeros(n_storage, dtype=np.int64), x[1], 1.0, shelves, shelves)
+    # Adjacency: sum of neighbouring endpoints >= shelf here; sum of neighbouring shelves >= endpoint here.
+    pairs = edges_all = _grid_edges(rows, cols)
+    both = (cell_var[pairs[:, 0]] >= 0) & (cell_var[pairs[:, 1]] >= 0)
+    here, there = cell_var[edges_all[both, 0]], cell_var[edges_all[both, 1]]
+    for mine, theirs in ((1, 2), (2, 1)):
+        model.constraints(
+            n_storage,
+            np.concatenate([here, k]),
+            np.concatenate([x[theirs][there], x[mine][k]]),
+            np.concatenate([np.ones(len(here)), -np.ones(n_storage)]),
+            0.0,
+            np.inf,
+        )
+    # Capacity: nothing flows out of a shelf.
+    out_of_storage = np.flatnonzero(cell_var[edges[:, 0]] >= 0)
+    m = len(out_of_storage)
+    model.constraints(
+        m,
+        np.concatenate([np.arange(m), np.arange(m)]),
+        np.concatenate([flow[out_of_storage], x[1][cell_var[edges[out_of_storage, 0]]]]),
+        np.concatenate([np.ones(m), np.full(m, big)]),
+        -np.inf,
+        big,
+    )
+    # Conservation at every cell but the source: inflow - outflow (+ shelf) = 1 (storage) or 1 (border floor and
+    # workstations); a shelf takes no unit.
+    nodes = np.array([i for i in range(n_cells) if i != source])
+    node_row = -np.ones(n_cells, dtype=np.int64)
+    node_row[nodes] = np.arange(len(nodes))
+    into, out = node_row[edges[:, 1]], node_row[edges[:, 0]]
+    r = [into[into >= 0], out[out >= 0]]
+    c = [flow[into >= 0], flow[out >= 0]]
+    v = [np.ones(int((into >= 0).sum())), -np.ones(int((out >= 0).sum()))]
+    in_storage = nodes[cell_var[nodes] >= 0]
+    r.append(node_row[in_storage])
+    c.append(x[1][cell_var[in_storage]])
+    v.append(np.ones(len(in_storage)))
+    model.constraints(len(nodes), np.concatenate(r), np.concatenate(c), np.concatenate(v), 1.0, 1.0)
+
+    # Objective: cells whose tile changes, i.e. minus the agreeing x (the constant is left out).
+    cost = np.zeros(model.n_cols)
+    storage_tiles = tiles.ravel()[storage.ravel()]
+    channel = np.select([storage_tiles == code("."), storage_tiles == code("@")], [0, 1], 2)
+    cost[x[channel, k]] = -1.0
+    model.cost = cost
+    channels = np.array([code("."), code("@"), code("e")])
+
+    def decode(values: np.ndarray) -> np.ndarray:
+        chosen = values[x].reshape(3, n_storage).argmax(axis=0)
+        out_tiles = tiles.copy()
+        out_tiles[storage] = channels[chosen]
+        return out_tiles
+
+    def encode(layout: np.ndarray) -> np.ndarray:
+        values = np.zeros(model.n_cols)
+        grown_tiles = layout[storage]
+        values[x[np.select([grown_tiles == code("."), grown_tiles == code("@")], [0, 1], 2), k]] = 1.0
+        values[flow] = _flow_for(layout.ravel(), edges, source, ~np.isin(layout.ravel(), [code("@")]), station)
+        return values
+
+    return model, decode, encode
+
+
+def _flow_for(layout: np.ndarray, edges: np.ndarray, source: int, open_: np.ndarray, blocked: np.ndarray) -> np.ndarray:
+    """Flow on each edge of a valid layout: a breadth-first tree from the source sending one unit to each cell."""
+    n = len(layout)
+    adjacency: list[list[int]] = [[] for _ in range(n)]
+    for e, a in enumerate(edges[:, 0]):
+        adjacency[int(a)].append(e)
+    parent_edge = -np.ones(n, dtype=np.int64)
+    order = [source]
+    seen = np.zeros(n, dtype=bool)
+    seen[source] = True
+    head = 0
+    while head < len(order):
+        a = order[head]
+        head += 1
+        if a != source and (blocked[a] or not open_[a]):
+            continue
+        for e in adjacency[a]:
+            b = int(edges[e, 1])
+            if not seen[b] and open_[b]:
+                seen[b] = True
+                parent_edge[b] = e
+                order.append(b)
+    flow = np.zeros(len(edges))
+    load = np.where(seen, 1.0, 0.0)
+    load[source] = 0.0
+    for b in reversed(order[1:]):
+        e = parent_edge[b]
+        flow[e] += load[b]
+        load[int(edges[e, 0])] += load[b]
+    return flow
+
+
+def _manufacturing_model(tiles: np.ndarray, *, shelves: int | None, agents: int):
+    rows, cols = tiles.shape
+    code = MANUFACTURING.vocabulary.index
+    if np.isin(tiles, [code(c) for c in ".012e"], invert=True).any():
+        raise RepairError("the map holds tiles other than floor, the three stations and endpoints")
+    n = rows * cols
+    if agents > n - 3:
+        raise RepairError(f"{agents} agents leave no room for three stations in {n} cells")
+    model = _Model()
+    # Channels: floor, station 0, 1, 2, endpoint, source endpoint.
+    x = model.columns(6 * n, 0, 1, True).reshape(6, n)
+    edges = _grid_edges(rows, cols)
+    big = float(n)
+    flow = model.columns(len(edges), 0, big, False)
+    supply = model.columns(n, 0, big, False)
+    k = np.arange(n)
+    model.constraints(n, np.repeat(k, 6), x.T.ravel(), 1.0, 1.0, 1.0)
+    model.constraints(1, np.zeros(n, dtype=np.int64), x[5], 1.0, 1.0, 1.0)
+    for s in (1, 2, 3):
+        model.constraints(1, np.zeros(n, dtype=np.int64), x[s], 1.0, 1.0, np.inf)
+    model.constraints(1, np.zeros(3 * n, dtype=np.int64), x[1:4].ravel(), 1.0, 0.0, n - agents)
+    here, there = edges[:, 0], edges[:, 1]
+    for mine, theirs in (((1, 2, 3), (4, 5)), ((4, 5), (1, 2, 3))):
+        r = [np.tile(here, len(theirs))] + [k] * len(mine)
+        c = [x[t][there] for t in theirs] + [x[t] for t in mine]
+        v = [np.ones(len(here) * len(theirs))] + [-np.ones(n)] * len(mine)
+        model.constraints(n, np.concatenate(r), np.concatenate(c), np.concatenate(v), 0.0, np.inf)
+    # Capacity: nothing flows out of a station; the source's supply only where the source is.
+    m = len(edges)
+    model.constraints(
+        m,
+        np.concatenate([np.arange(m)] + [np.arange(m)] * 3),
+        np.concatenate([flow] + [x[t][here] for t in (1, 2, 3)]),
+        np.concatenate([np.ones(m)] + [np.full(m, big)] * 3),
+        -np.inf,
+        big,
+    )
+    model.constraints(
+        n, np.concatenate([k, k]), np.concatenate([supply, x[5]]), np.concatenate([np.ones(n), -np.full(n, big)]), -np.inf, 0.0
+    )
+    # Conservation: supply + inflow - outflow - (floor + endpoint) = 0.
+    model.constraints(
+        n,
+        np.concatenate([k, there, here, k, k]),
+        np.concatenate([supply, flow, flow, x[0], x[4]]),
+        np.concatenate([np.ones(n), np.ones(m), -np.ones(m), -np.ones(n), -np.ones(n)]),
+        0.0,
+        0.0,
+    )
+    flat = tiles.ravel()
+    channel_of_tile = {code("."): 0, code("0"): 1, code("1"): 2, code("2"): 3, code("e"): 4}
+    channel = np.array([channel_of_tile[int(t)] for t in flat])
+    cost = np.zeros(model.n_cols)
+    cost[x[channel, k]] = -1.0
+    cost[x[5, k[flat == code("e")]]] = -1.0  # an endpoint chosen as the source is not a change
+    model.cost = cost
+    tile_of_channel = np.array([code(c) for c in ".012ee"])
+
+    def decode(values: np.ndarray) -> np.ndarray:
+        return tile_of_channel[values[x].reshape(6, n).argmax(axis=0)].reshape(rows, cols)
+
+    def encode(layout: np.ndarray) -> np.ndarray:
+        values = np.zeros(model.n_cols)
+        flat_layout = layout.ravel()
+        chosen = np.array([channel_of_tile[int(t)] for t in flat_layout])
+        source = int(np.flatnonzero(flat_layout == code("e"))[0])
+        chosen[source] = 5
+        values[x[chosen, k]] = 1.0
+        station = np.isin(flat_layout, [code("0"), code("1"), code("2")])
+        sent = _flow_for(flat_layout, edges, source, ~station, station)
+        values[flow] = sent
+        values[supply[source]] = sent[edges[:, 0] == source].sum()
+        return values
+
+    return model, decode, encode
+
+
+def greedy_repair(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE, *, shelves: int | None = None, agents: int = 0) -> np.ndarray:
+    """A valid layout close to ``tiles``, fast and without a solver.
+
+    Shelves (stations) may stand only on every third row, so the rows between stay open and connect everything
+    (through the workstation columns for warehouses, through a gap kept in every shelf row for manufacturing). Of
+    the three ways to choose those rows, the one that keeps the most of the layout is taken; shelves already there
+    are kept first, then the count is made up; each shelf gets an endpoint, preferably one already there."""
+    tiles = np.asarray(tiles).astype(np.int64)
+    best = None
+    for offset in range(3):
+        try:
+            candidate = _greedy_rows(tiles, kind, offset, shelves, agents)
+        except RepairError:
+            continue
+        if best is None or (candidate != tiles).sum() < (best != tiles).sum():
+            best = candidate
+    if best is None:
+        raise RepairError(f"the greedy repair cannot place the {kind.name} layout's shelves")
+    return best
+
+
+def _greedy_rows(tiles: np.ndarray, kind: LayoutKind, offset: int, shelves: int | None, agents: int) -> np.ndarray:
+    code = kind.vocabulary.index
+    warehouse = kind.name == "warehouse"
+    rows, cols = tiles.shape
+    area = np.zeros((rows, cols), dtype=bool)
+    if warehouse:
+        area[:, WAREHOUSE.border : -WAREHOUSE.border] = True
+    else:
+        area[:] = True
+    shelf_tiles = [code("@")] if warehouse else [code(c) for c in "012"]
+    allowed = area.copy()
+    allowed[[r for r in range(rows) if r % 3 != offset]] = False
+    if not warehouse:  # keep the first column of every shelf row open, so the open rows connect
+        allowed[:, 0] = False
+    is_shelf = np.isin(tiles, shelf_tiles)
+    result = tiles.copy()
+    result[area] = code(".")
+    keep = is_shelf & allowed
+    if warehouse:
+        want = shelves
+    else:
+        want = min(int(keep.sum()), rows * cols - agents)
+        want = max(want, 3)
+    if int(allowed.sum()) < want:
+        raise RepairError("not enough room")
+    chosen = np.zeros_like(keep)
+    kept = np.argwhere(keep)
+    chosen[tuple(kept[:want].T)] = True
+    if chosen.sum() < want:  # make up the count, preferring cells next to existing endpoints
+        endpoint_near = np.zeros((rows, cols), dtype=np.int16)
+        e = tiles == code("e")
+        endpoint_near[1:] += e[:-1]
+        endpoint_near[:-1] += e[1:]
+        free = np.argwhere(allowed & ~chosen)
+        order = np.argsort(-endpoint_near[tuple(free.T)], kind="stable")
+        extra = free[order[: want - int(chosen.sum())]]
+        chosen[tuple(extra.T)] = True
+    if warehouse:
+        result[chosen] = code("@")
+    else:
+        result[chosen] = np.where(is_shelf[chosen], tiles[chosen], code("0"))
+        for c in "012":  # one of each kind at least
+            if not (result == code(c)).any():
+                spots = np.argwhere(chosen & (result != code(c)))
+                counts = [(result == code(k)).sum() for k in "012"]
+                spots = [s for s in spots if counts["012".index(kind.vocabulary[result[tuple(s)]])] > 1]
+                if not spots:
+                    raise RepairError("too few stations")
+                result[tuple(spots[0])] = code(c)
+    # Endpoints: above or below each shelf, keeping the layout's own where they are next to a shelf.
+    shelf_now = np.isin(result, shelf_tiles)
+    was_endpoint = tiles == code("e")
+    for r, c in np.argwhere(shelf_now):
+        near = [(r + d, c) for d in (-1, 1) if 0 <= r + d < rows and area[r + d, c]]
+        if not near:
+            raise RepairError("a shelf row with no room for endpoints")
+        if any(result[p] == code("e") for p in near):
+            continue
+        pick = next((p for p in near if was_endpoint[p]), near[0])
+        result[pick] = code("e")
+    return result

@@ -1,0 +1,48 @@
+"""Pictures of layouts: tiles coloured by kind with a legend; two maps side by side with the cells that differ
+outlined."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from evolution.files import atomic_write
+from structgen.domains.warehouse.layouts import LayoutKind
+from structgen.grid import Grid
+
+
+def draw(grids: list[Grid], kind: LayoutKind, output: Path, *, titles: list[str], dpi: int = 110) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch, Rectangle
+
+    rows, cols = grids[0].shape
+    scale = min(0.22, 9.0 / max(cols, 1))
+    fig, axes = plt.subplots(
+        1, len(grids), figsize=(max(3.0, cols * scale) * len(grids) + 0.5, rows * scale + 1.4), squeeze=False
+    )
+    colours = ListedColormap([kind.colours[c] for c in kind.vocabulary])
+    changed = grids[0].tiles != grids[1].tiles if len(grids) == 2 else None
+    for ax, grid, title in zip(axes[0], grids, titles):
+        ax.imshow(grid.tiles, cmap=colours, vmin=-0.5, vmax=len(kind.vocabulary) - 0.5, interpolation="nearest")
+        if changed is not None:
+            for r, c in np.argwhere(changed):
+                ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1, 1, fill=False, edgecolor="#e41a1c", linewidth=0.9))
+        ax.set_title(title, fontsize=8)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    present = [c for c in kind.vocabulary if any(g.count(c) for g in grids)]
+    handles = [Patch(facecolor=kind.colours[c], edgecolor="#999999", label=f"{kind.tile_names[c]} '{c}'") for c in present]
+    if changed is not None:
+        handles.append(Patch(facecolor="none", edgecolor="#e41a1c", label=f"changed ({int(changed.sum())})"))
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 4), fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    plt.close(fig)
+    return atomic_write(output, buffer.getvalue())
