@@ -126,7 +126,7 @@ class LayoutProblem(Problem):
         self.shelves = getattr(settings, "shelves", 0) or self.size.shelves
         full = self.kind.complete(self.seed_tiles).shape
         if self.kind.name == "warehouse":
-            low, high = (140.0, 240.0) if settings.size == "33x36" else (0.0, float(max(self.size.shelves, 1)))
+            low, high = (140.0, 240.0) if settings.size == "33x36" and self.shelves == 240 else (0.0, float(max(self.shelves, 1)))
             self.measure_names = ("shelf_components", "entropy")
             self.measure_ranges = ((low, high), (0.0, 1.0))
             self.field_names = ("similarity", "hamming", "optimal", "failed")

@@ -187,9 +187,7 @@ def repair(
     greedy = None
     if greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS:
         greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
-    values, status, optimal, gap = model.solve(
-        time_limit, seed, threads, None if greedy is None else encode(greedy), node_limit
-    )
+    values, status, optimal, gap = model.solve(time_limit, seed, threads, None if greedy is None else encode(greedy), node_limit)
     if values is None:
         if greedy is not None:
             result, method = greedy, "greedy"

@@ -1,0 +1,253 @@
+"""The 2D layout domains held to the warehouse paper's code and maps (``../shared/data/warehouse-maps``)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from structgen.cli import main
+from structgen.conv_nca import ConvNCA, parameter_count
+from structgen.domains.warehouse.layouts import MANUFACTURING, MAZE, WAREHOUSE
+from structgen.domains.warehouse.maze import AGENTS, diameter, run_episodes
+from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity, violations
+from structgen.domains.warehouse.repair import RepairError, greedy_repair, repair
+from structgen.grid import Grid, GridError
+from tests.layouts.reference_conv_nca import reference_grow
+
+MAPS = Path(__file__).resolve().parents[3] / "shared" / "data" / "warehouse-maps"
+OURS = MAPS / "warehouse" / "ours" / "nca_to_show"
+needs_maps = pytest.mark.skipif(not MAPS.is_dir(), reason="the reference maps (../shared/data) are not on this machine")
+#: The one map file of the original that is not a grid: its last row is one tile longer (a typo in the original).
+RAGGED = "warehouse/report/fixed_n_shelf/kiva_comp_repaired.json"
+
+
+def _kind_of(path: Path):
+    return {"warehouse": WAREHOUSE, "manufacture": MANUFACTURING, "maze": MAZE}[path.relative_to(MAPS).parts[0]]
+
+
+@needs_maps
+def test_every_original_map_file_loads_as_it_is():
+    files = sorted(MAPS.rglob("*.json"))
+    assert len(files) > 200
+    for path in files:
+        if path.relative_to(MAPS).as_posix() == RAGGED:
+            with pytest.raises(GridError, match=r"layout\[8\] has 17 tiles, row 0 has 16"):
+                Grid.load(path, _kind_of(path).vocabulary)
+            continue
+        grid = Grid.load(path, _kind_of(path).vocabulary)
+        data = json.loads(path.read_text())
+        assert grid.rows() == data["layout"]
+        assert grid.metadata["name"] == data["name"]
+
+
+def test_grid_round_trips_through_json_and_text(tmp_path):
+    grid = Grid.from_text(["w.@e", ".ee."], WAREHOUSE.vocabulary, {"name": "tiny", "score": 1.5})
+    path = grid.save(tmp_path / "tiny.json")
+    assert Grid.load(path) == grid  # the file names its tiles
+    assert Grid.load(path, WAREHOUSE.vocabulary) == grid
+    assert Grid.from_text(grid.to_text(), grid.vocabulary, grid.metadata) == grid
+    hot = grid.one_hot()
+    assert hot.shape == (6, 2, 4) and (hot.sum(0) == 1).all() and hot[1, 0, 2] == 1
+    with pytest.raises(GridError, match=r"layout\[1\]\[2\] = 'q' is not a tile"):
+        Grid.from_text(["....", "..q."], WAREHOUSE.vocabulary)
+    with pytest.raises(GridError, match="but this domain's tiles are"):
+        Grid.load(path, MAZE.vocabulary)
+
+
+def test_parameter_counts_are_the_originals():
+    assert parameter_count(3) == ConvNCA(3).n_params == 2051
+    assert parameter_count(5) == 2693
+    assert parameter_count(2) == 1730
+
+
+@pytest.mark.parametrize("kind", [WAREHOUSE, MANUFACTURING, MAZE], ids=lambda k: k.name)
+def test_a_batch_grows_what_the_reference_grows_one_by_one(kind):
+    nca = ConvNCA(kind.nca_tiles)
+    genomes = np.random.default_rng(3).normal(0, 0.2, (6, nca.n_params))
+    seed = kind.seed((16, 18))
+    batched = nca.grow(genomes, seed, 12)
+    for genome, layout in zip(genomes, batched):
+        assert np.array_equal(layout, reference_grow(genome, seed, 12, kind.nca_tiles))
+    assert np.array_equal(nca.grow(genomes, seed, 12, chunk=1), batched)
+
+
+def test_the_same_weights_grow_at_training_and_evaluation_size():
+    nca = ConvNCA(3)
+    genome = np.random.default_rng(5).normal(0, 0.2, nca.n_params)
+    small = WAREHOUSE.complete(nca.grow(genome, WAREHOUSE.seed(WAREHOUSE.size("33x36").grown), 50))
+    large = WAREHOUSE.complete(nca.grow(genome, WAREHOUSE.seed(WAREHOUSE.size("101x102").grown), 200))
+    assert small.shape == (33, 36) and large.shape == (101, 102)
+    assert (large == WAREHOUSE.vocabulary.index("w")).sum() == 66 and (small == 5).sum() == 22
+
+
+@needs_maps
+def test_seed_blocks_equal_the_originals_seed_files():
+    folders = [(WAREHOUSE, "warehouse/nca"), (MANUFACTURING, "manufacture/nca"), (MAZE, "maze/nca")]
+    checked = 0
+    for kind, folder in folders:
+        for path in sorted((MAPS / folder).glob("*seed_block.json")):
+            original = Grid.load(path, kind.vocabulary)
+            assert np.array_equal(kind.seed(original.shape), original.tiles), path.name
+            checked += 1
+    assert checked == 23
+
+
+@needs_maps
+@pytest.mark.parametrize(
+    "path, entropy, components",
+    [
+        ("warehouse/human/kiva_large_w_mode.json", 0.423, 24),
+        ("warehouse/ours/nca_to_show/cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5.json", 0.529, 140),
+        ("warehouse/ours/nca_to_show/dsage_comp/kiva_large_200_agents_dsage_opt_entropy_throughput_hamming_a=5.json", 0.928, 150),
+    ],
+)
+def test_measures_match_the_values_of_the_originals_maps(path, entropy, components):
+    grid = Grid.load(MAPS / path, WAREHOUSE.vocabulary)
+    assert pattern_entropy(grid.tiles) == pytest.approx(entropy, abs=5e-4)
+    assert shelf_components(grid.tiles) == components
+    assert violations(grid.tiles, WAREHOUSE, shelves=240) == []
+
+
+def test_entropy_and_similarity_on_hand_made_layouts():
+    uniform = np.zeros((5, 9), dtype=np.uint8)
+    assert pattern_entropy(WAREHOUSE.complete(uniform)) == 0.0
+    assert similarity(np.zeros((2, 5)), np.array([[0, 0, 0, 0, 1], [0] * 5])) == (1, 0.9)
+    # Manufacturing weighs agreement on stations five times.
+    before = np.array([[1, 0], [0, 0]])
+    assert similarity(before, np.zeros((2, 2)), MANUFACTURING) == (1, pytest.approx(3 / 20))
+
+
+def test_the_validity_checker_finds_each_broken_rule():
+    storage = np.zeros((7, 6), dtype=np.uint8)
+    storage[1, 1], storage[2, 1] = 1, 2  # a shelf with its endpoint
+    good = WAREHOUSE.complete(storage)
+    assert violations(good, WAREHOUSE, shelves=1, fixed=good) == []
+    assert violations(good, WAREHOUSE, shelves=2) == ["1 shelves, expected 2"]
+    lonely = storage.copy()
+    lonely[5, 4] = 1
+    assert "1 shelves with no endpoint next to them" in violations(WAREHOUSE.complete(lonely), WAREHOUSE)
+    ring = np.zeros((7, 7), dtype=np.uint8)
+    ring[1:6, 1:6] = 1
+    ring[2:5, 2:5] = 2
+    ring[3, 3] = 0  # a floor cell inside a ring of shelves
+    assert "9 cells not connected to the rest" in violations(WAREHOUSE.complete(ring), WAREHOUSE)
+
+
+@needs_maps
+def test_repair_reaches_the_originals_hamming_distance_and_is_valid():
+    unrepaired = Grid.load(
+        OURS / "cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5_unrepaired.json", WAREHOUSE.vocabulary
+    )
+    repaired = Grid.load(
+        OURS / "cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5.json", WAREHOUSE.vocabulary
+    )
+    recorded = int((unrepaired.tiles != repaired.tiles).sum())
+    result = repair(unrepaired.tiles, WAREHOUSE, shelves=240, time_limit=60)
+    assert recorded == 32 and result.hamming <= recorded and result.optimal
+    assert violations(result.tiles, WAREHOUSE, shelves=240, fixed=unrepaired.tiles) == []
+
+
+@needs_maps
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "name, recorded",
+    [
+        ("cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_uneven_throughput_hamming_a=5_unrepaired.json", 147),
+        ("cma_mae/medium_s_train/kiva_large_cma-mae_entropy_throughput_hamming_a=5_s_train_mid_unrepaired.json", 136),
+    ],
+)
+def test_harder_maps_repair_to_the_recorded_distance_within_the_originals_limit(name, recorded):
+    unrepaired = Grid.load(OURS / name, WAREHOUSE.vocabulary)
+    result = repair(unrepaired.tiles, WAREHOUSE, shelves=240, time_limit=60)
+    assert result.hamming <= recorded
+    assert violations(result.tiles, WAREHOUSE, shelves=240, fixed=unrepaired.tiles) == []
+
+
+def test_the_greedy_repair_is_valid_and_seeds_the_milp():
+    nca = ConvNCA(3)
+    genome = np.random.default_rng(2).normal(0, 0.2, nca.n_params)
+    size = WAREHOUSE.size("33x36")
+    tiles = WAREHOUSE.complete(nca.grow(genome, WAREHOUSE.seed(size.grown), 50))
+    greedy = greedy_repair(tiles, WAREHOUSE, shelves=240)
+    assert violations(greedy, WAREHOUSE, shelves=240, fixed=tiles) == []
+    seeded = repair(tiles, WAREHOUSE, shelves=240, time_limit=1e-3, greedy_first=True)
+    assert seeded.method in ("greedy", "milp from greedy") and seeded.hamming <= int((greedy != tiles).sum())
+
+
+def test_impossible_rules_are_a_clear_error():
+    tiles = WAREHOUSE.complete(np.zeros((4, 4), dtype=np.uint8))
+    with pytest.raises(RepairError, match="17 shelves do not fit in a storage area of 16 cells"):
+        repair(tiles, WAREHOUSE, shelves=17)
+    with pytest.raises(RepairError, match="no warehouse layout of this size satisfies the rules"):
+        repair(tiles, WAREHOUSE, shelves=16)  # a full storage area leaves no endpoint
+    with pytest.raises(RepairError, match="leave no room for three stations"):
+        repair(np.zeros((3, 3), dtype=np.uint8), MANUFACTURING, agents=8)
+
+
+def test_a_manufacturing_repair_is_valid():
+    tiles = np.zeros((6, 8), dtype=np.uint8)
+    tiles[2, 2:6] = [1, 3, 3, 2]
+    result = repair(tiles, MANUFACTURING, agents=10, time_limit=30)
+    assert violations(result.tiles, MANUFACTURING, agents=10) == []
+    assert all((result.tiles == MANUFACTURING.vocabulary.index(c)).any() for c in "012")
+
+
+@needs_maps
+def test_maze_start_and_goal_and_agents_on_the_originals_maze():
+    maze = Grid.load(MAPS / "maze/ours/nca_to_show/maze_small_nca_100_50.json", MAZE.vocabulary)
+    start, goal, length = diameter(maze.tiles)
+    assert length == 50 and maze.tiles[start] == 0 and maze.tiles[goal] == 0
+    oracle = run_episodes(maze.tiles, "oracle", episodes=5)
+    assert oracle.success_rate == 1.0 and oracle.shortest_path == 50
+    assert oracle.mean_steps >= 50  # turns cost a step
+    for name in AGENTS:
+        stats = run_episodes(maze.tiles, name, episodes=3, seed=1)
+        assert stats == run_episodes(maze.tiles, name, episodes=3, seed=1)
+        assert 0.0 <= stats.success_rate <= 1.0 and stats.mean_steps <= 648
+
+
+def test_an_unsolvable_maze_scores_zero():
+    walls = np.ones((6, 6), dtype=np.uint8)
+    walls[0, 0] = 0
+    assert diameter(walls) is None
+    assert run_episodes(walls, "oracle", episodes=2).success_rate == 0.0
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_generate_repair_measure_and_show_from_the_command_line(tmp_path, capsys):
+    raw, fixed, picture = tmp_path / "raw.json", tmp_path / "fixed.json", tmp_path / "pair.png"
+    assert run(capsys, "warehouse", "generate", "--seed", 4, "--size", "9x16", "-o", raw)[0] == 0
+    code, out, _ = run(capsys, "warehouse", "repair", raw, "-o", fixed)
+    assert code == 0 and "cells changed (proven optimal" in out
+    data = json.loads(fixed.read_text())
+    assert data["optimal"] is True and data["hamming"] >= 0 and data["tiles"] == WAREHOUSE.vocabulary
+    code, out, _ = run(capsys, "warehouse", "measure", fixed, "--json")
+    measured = json.loads(out)
+    assert code == 0 and measured["valid"] and measured["shelf_tiles"] == 20
+    assert run(capsys, "warehouse", "show", raw, fixed, "-o", picture)[0] == 0
+    assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert run(capsys, "maze", "generate", "-o", tmp_path / "m.json")[0] == 0
+    code, out, _ = run(capsys, "maze", "measure", tmp_path / "m.json", "--json", "--agent", "oracle", "--episodes", 2)
+    assert code == 0 and json.loads(out)["shortest_path"] >= -1
+
+
+def test_bad_map_files_and_impossible_repairs_exit_2_and_write_nothing(tmp_path, capsys):
+    ragged = tmp_path / "ragged.json"
+    ragged.write_text('{"layout": ["...", ".."]}')
+    code, out, err = run(capsys, "warehouse", "repair", ragged, "-o", tmp_path / "out.json")
+    assert code == 2 and "layout[1] has 2 tiles" in err and len(err.strip().splitlines()) == 1
+    full = tmp_path / "full.json"
+    Grid(WAREHOUSE.complete(np.ones((9, 12), dtype=np.uint8)), WAREHOUSE.vocabulary).save(full)
+    code, out, err = run(capsys, "warehouse", "repair", full, "-o", tmp_path / "out.json", "--shelves", 200)
+    assert code == 2 and "do not fit" in err
+    code, out, err = run(capsys, "maze", "measure", tmp_path / "nothing.json")
+    assert code == 2 and "no such file" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["full.json", "ragged.json"]
