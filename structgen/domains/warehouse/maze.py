@@ -22,7 +22,6 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import csgraph, csr_matrix
 
 __all__ = ["AGENTS", "EpisodeStats", "MazeAgent", "diameter", "run_episodes"]
 
@@ -31,7 +30,9 @@ _STEPS = ((-1, 0), (0, 1), (1, 0), (0, -1))
 LEFT, RIGHT, FORWARD = 0, 1, 2
 
 
-def _floor_graph(floor: np.ndarray) -> csr_matrix:
+def _floor_graph(floor: np.ndarray):
+    from scipy.sparse import csr_matrix  # loaded on first use: the command line lists the agents without it
+
     rows, cols = floor.shape
     index = np.arange(rows * cols).reshape(rows, cols)
     right = floor[:, :-1] & floor[:, 1:]
@@ -45,6 +46,8 @@ def _floor_graph(floor: np.ndarray) -> csr_matrix:
 def diameter(maze: np.ndarray) -> tuple[tuple[int, int], tuple[int, int], int] | None:
     """(start, goal, distance) of the longest shortest path between floor cells (tile 0) of a grown maze, or None if
     no two floor cells are connected."""
+    from scipy.sparse import csgraph
+
     floor = np.asarray(maze) == 0
     dist = csgraph.shortest_path(_floor_graph(floor), method="D", unweighted=True)
     dist[~np.isfinite(dist)] = -np.inf
