@@ -151,8 +151,9 @@ def measure(grid: Grid, kind: LayoutKind, *, agent: str = "explorer", episodes: 
     out["shelf_components" if kind.name == "warehouse" else "station_components"] = shelf_components(grid.tiles, kind)
     named = _size_of(kind, grid.shape)
     shelves = named[1].shelves if named and named[1].shelves else None
-    out["valid"] = not violations(grid.tiles, kind, shelves=shelves, agents=0)
-    out["problems"] = violations(grid.tiles, kind, shelves=shelves, agents=0)
+    problems = violations(grid.tiles, kind, shelves=shelves, agents=0)
+    out["valid"] = not problems
+    out["problems"] = problems
     return out
 
 

@@ -43,6 +43,7 @@ class LayoutKind:
         seed_block: the tiles (rows of text) placed at the centre of an otherwise empty seed.
         seed_offset: subtracted from the centre (rows, columns) to place the block's top-left corner.
         seed_rows: the original's seed files place the block differently at a few heights; these are its rows there.
+        blocking: the tiles that block movement and count as shelves (warehouse ``@``, manufacturing's stations).
     """
 
     name: str
@@ -55,6 +56,7 @@ class LayoutKind:
     seed_block: tuple[str, ...]
     seed_offset: tuple[int, int]
     seed_rows: dict[int, int] = field(default_factory=dict)
+    blocking: str = ""
 
     def size(self, name: str) -> Size:
         """A named size (``"33x36"``), or any ``"RxC"`` of what the NCA grows for sizes the paper did not use."""
@@ -67,6 +69,10 @@ class LayoutKind:
                 raise ValueError(f"size {name!r}: rows and columns must be at least 4 and the map at most 4096 x 4096")
             return Size(grown, shelves=0)
         raise ValueError(f"unknown {self.name} size {name!r}: one of {', '.join(self.sizes)}, or ROWSxCOLUMNS")
+
+    def blocking_tiles(self) -> list[int]:
+        """The numbers of the :attr:`blocking` tiles."""
+        return [self.vocabulary.index(c) for c in self.blocking]
 
     def seed(self, grown: tuple[int, int]) -> np.ndarray:
         """The seed the NCA starts from: empty floor with the seed block near the centre, as the original's files."""
@@ -145,6 +151,7 @@ WAREHOUSE = _Warehouse(
     seed_block=("ee", "@@", "ee"),
     seed_offset=(1, 1),
     seed_rows={93: 39, 101: 50},
+    blocking="@",
 )
 
 MANUFACTURING = LayoutKind(
@@ -165,6 +172,7 @@ MANUFACTURING = LayoutKind(
     seed_block=("eeee", "0221", "eeee"),
     seed_offset=(1, 2),
     seed_rows={93: 39, 101: 50},
+    blocking="012",
 )
 
 MAZE = _Maze(
@@ -183,6 +191,7 @@ MAZE = _Maze(
     seed_block=("XX", "XX"),
     seed_offset=(1, 1),
     seed_rows={96: 31},
+    blocking="X",
 )
 
 KINDS = {kind.name: kind for kind in (WAREHOUSE, MANUFACTURING, MAZE)}

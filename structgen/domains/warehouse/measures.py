@@ -24,14 +24,9 @@ _FOUR = ndimage.generate_binary_structure(2, 1)
 
 def shelf_components(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE) -> int:
     """Number of 4-connected groups of shelves (warehouse) or stations (manufacturing)."""
-    blocking = _blocking_tiles(kind)
+    blocking = kind.blocking_tiles()
     _, count = ndimage.label(np.isin(tiles, blocking), structure=_FOUR)
     return int(count)
-
-
-def _blocking_tiles(kind: LayoutKind) -> list[int]:
-    chars = "@" if kind.name == "warehouse" else "012"
-    return [kind.vocabulary.index(c) for c in chars]
 
 
 def pattern_entropy(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE) -> float:
@@ -64,7 +59,7 @@ def similarity(unrepaired: np.ndarray, repaired: np.ndarray, kind: LayoutKind = 
     same = unrepaired == repaired
     hamming = int((~same).sum())
     if kind.name == "manufacturing":
-        weight = np.where(np.isin(unrepaired, _blocking_tiles(kind)), 5.0, 1.0)
+        weight = np.where(np.isin(unrepaired, kind.blocking_tiles()), 5.0, 1.0)
         return hamming, float((weight * same).sum() / (5.0 * same.size))
     return hamming, 1.0 - hamming / same.size
 

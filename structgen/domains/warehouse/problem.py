@@ -188,7 +188,7 @@ class LayoutProblem(Problem):
         first = (
             shelf_components(result.tiles, self.kind)
             if self.kind.name == "warehouse"
-            else float(np.isin(result.tiles, [self.kind.vocabulary.index(c) for c in "012"]).sum())
+            else float(np.isin(result.tiles, self.kind.blocking_tiles()).sum())
         )
         fields = {
             "similarity": score,

@@ -236,10 +236,10 @@ def _warehouse_model(tiles: np.ndarray, *, shelves: int | None, agents: int):
 
     model = _Model()
     x = model.columns(3 * n_storage, 0, 1, True).reshape(3, n_storage)  # floor, shelf, endpoint per storage cell
-    edges = _grid_edges(rows, cols)
+    all_edges = _grid_edges(rows, cols)
     # No flow leaves a workstation other than the source, and none needs to enter the source.
-    keep = ~(station[edges[:, 0]] & (edges[:, 0] != source)) & (edges[:, 1] != source)
-    edges = edges[keep]
+    keep = ~(station[all_edges[:, 0]] & (all_edges[:, 0] != source)) & (all_edges[:, 1] != source)
+    edges = all_edges[keep]
     big = float(n_cells)
     flow = model.columns(len(edges), 0, big, False)
 
@@ -249,9 +249,8 @@ def _warehouse_model(tiles: np.ndarray, *, shelves: int | None, agents: int):
     # The exact shelf count.
     model.constraints(1, np.zeros(n_storage, dtype=np.int64), x[1], 1.0, shelves, shelves)
     # Adjacency: sum of neighbouring endpoints >= shelf here; sum of neighbouring shelves >= endpoint here.
-    pairs = edges_all = _grid_edges(rows, cols)
-    both = (cell_var[pairs[:, 0]] >= 0) & (cell_var[pairs[:, 1]] >= 0)
-    here, there = cell_var[edges_all[both, 0]], cell_var[edges_all[both, 1]]
+    both = (cell_var[all_edges[:, 0]] >= 0) & (cell_var[all_edges[:, 1]] >= 0)
+    here, there = cell_var[all_edges[both, 0]], cell_var[all_edges[both, 1]]
     for mine, theirs in ((1, 2), (2, 1)):
         model.constraints(
             n_storage,
@@ -450,7 +449,7 @@ def _greedy_rows(tiles: np.ndarray, kind: LayoutKind, offset: int, shelves: int 
         area[:, WAREHOUSE.border : -WAREHOUSE.border] = True
     else:
         area[:] = True
-    shelf_tiles = [code("@")] if warehouse else [code(c) for c in "012"]
+    shelf_tiles = kind.blocking_tiles()
     allowed = area.copy()
     allowed[[r for r in range(rows) if r % 3 != offset]] = False
     if not warehouse:  # keep the first column of every shelf row open, so the open rows connect
