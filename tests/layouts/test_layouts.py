@@ -187,12 +187,34 @@ def test_impossible_rules_are_a_clear_error():
         repair(np.zeros((3, 3), dtype=np.uint8), MANUFACTURING, agents=8)
 
 
+@needs_maps
+@pytest.mark.parametrize(
+    "name, recorded, limit",
+    [
+        ("manufacture_large_200_agents_cma-mae_opt_alpha=5_sw=5", 147, 30),
+        pytest.param("manufacture_large_200_agents_cma-mae_idx_0=15_opt_alpha=5_sw=5", 874, 60, marks=pytest.mark.slow),
+    ],
+)
+def test_manufacturing_maps_repair_to_the_recorded_distance(name, recorded, limit):
+    folder = MAPS / "manufacture/ours/nca_to_show"
+    unrepaired = Grid.load(folder / f"{name}_unrepaired.json", MANUFACTURING.vocabulary)
+    repaired = Grid.load(folder / f"{name}.json", MANUFACTURING.vocabulary)
+    assert int((unrepaired.tiles != repaired.tiles).sum()) == recorded
+    result = repair(unrepaired.tiles, MANUFACTURING, agents=200, time_limit=limit)
+    assert result.hamming <= recorded and result.hamming == int((result.tiles != unrepaired.tiles).sum())
+    assert violations(result.tiles, MANUFACTURING, agents=200) == []
+    if recorded == 147:  # one station channel for the three kinds: proven in about a second (59 s and 159 before)
+        assert result.optimal
+
+
 def test_a_manufacturing_repair_is_valid():
     tiles = np.zeros((6, 8), dtype=np.uint8)
     tiles[2, 2:6] = [1, 3, 3, 2]
     result = repair(tiles, MANUFACTURING, agents=10, time_limit=30)
     assert violations(result.tiles, MANUFACTURING, agents=10) == []
     assert all((result.tiles == MANUFACTURING.vocabulary.index(c)).any() for c in "012")
+    # The stations already there keep their kinds: relabelling one would be a change for nothing.
+    assert result.tiles[2, 2] == 1 and result.tiles[2, 5] == 2 and result.hamming == int((result.tiles != tiles).sum())
 
 
 @needs_maps

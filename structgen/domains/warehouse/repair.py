@@ -8,7 +8,9 @@ The model follows the original's (research notes 1.4), written from its descript
   a single-commodity flow from one workstation, which cannot leave a shelf or another workstation;
 - manufacturing: at least one station of each kind, at most ``cells - agents`` stations, every station next to an
   endpoint and the other way round, one endpoint chosen as the flow's source (written back as an endpoint), stations
-  blocking the flow;
+  blocking the flow. Unlike the original, one "station" channel stands for the three kinds (a witness per kind
+  keeps "one of each"), and new stations take the kinds in turn: the optimum is the same number of changes, and
+  HiGHS proves it on the original's 33x36 map in about a second instead of stopping at 159 changes after a minute;
 - objective: the number of changed cells (the original weighs each change 40, which moves no optimum).
 
 At large sizes (more than :data:`GREEDY_FIRST_CELLS` cells, by default) a cheap greedy repair runs first and is
@@ -351,20 +353,36 @@ def _manufacturing_model(tiles: np.ndarray, *, shelves: int | None, agents: int)
     if agents > n - 3:
         raise RepairError(f"{agents} agents leave no room for three stations in {n} cells")
     model = _Model()
-    # Channels: floor, station 0, 1, 2, endpoint, source endpoint.
-    x = model.columns(6 * n, 0, 1, True).reshape(6, n)
+    # The three station kinds obey the same rules, so one "station" channel stands for all three; with a channel per
+    # kind, HiGHS branched through every equivalent way of labelling new stations and missed the original's optimum
+    # within its minute. Kinds enter only through "at least one of each": witness[k, i] marks a station counted as
+    # kind k, paid for (one change) where the cell held a station of another kind.
+    # Channels: floor, station, endpoint, source endpoint.
+    x = model.columns(4 * n, 0, 1, True).reshape(4, n)
+    witness = model.columns(3 * n, 0, 1, True).reshape(3, n)
     edges = _grid_edges(rows, cols)
     big = float(n)
     flow = model.columns(len(edges), 0, big, False)
     supply = model.columns(n, 0, big, False)
     k = np.arange(n)
-    model.constraints(n, np.repeat(k, 6), x.T.ravel(), 1.0, 1.0, 1.0)
-    model.constraints(1, np.zeros(n, dtype=np.int64), x[5], 1.0, 1.0, 1.0)
-    for s in (1, 2, 3):
-        model.constraints(1, np.zeros(n, dtype=np.int64), x[s], 1.0, 1.0, np.inf)
-    model.constraints(1, np.zeros(3 * n, dtype=np.int64), x[1:4].ravel(), 1.0, 0.0, n - agents)
+    one_row = np.zeros(n, dtype=np.int64)
+    model.constraints(n, np.repeat(k, 4), x.T.ravel(), 1.0, 1.0, 1.0)
+    model.constraints(1, one_row, x[3], 1.0, 1.0, 1.0)
+    for kind in range(3):
+        model.constraints(1, one_row, witness[kind], 1.0, 1.0, np.inf)
+    model.constraints(n, np.repeat(k, 3), witness.T.ravel(), 1.0, -np.inf, 1.0)
+    for kind in range(3):  # a witness only where there is a station
+        model.constraints(
+            n,
+            np.concatenate([k, k]),
+            np.concatenate([witness[kind], x[1]]),
+            np.concatenate([np.ones(n), -np.ones(n)]),
+            -np.inf,
+            0.0,
+        )
+    model.constraints(1, one_row, x[1], 1.0, 0.0, n - agents)
     here, there = edges[:, 0], edges[:, 1]
-    for mine, theirs in (((1, 2, 3), (4, 5)), ((4, 5), (1, 2, 3))):
+    for mine, theirs in (((1,), (2, 3)), ((2, 3), (1,))):
         r = [np.tile(here, len(theirs))] + [k] * len(mine)
         c = [x[t][there] for t in theirs] + [x[t] for t in mine]
         v = [np.ones(len(here) * len(theirs))] + [-np.ones(n)] * len(mine)
@@ -373,45 +391,58 @@ def _manufacturing_model(tiles: np.ndarray, *, shelves: int | None, agents: int)
     m = len(edges)
     model.constraints(
         m,
-        np.concatenate([np.arange(m)] + [np.arange(m)] * 3),
-        np.concatenate([flow] + [x[t][here] for t in (1, 2, 3)]),
-        np.concatenate([np.ones(m)] + [np.full(m, big)] * 3),
+        np.concatenate([np.arange(m), np.arange(m)]),
+        np.concatenate([flow, x[1][here]]),
+        np.concatenate([np.ones(m), np.full(m, big)]),
         -np.inf,
         big,
     )
     model.constraints(
-        n, np.concatenate([k, k]), np.concatenate([supply, x[5]]), np.concatenate([np.ones(n), -np.full(n, big)]), -np.inf, 0.0
+        n, np.concatenate([k, k]), np.concatenate([supply, x[3]]), np.concatenate([np.ones(n), -np.full(n, big)]), -np.inf, 0.0
     )
     # Conservation: supply + inflow - outflow - (floor + endpoint) = 0.
     model.constraints(
         n,
         np.concatenate([k, there, here, k, k]),
-        np.concatenate([supply, flow, flow, x[0], x[4]]),
+        np.concatenate([supply, flow, flow, x[0], x[2]]),
         np.concatenate([np.ones(n), np.ones(m), -np.ones(m), -np.ones(n), -np.ones(n)]),
         0.0,
         0.0,
     )
     flat = tiles.ravel()
-    channel_of_tile = {code("."): 0, code("0"): 1, code("1"): 2, code("2"): 3, code("e"): 4}
-    channel = np.array([channel_of_tile[int(t)] for t in flat])
+    station_kind = np.select([flat == code(c) for c in "012"], [0, 1, 2], -1)
+    channel = np.select([flat == code("."), station_kind >= 0], [0, 1], 2)
     cost = np.zeros(model.n_cols)
     cost[x[channel, k]] = -1.0
-    cost[x[5, k[flat == code("e")]]] = -1.0  # an endpoint chosen as the source is not a change
+    cost[x[3, k[flat == code("e")]]] = -1.0  # an endpoint chosen as the source is not a change
+    for kind in range(3):
+        cost[witness[kind, (station_kind >= 0) & (station_kind != kind)]] = 1.0
     model.cost = cost
-    tile_of_channel = np.array([code(c) for c in ".012ee"])
+    station_codes = np.array([code(c) for c in "012"])
 
     def decode(values: np.ndarray) -> np.ndarray:
-        return tile_of_channel[values[x].reshape(6, n).argmax(axis=0)].reshape(rows, cols)
+        chosen = values[x].reshape(4, n).argmax(axis=0)
+        out = np.array([code(c) for c in ".0ee"])[chosen]
+        station = chosen == 1
+        counted = values[witness].reshape(3, n) > 0.5
+        kind_here = np.where(counted.any(0), counted.argmax(0), station_kind)
+        new = station & (kind_here < 0)
+        # New stations cost one change whatever their kind: they take the kinds in turn, in reading order.
+        kind_here[new] = np.arange(int(new.sum())) % 3
+        out[station] = station_codes[kind_here[station]]
+        return out.reshape(rows, cols)
 
     def encode(layout: np.ndarray) -> np.ndarray:
         values = np.zeros(model.n_cols)
         flat_layout = layout.ravel()
-        chosen = np.array([channel_of_tile[int(t)] for t in flat_layout])
+        is_station = np.isin(flat_layout, station_codes)
+        chosen = np.select([flat_layout == code("."), is_station], [0, 1], 2)
         source = int(np.flatnonzero(flat_layout == code("e"))[0])
-        chosen[source] = 5
+        chosen[source] = 3
         values[x[chosen, k]] = 1.0
-        station = np.isin(flat_layout, [code("0"), code("1"), code("2")])
-        sent = _flow_for(flat_layout, edges, source, ~station, station)
+        for kind in range(3):
+            values[witness[kind, np.flatnonzero(flat_layout == station_codes[kind])[0]]] = 1.0
+        sent = _flow_for(flat_layout, edges, source, ~is_station, is_station)
         values[flow] = sent
         values[supply[source]] = sent[edges[:, 0] == source].sum()
         return values
