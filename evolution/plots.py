@@ -13,23 +13,31 @@ import numpy as np
 from evolution.problem import Problem
 from evolution.runfolder import RunFolder, atomic_write
 
-__all__ = ["write_plots"]
+__all__ = ["figure_png", "new_figure", "write_plots"]
 
 
-def _png(figure: Any) -> bytes:
+def new_figure(**options: Any) -> Any:
+    """A matplotlib ``Figure`` on its own Agg canvas (``options`` go to ``Figure``): every picture the project draws
+    starts here, so none touches pyplot's global state or needs a display."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(**options)
+    FigureCanvasAgg(figure)
+    return figure
+
+
+def figure_png(figure: Any, dpi: int = 100) -> bytes:
+    """The figure as PNG bytes, for an atomic write."""
     buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
+    figure.savefig(buffer, format="png", dpi=dpi)
     return buffer.getvalue()
 
 
 def objective_figure(rows: list[dict[str, Any]], problem: Problem) -> Any:
     """Best objective so far, this generation's best and mean; below, the best candidate's plotted fields."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     fields = [name for name in problem.plot_fields if f"best_{name}" in rows[-1]]
-    figure = Figure(figsize=(8, 3.6 + 1.6 * len(fields)), layout="constrained")
-    FigureCanvasAgg(figure)
+    figure = new_figure(figsize=(8, 3.6 + 1.6 * len(fields)), layout="constrained")
     axes = figure.subplots(1 + len(fields), 1, sharex=True, squeeze=False, height_ratios=[2.2] + [1] * len(fields))[:, 0]
     generation = [row["generation"] for row in rows]
     top = axes[0]
@@ -51,11 +59,7 @@ def objective_figure(rows: list[dict[str, Any]], problem: Problem) -> Any:
 
 def archive_figure(archive: Any, problem: Problem) -> Any:
     """The archive's elites: objective by cell, measures on the axes."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=(7, 5.5), layout="constrained")
-    FigureCanvasAgg(figure)
+    figure = new_figure(figsize=(7, 5.5), layout="constrained")
     ax = figure.add_subplot()
     dims = tuple(archive.dims)
     grid = np.full(dims, np.nan)
@@ -83,6 +87,6 @@ def write_plots(folder: RunFolder, problem: Problem, archive: Any = None) -> Non
     """Redraw ``objective.png`` from metrics.jsonl and, for quality diversity, ``archive.png``."""
     rows = folder.metrics()
     if rows:
-        atomic_write(folder / folder.OBJECTIVE_PLOT, _png(objective_figure(rows, problem)))
+        atomic_write(folder / folder.OBJECTIVE_PLOT, figure_png(objective_figure(rows, problem)))
     if archive is not None and len(problem.measure_names) in (1, 2):
-        atomic_write(folder / folder.ARCHIVE_PLOT, _png(archive_figure(archive, problem)))
+        atomic_write(folder / folder.ARCHIVE_PLOT, figure_png(archive_figure(archive, problem)))

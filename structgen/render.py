@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -10,6 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evolution.files import atomic_write
+from evolution.plots import figure_png, new_figure
 
 if TYPE_CHECKING:
     from physics import StabilityReport
@@ -48,8 +48,6 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
     Edges with a broken joint are red, in both pictures; in the first, a red cross marks each broken joint (when
     there are at most 200).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
     from matplotlib.ticker import MaxNLocator
 
     edges = report.edges
@@ -68,8 +66,7 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
     top = min(2 * half, max(high[2] + 0.5, 0.35 * half))
     size = max(3.0, min(80.0, 400.0 / max(1.0, half) ** 2))
 
-    figure = Figure(figsize=(10, 5.2))
-    FigureCanvasAgg(figure)
+    figure = new_figure(figsize=(10, 5.2))
     summary = (
         f"{report.verdict()}   I = {report.integrity:.2f}, H = {report.height:.2f}, C = {report.complexity}, "
         f"Q = {report.score:.2f}"
@@ -108,6 +105,4 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
         axes.set_ylabel("y")
         axes.set_zlabel("z")
         axes.view_init(elev=22, azim=-60)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=dpi)
-    return atomic_write(path, buffer.getvalue())
+    return atomic_write(path, figure_png(figure, dpi))

@@ -231,6 +231,17 @@ def test_maze_start_and_goal_and_agents_on_the_originals_maze():
         assert 0.0 <= stats.success_rate <= 1.0 and stats.mean_steps <= 648
 
 
+def test_the_wall_follower_crosses_open_floor_and_carries_nothing_between_runs():
+    room = np.zeros((6, 6), dtype=np.uint8)  # no walls inside: a hand on the wall, not circles in the open
+    assert run_episodes(room, "wall_follower", episodes=20).success_rate == 1.0
+    corridor = np.ones((5, 7), dtype=np.uint8)
+    corridor[2, :] = 0
+    corridor[:, 3] = 0
+    agent = AGENTS["wall_follower"]()
+    run_episodes(room, agent, episodes=3)
+    assert run_episodes(corridor, agent, episodes=4) == run_episodes(corridor, "wall_follower", episodes=4)
+
+
 def test_an_unsolvable_maze_scores_zero():
     walls = np.ones((6, 6), dtype=np.uint8)
     walls[0, 0] = 0

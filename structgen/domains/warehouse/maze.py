@@ -120,10 +120,20 @@ class Oracle(MazeAgent):
 
 
 class WallFollower(MazeAgent):
+    """Right-hand rule. Walk straight until blocked, then keep a wall on the right: turn right (and step) where that
+    wall ends, else go ahead, else turn left. Turning right only where a followed wall ends keeps it from circling
+    a patch of open floor; like any wall follower it can circle a free-standing block of wall forever (``epsilon``,
+    the chance of a random action, breaks such loops)."""
+
     name = "wall_follower"
 
     def __init__(self, epsilon: float = 0.0) -> None:
         self.epsilon = epsilon
+
+    def reset(self, walls, goal, rng):
+        super().reset(walls, goal, rng)
+        self.following = False  # a wall is on the right
+        self.just_turned_right = False
 
     def act(self, state, view, goal_seen):
         if self.epsilon and self.rng.random() < self.epsilon:
@@ -132,12 +142,18 @@ class WallFollower(MazeAgent):
         right = (state.facing + 1) % 4
         ahead = (r + _STEPS[state.facing][0], c + _STEPS[state.facing][1])
         right_cell = (r + _STEPS[right][0], c + _STEPS[right][1])
-        if not view.get(right_cell, True) and getattr(self, "_turned", False) is False:
-            self._turned = True  # turn right into the opening, then step through it
+        ahead_open = not view.get(ahead, True)
+        if self.just_turned_right:  # step through the opening just turned into
+            self.just_turned_right = False
+            return FORWARD if ahead_open else LEFT
+        if view.get(right_cell, True):
+            self.following = True
+        elif self.following:  # the wall on the right ends here: go round its end
+            self.just_turned_right = True
             return RIGHT
-        self._turned = False
-        if not view.get(ahead, True):
+        if ahead_open:
             return FORWARD
+        self.following = True  # blocked ahead: turning left puts this wall on the right
         return LEFT
 
 

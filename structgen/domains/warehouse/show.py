@@ -3,29 +3,24 @@ outlined."""
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import numpy as np
 
 from evolution.files import atomic_write
+from evolution.plots import figure_png, new_figure
 from structgen.domains.warehouse.layouts import LayoutKind
 from structgen.grid import Grid
 
 
 def draw(grids: list[Grid], kind: LayoutKind, output: Path, *, titles: list[str], dpi: int = 110) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch, Rectangle
 
     rows, cols = grids[0].shape
     scale = min(0.22, 9.0 / max(cols, 1))
-    fig, axes = plt.subplots(
-        1, len(grids), figsize=(max(3.0, cols * scale) * len(grids) + 0.5, rows * scale + 1.4), squeeze=False
-    )
+    fig = new_figure(figsize=(max(3.0, cols * scale) * len(grids) + 0.5, rows * scale + 1.4))
+    axes = fig.subplots(1, len(grids), squeeze=False)
     colours = ListedColormap([kind.colours[c] for c in kind.vocabulary])
     changed = grids[0].tiles != grids[1].tiles if len(grids) == 2 else None
     for ax, grid, title in zip(axes[0], grids, titles):
@@ -42,7 +37,4 @@ def draw(grids: list[Grid], kind: LayoutKind, output: Path, *, titles: list[str]
         handles.append(Patch(facecolor="none", edgecolor="#e41a1c", label=f"changed ({int(changed.sum())})"))
     fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 4), fontsize=7, frameon=False)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
-    plt.close(fig)
-    return atomic_write(output, buffer.getvalue())
+    return atomic_write(output, figure_png(fig, dpi))
