@@ -163,20 +163,26 @@ class Explorer(MazeAgent):
     def reset(self, walls, goal, rng):
         super().reset(walls, goal, rng)
         self.known: dict[tuple[int, int], bool] = {}
+        self.frontier: set[tuple[int, int]] = set()  # known floor with an unknown neighbour
 
     def act(self, state, view, goal_seen):
+        new = [cell for cell in view if cell not in self.known]
         self.known.update(view)
+        # Only the cells just seen and their neighbours can join or leave the frontier: updating it here instead of
+        # rescanning everything known keeps a step cheap on large mazes.
+        touched = set(new)
+        touched.update((r + dr, c + dc) for r, c in new for dr, dc in _STEPS)
+        for cell in touched:
+            if self.known.get(cell) is False and any((cell[0] + dr, cell[1] + dc) not in self.known for dr, dc in _STEPS):
+                self.frontier.add(cell)
+            else:
+                self.frontier.discard(cell)
         passable = lambda cell: self.known.get(cell) is False  # noqa: E731
         if goal_seen is not None:
             step = _next_step(state.position, {goal_seen}, passable)
             if step is not None:
                 return _turn_towards(state, step)
-        frontier = {
-            cell
-            for cell, wall in self.known.items()
-            if not wall and any((cell[0] + dr, cell[1] + dc) not in self.known for dr, dc in _STEPS)
-        }
-        step = _next_step(state.position, frontier, passable)
+        step = _next_step(state.position, self.frontier, passable)
         if step is None:
             return LEFT  # nothing left to explore in reach: look around
         return _turn_towards(state, step)
