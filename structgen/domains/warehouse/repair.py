@@ -163,7 +163,8 @@ def repair(
         tiles: the map as tile numbers of ``kind``.
         shelves: the exact shelf count (warehouse; required there).
         agents: manufacturing only: the number of cells that must stay free of stations.
-        time_limit: seconds for HiGHS; the best layout found by then is returned (with ``optimal`` False).
+        time_limit: seconds for the whole repair (building the model and the greedy start count against it); the best
+            layout found by then is returned (with ``optimal`` False).
         seed: HiGHS's random seed.
         threads: HiGHS's threads.
         greedy_first: run the greedy repair first and start HiGHS from it; None: above :data:`GREEDY_FIRST_CELLS`.
@@ -189,7 +190,9 @@ def repair(
     greedy = None
     if greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS:
         greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
-    values, status, optimal, gap = model.solve(time_limit, seed, threads, None if greedy is None else encode(greedy), node_limit)
+    start = None if greedy is None else encode(greedy)
+    solver_seconds = max(time_limit - (time.perf_counter() - began), 0.01)
+    values, status, optimal, gap = model.solve(solver_seconds, seed, threads, start, node_limit)
     if values is None:
         if greedy is not None:
             result, method = greedy, "greedy"
