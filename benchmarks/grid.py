@@ -22,12 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from structgen.conv_nca import ConvNCA
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE
+from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
 from structgen.domains.warehouse.measures import violations
 from structgen.domains.warehouse.repair import repair
 from structgen.grid import Grid
 
-MAPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "warehouse-maps"
+MAPS = reference_maps() or Path("no reference maps")
 OURS = MAPS / "warehouse" / "ours"
 MANUFACTURE = MAPS / "manufacture" / "ours"
 # Every unrepaired map the original ships beside its repaired map (the pair gives the recorded Hamming distance),
@@ -182,6 +182,8 @@ def main() -> None:
     for row in growth(args.device):
         print(row, flush=True)
     if not args.skip_repair:
+        if not MAPS.is_dir():
+            parser.error("the repair rows need the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
         for row in repairs():
             print(row, flush=True)
 

@@ -10,13 +10,32 @@ fixed parts added around what the NCA grows.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from structgen.grid import Grid
 
-__all__ = ["KINDS", "MANUFACTURING", "MAZE", "WAREHOUSE", "LayoutKind", "Size"]
+__all__ = ["KINDS", "MANUFACTURING", "MAZE", "WAREHOUSE", "LayoutKind", "Size", "reference_maps"]
+
+#: Environment variable naming the folder of the original's map files (``warehouse/``, ``manufacture/``, ``maze/``).
+REFERENCE_MAPS_VARIABLE = "STRUCTGEN_REFERENCE_MAPS"
+
+
+def reference_maps() -> Path | None:
+    """The folder of the original paper's map files, which the tests and ``benchmarks/grid.py`` check against: the
+    folder named by ``$STRUCTGEN_REFERENCE_MAPS``, else ``shared/data/warehouse-maps`` beside the checkout or any
+    folder above it; None where there is none (the maps are research data, not part of the package)."""
+    named = os.environ.get(REFERENCE_MAPS_VARIABLE)
+    if named:
+        return Path(named)
+    for folder in Path(__file__).resolve().parents:
+        candidate = folder / "shared" / "data" / "warehouse-maps"
+        if candidate.is_dir():
+            return candidate
+    return None
 
 
 @dataclass(frozen=True)
