@@ -194,7 +194,7 @@ def test_impossible_rules_are_a_clear_error():
     "name, recorded, limit",
     [
         ("manufacture_large_200_agents_cma-mae_opt_alpha=5_sw=5", 147, 30),
-        pytest.param("manufacture_large_200_agents_cma-mae_idx_0=15_opt_alpha=5_sw=5", 874, 60, marks=pytest.mark.slow),
+        pytest.param("manufacture_large_200_agents_cma-mae_idx_0=15_opt_alpha=5_sw=5", 874, 20, marks=pytest.mark.slow),
     ],
 )
 def test_manufacturing_maps_repair_to_the_recorded_distance(name, recorded, limit):
