@@ -1,0 +1,215 @@
+"""Compiled kernels of the multi-robot simulator: distance tables and windowed prioritized planning.
+
+Cells are flat indices ``row * cols + col``; ``neighbours[cell]`` lists the four passable neighbours (-1 where there
+is none). Everything here is plain arrays so that numba compiles it to machine code; the task model and the
+simulation loop live in :mod:`structgen.domains.warehouse.simulator`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+#: Distance to a cell that cannot be reached.
+UNREACHABLE = 30000
+
+
+@nb.njit(cache=True)
+def grid_neighbours(passable: np.ndarray) -> np.ndarray:
+    rows, cols = passable.shape
+    out = -np.ones((rows * cols, 4), dtype=np.int32)
+    for r in range(rows):
+        for c in range(cols):
+            if not passable[r, c]:
+                continue
+            here = r * cols + c
+            if r > 0 and passable[r - 1, c]:
+                out[here, 0] = here - cols
+            if c + 1 < cols and passable[r, c + 1]:
+                out[here, 1] = here + 1
+            if r + 1 < rows and passable[r + 1, c]:
+                out[here, 2] = here + cols
+            if c > 0 and passable[r, c - 1]:
+                out[here, 3] = here - 1
+    return out
+
+
+@nb.njit(cache=True)
+def distance_tables(neighbours: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """``table[i, cell]``: moves from ``cell`` to ``targets[i]`` (breadth-first; moves are symmetric)."""
+    n = neighbours.shape[0]
+    table = np.full((len(targets), n), UNREACHABLE, dtype=np.int16)
+    queue = np.empty(n, dtype=np.int32)
+    for i in range(len(targets)):
+        row = table[i]
+        row[targets[i]] = 0
+        queue[0] = targets[i]
+        head, tail = 0, 1
+        while head < tail:
+            cell = queue[head]
+            head += 1
+            for d in range(4):
+                nxt = neighbours[cell, d]
+                if nxt >= 0 and row[nxt] == UNREACHABLE:
+                    row[nxt] = row[cell] + 1
+                    queue[tail] = nxt
+                    tail += 1
+    return table
+
+
+@nb.njit(cache=True)
+def _heap_push(keys, states, size, key, state):
+    i = size
+    keys[i] = key
+    states[i] = state
+    while i > 0:
+        parent = (i - 1) >> 1
+        if keys[parent] <= keys[i]:
+            break
+        keys[parent], keys[i] = keys[i], keys[parent]
+        states[parent], states[i] = states[i], states[parent]
+        i = parent
+    return size + 1
+
+
+@nb.njit(cache=True)
+def _heap_pop(keys, states, size):
+    state = states[0]
+    size -= 1
+    keys[0] = keys[size]
+    states[0] = states[size]
+    i = 0
+    while True:
+        left = 2 * i + 1
+        if left >= size:
+            break
+        child = left
+        if left + 1 < size and keys[left + 1] < keys[left]:
+            child = left + 1
+        if keys[i] <= keys[child]:
+            break
+        keys[child], keys[i] = keys[i], keys[child]
+        states[child], states[i] = states[i], states[child]
+        i = child
+    return state, size
+
+
+@nb.njit(cache=True)
+def _search(
+    start, goals, n_goals, target_of, dist, neighbours, occupied, window, seen, parent, stamp, heap_keys, heap_states, path
+):
+    """Space-time A* for one agent over ``window`` steps, avoiding the cells and swaps ``occupied`` reserves.
+
+    A state is (cell, time, goals reached). Its cost is the time of arrival at the last goal: exact within the window,
+    and the remaining distance (ignoring other agents) beyond it, as in rolling-horizon planning. Writes the best path
+    into ``path`` (``window + 1`` cells) and returns whether one exists."""
+    n = neighbours.shape[0]
+    levels = n_goals + 1
+    # rest[k]: moves from goal k-1 to the last goal, along the goal sequence.
+    rest = np.zeros(levels + 1, dtype=np.int64)
+    for k in range(n_goals - 1, 0, -1):
+        rest[k] = rest[k + 1] + dist[target_of[goals[k]], goals[k - 1]]
+    size = 0
+    first = start * levels
+    seen[first] = stamp
+    parent[first] = -1
+    h0 = 0 if n_goals == 0 else dist[target_of[goals[0]], start] + rest[1]
+    size = _heap_push(heap_keys, heap_states, size, h0 * (window + 2) + window, first)
+    slab = n * levels  # states per time step
+    while size > 0:
+        state, size = _heap_pop(heap_keys, heap_states, size)
+        t = state // slab
+        cell = (state % slab) // levels
+        k = state % levels
+        if t == window:
+            s = state
+            for back in range(window, -1, -1):
+                path[back] = (s % slab) // levels
+                s = parent[s]
+            return True
+        for d in range(5):
+            nxt = cell if d == 4 else neighbours[cell, d]
+            if nxt < 0 or occupied[t + 1, nxt] >= 0:
+                continue
+            if nxt != cell:
+                other = occupied[t, nxt]
+                if other >= 0 and occupied[t + 1, cell] == other:
+                    continue  # the two would swap cells
+            nk = k + 1 if k < n_goals and nxt == goals[k] else k
+            child = (t + 1) * slab + nxt * levels + nk
+            if seen[child] == stamp:
+                continue
+            seen[child] = stamp
+            parent[child] = state
+            h = 0 if nk == n_goals else dist[target_of[goals[nk]], nxt] + rest[nk + 1]
+            size = _heap_push(heap_keys, heap_states, size, (t + 1 + h) * (window + 2) + window - (t + 1), child)
+    return False
+
+
+@nb.njit(cache=True)
+def plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, order, restarts):
+    """Collision-free paths for all agents over ``window`` steps by prioritized planning.
+
+    Agents plan in ``order``, each around the paths of those before it. An agent that finds no path moves to the
+    front and planning starts again (up to ``restarts`` times); after that, agents that still fail stay where they
+    are for the whole window and the others plan around them, which always ends with a valid plan.
+    Returns ``(paths, restarts used, agents held in place)``."""
+    n_agents = len(positions)
+    n = neighbours.shape[0]
+    levels = goals.shape[1] + 1
+    states = (window + 1) * n * levels
+    seen = np.zeros(states, dtype=np.int32)
+    parent = np.empty(states, dtype=np.int64)
+    heap_keys = np.empty(states, dtype=np.int64)
+    heap_states = np.empty(states, dtype=np.int64)
+    occupied = np.empty((window + 1, n), dtype=np.int32)
+    paths = np.empty((n_agents, window + 1), dtype=np.int32)
+    path = np.empty(window + 1, dtype=np.int32)
+    held = np.zeros(n_agents, dtype=np.bool_)
+    order = order.copy()
+    stamp = 0
+    used = 0
+    while True:
+        occupied[:] = -1
+        for a in range(n_agents):
+            if held[a]:
+                paths[a, :] = positions[a]
+                occupied[:, positions[a]] = a
+        failed = -1
+        for i in range(n_agents):
+            a = order[i]
+            if held[a]:
+                continue
+            stamp += 1
+            ok = _search(
+                positions[a],
+                goals[a],
+                n_goals[a],
+                target_of,
+                dist,
+                neighbours,
+                occupied,
+                window,
+                seen,
+                parent,
+                stamp,
+                heap_keys,
+                heap_states,
+                path,
+            )
+            if not ok:
+                failed = i
+                break
+            for t in range(window + 1):
+                paths[a, t] = path[t]
+                occupied[t, path[t]] = a
+        if failed < 0:
+            return paths, used, int(held.sum())
+        a = order[failed]
+        if used < restarts:
+            for j in range(failed, 0, -1):
+                order[j] = order[j - 1]
+            order[0] = a
+        else:
+            held[a] = True
+        used += 1
