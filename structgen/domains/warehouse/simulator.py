@@ -8,9 +8,11 @@ and the first ``replan`` steps are carried out. Throughput is the number of goal
 steps asked for. When more than half of the agents stood still over a whole replanning interval, the run is
 congested and stops there (throughput keeps the full horizon as its denominator, as in the original).
 
-Planner ``"pp"``: windowed prioritized planning (space-time A* against a reservation table, random priorities each
-round, an agent that finds no path moves to the front and planning restarts; after a few restarts such agents wait
-in place). It stands in for the original's PBS, whose licence keeps it out of this project.
+Planner ``"pp"``: windowed prioritized planning (space-time A* against a reservation table; agents that reached a
+goal longest ago plan first; an agent that finds no path moves to the front and planning restarts; after five
+restarts such agents wait in place). It stands in for the original's PBS, whose licence keeps it out of this
+project. The priority rule and the restart count were chosen against the original's recorded throughputs
+(benchmarks/README.md): with more restarts the human layout no longer congests at 200 agents, as it does there.
 """
 
 from __future__ import annotations
@@ -32,7 +34,9 @@ MAX_GOALS = 8
 @dataclass(frozen=True)
 class SimulationResult:
     """One simulation: ``throughput`` = goals reached / ``steps``; ``congested`` says the run stopped early (at
-    ``stopped_at``) because more than half of the agents stood still over a replanning interval."""
+    ``stopped_at``) because more than half of the agents stood still over a replanning interval; ``restarts``
+    and ``held`` count planning rounds started again and agents made to wait because they found no path;
+    ``positions`` is the trace when asked for."""
 
     throughput: float
     tasks: int
@@ -44,6 +48,7 @@ class SimulationResult:
     planner: str
     restarts: int
     held: int
+    positions: np.ndarray | None = None
 
 
 def _workstation_weights(kind: LayoutKind, cells: np.ndarray, cols: int, uneven: bool) -> np.ndarray:
@@ -65,12 +70,27 @@ def simulate(
     window: int = 10,
     replan: int = 5,
     restarts: int = 5,
+    priority: str = "waiting",
+    trace: bool = False,
 ) -> SimulationResult:
-    """Simulate ``agents`` robots on a whole warehouse map for ``steps`` steps and return the throughput."""
+    """Simulate ``agents`` robots on a whole warehouse map for ``steps`` steps and return the throughput.
+
+    Args:
+        tiles: the whole map as tile numbers of ``kind`` (shelves block; workstations ``w``, endpoints ``e``).
+        seed: draws the start cells, the goals and the tie-breaks between equal priorities.
+        uneven: the left half's workstations are five times likelier goals than the right half's.
+        window, replan: plan ``window`` steps ahead every ``replan`` steps (the paper's 10 and 5).
+        restarts: how many times a round of planning starts again with a failing agent first.
+        priority: ``"waiting"`` (agents that reached a goal longest ago plan first; the calibrated default) or
+            ``"random"`` (a fresh random order each round).
+        trace: keep every agent's cell at every step (``result.positions``, ``(steps + 1, agents)`` flat cells).
+    """
     from structgen.domains.warehouse import _mapf
 
     if planner not in PLANNERS:
         raise ValueError(f"unknown planner {planner!r}; choose from {', '.join(PLANNERS)}")
+    if priority not in ("waiting", "random"):
+        raise ValueError(f"unknown priority {priority!r}; choose 'waiting' or 'random'")
     if not 1 <= replan <= window:
         raise ValueError(f"replan ({replan}) must be between 1 and window ({window})")
     began = time.perf_counter()
@@ -115,6 +135,8 @@ def simulate(
         return abs(a // cols - b // cols) + abs(a % cols - b % cols)
 
     tasks = restarts_used = held_total = 0
+    trail = [positions.copy()] if trace else None
+    last_done = np.zeros(agents, dtype=np.int64)
     congested = False
     t = 0
     while t < steps:
@@ -130,10 +152,11 @@ def simulate(
                 n_goals[a] += 1
                 length += manhattan(last, goal)
                 last = goal
-        order = rng.permutation(agents).astype(np.int64)
-        paths, used, held = _mapf.plan_window(
-            positions, goals, n_goals, target_of, dist, neighbours, window, order, restarts
-        )
+        order = rng.permutation(agents)
+        if priority == "waiting":  # longest since its last goal first; ties in random order
+            order = order[np.argsort(last_done[order], kind="stable")]
+        order = order.astype(np.int64)
+        paths, used, held = _mapf.plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, order, restarts)
         restarts_used += used
         held_total += held
         todo = min(replan, steps - t)
@@ -141,9 +164,12 @@ def simulate(
             here = paths[:, step]
             done = (here == goals[:, 0]) & (n_goals > 0)
             for a in np.flatnonzero(done):
+                last_done[a] = t + step
                 goals[a, :-1] = goals[a, 1:]
                 n_goals[a] -= 1
             tasks += int(done.sum())
+            if trail is not None:
+                trail.append(here.copy())
         still = (paths[:, :replan] == paths[:, :1]).all(axis=1)
         positions = paths[:, todo].copy()
         t += todo
@@ -161,4 +187,5 @@ def simulate(
         planner=planner,
         restarts=restarts_used,
         held=held_total,
+        positions=None if trail is None else np.stack(trail),
     )

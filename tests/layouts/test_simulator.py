@@ -1,0 +1,94 @@
+"""The lifelong warehouse simulator: moves checked step by step by plain code, the task and congestion rules, and
+the ranking of the original's layouts that the paper's simulator gives."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
+from structgen.domains.warehouse.simulator import simulate
+from structgen.grid import Grid
+
+E, SHELF = WAREHOUSE.vocabulary.index("e"), WAREHOUSE.vocabulary.index("@")
+MAPS = reference_maps()
+needs_maps = pytest.mark.skipif(
+    MAPS is None, reason="the original's maps are not on this machine: set $STRUCTGEN_REFERENCE_MAPS to their folder"
+)
+
+
+def small_warehouse() -> np.ndarray:
+    storage = np.zeros((9, 12), dtype=np.uint8)
+    for row in (2, 6):
+        storage[row, 1:11] = SHELF
+        storage[row - 1, 1:11] = E
+        storage[row + 1, 1:11] = E
+    return WAREHOUSE.complete(storage)
+
+
+def check_moves(tiles: np.ndarray, positions: np.ndarray) -> None:
+    """No two agents on one cell, no two swapping, every move one step to a free 4-neighbour (or a wait)."""
+    cols = tiles.shape[1]
+    blocked = np.isin(tiles.ravel(), WAREHOUSE.blocking_tiles())
+    for before, after in zip(positions[:-1], positions[1:]):
+        assert len(set(after.tolist())) == len(after), "two agents on one cell"
+        assert not blocked[after].any(), "an agent on a shelf"
+        rows_moved = np.abs(after // cols - before // cols)
+        cols_moved = np.abs(after % cols - before % cols)
+        assert ((rows_moved + cols_moved) <= 1).all(), "a jump"
+        swapped = {(a, b) for a, b in zip(before.tolist(), after.tolist()) if a != b}
+        assert not any((b, a) in swapped for a, b in swapped), "two agents swapped cells"
+
+
+def test_moves_are_collision_free_and_goals_count_as_tasks():
+    tiles = small_warehouse()
+    result = simulate(tiles, 30, 200, seed=3, trace=True)
+    assert result.positions.shape == (201, 30)
+    check_moves(tiles, result.positions)
+    assert not result.congested and result.stopped_at == 200
+    assert result.tasks > 30 and result.throughput == result.tasks / 200
+
+
+def test_the_same_seed_gives_the_same_run():
+    tiles = small_warehouse()
+    a = simulate(tiles, 20, 100, seed=1, trace=True)
+    b = simulate(tiles, 20, 100, seed=1, trace=True)
+    c = simulate(tiles, 20, 100, seed=2, trace=True)
+    assert a.tasks == b.tasks and np.array_equal(a.positions, b.positions)
+    assert not np.array_equal(a.positions, c.positions)
+
+
+def test_a_jammed_floor_congests_and_stops_with_the_full_horizon_as_denominator():
+    # Every free cell but two taken: nobody can get anywhere, so more than half stand still and the run stops.
+    tiles = small_warehouse()
+    free = int((~np.isin(tiles, WAREHOUSE.blocking_tiles())).sum())
+    result = simulate(tiles, free - 2, 500, seed=0)
+    assert result.congested and result.stopped_at < 500
+    assert result.throughput == result.tasks / 500
+
+
+def test_bad_settings_are_clear_errors():
+    tiles = small_warehouse()
+    with pytest.raises(ValueError, match="do not fit"):
+        simulate(tiles, 10_000, 10)
+    with pytest.raises(ValueError, match="unknown planner"):
+        simulate(tiles, 5, 10, planner="magic")
+    with pytest.raises(ValueError, match="needs workstations and endpoints"):
+        simulate(np.zeros((5, 5), dtype=np.uint8), 3, 10)
+
+
+@needs_maps
+def test_the_originals_layouts_rank_as_the_papers_simulator_ranks_them():
+    """RHCR (the paper's simulator) at 200 agents, 1,000 steps: CMA-MAE 6.70 > DSAGE 6.32, human congested."""
+    ours = MAPS / "warehouse" / "ours" / "nca_to_show"
+    layouts = {
+        "cma_mae": ours / "cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5.json",
+        "dsage": ours / "dsage_comp/kiva_large_200_agents_dsage_opt_entropy_throughput_hamming_a=5.json",
+        "human": MAPS / "warehouse/human/kiva_large_w_mode.json",
+    }
+    tiles = {name: Grid.load(path, WAREHOUSE.vocabulary).tiles for name, path in layouts.items()}
+    cma_mae, dsage = (simulate(tiles[name], 200, 1000, seed=0) for name in ("cma_mae", "dsage"))
+    human = simulate(tiles["human"], 200, 1000, seed=0)
+    assert cma_mae.throughput > dsage.throughput > 5.5 and not cma_mae.congested and not dsage.congested
+    assert human.congested and human.throughput < 2
+    assert 3.0 < simulate(tiles["human"], 100, 1000, seed=0).throughput < 3.6  # RHCR: 3.35
