@@ -3,9 +3,12 @@ the ranking of the original's layouts that the paper's simulator gives."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
+from structgen.cli import main
 from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
 from structgen.domains.warehouse.simulator import simulate
 from structgen.grid import Grid
@@ -92,3 +95,19 @@ def test_the_originals_layouts_rank_as_the_papers_simulator_ranks_them():
     assert cma_mae.throughput > dsage.throughput > 5.5 and not cma_mae.congested and not dsage.congested
     assert human.congested and human.throughput < 2
     assert 3.0 < simulate(tiles["human"], 100, 1000, seed=0).throughput < 3.6  # RHCR: 3.35
+
+
+def test_simulate_from_the_command_line(tmp_path, capsys):
+    layout = tmp_path / "small.json"
+    Grid(small_warehouse(), WAREHOUSE.vocabulary).save(layout)
+    strip = tmp_path / "strip.png"
+    code = main(["warehouse", "simulate", str(layout), "--agents", "12", "--steps", "60", "--frames", str(strip), "--json"])
+    printed = json.loads(capsys.readouterr().out)
+    assert code == 0 and strip.read_bytes()[:4] == b"\x89PNG"
+    assert printed["agents"] == 12 and printed["steps"] == 60 and printed["throughput"] == printed["tasks"] / 60
+    assert printed == {**printed, **{"congested": False, "planner": "pp", "frames": str(strip)}}
+    # Bad input: one line naming the file, exit 2, no picture written.
+    code = main(["warehouse", "simulate", str(layout), "--agents", "5000", "--frames", str(tmp_path / "no.png")])
+    err = capsys.readouterr().err
+    assert code == 2 and f"{layout}: 5000 agents do not fit" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "no.png").exists()

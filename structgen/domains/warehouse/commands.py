@@ -1,4 +1,5 @@
-"""The verbs of the layout domains: ``structgen warehouse|manufacturing|maze generate|repair|show|measure``."""
+"""The verbs of the layout domains: ``structgen warehouse|manufacturing|maze generate|repair|simulate|show|measure``
+(``simulate``: warehouses only, for now)."""
 
 from __future__ import annotations
 
@@ -181,6 +182,61 @@ def cmd_measure(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# -- simulate ---------------------------------------------------------------------------------------------------------
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from structgen.domains.warehouse.simulator import simulate
+
+    kind = _kind(args)
+    if args.frames is not None:
+        _check_output(args.frames, ".png")
+    grid = _load(args.file, kind)
+    try:
+        result = simulate(
+            grid.tiles,
+            args.agents,
+            args.steps,
+            kind=kind,
+            seed=args.seed,
+            planner=args.planner,
+            uneven=args.uneven,
+            trace=args.frames is not None,
+        )
+    except InputError as error:
+        raise InputError(f"{args.file}: {error}") from None
+    values = {
+        "file": str(args.file),
+        "throughput": result.throughput,
+        "tasks": result.tasks,
+        "agents": result.agents,
+        "steps": result.steps,
+        "congested": result.congested,
+        "stopped_at": result.stopped_at,
+        "planner": result.planner,
+        "seed": args.seed,
+        "uneven": args.uneven,
+        "seconds": round(result.seconds, 3),
+    }
+    if args.frames is not None:
+        from structgen.domains.warehouse.show import draw_frames
+
+        last = result.positions.shape[0] - 1
+        times = sorted({round(last * i / 5) for i in range(6)})
+        title = f"{Path(args.file).name}: {result.agents} agents, throughput {result.throughput:.3f}"
+        draw_frames(grid, kind, result.positions, times, args.frames, title=title)
+        values["frames"] = str(args.frames)
+    if args.json:
+        print(json.dumps(values))
+    else:
+        jam = f", congested: stopped at step {result.stopped_at}" if result.congested else ""
+        print(
+            f"{args.file}: throughput {result.throughput:.3f} ({result.tasks} tasks in {result.steps} steps{jam}); "
+            f"{result.agents} agents, planner {result.planner}, seed {args.seed}, {result.seconds:.1f} s"
+        )
+        if args.frames is not None:
+            print(f"{args.frames}: {len(times)} frames")
+    return EXIT_OK
+
+
 # -- show -------------------------------------------------------------------------------------------------------------
 def cmd_show(args: argparse.Namespace) -> int:
     from structgen.domains.warehouse.show import draw
@@ -307,13 +363,41 @@ def _add_measure(subparsers: Any, kind: LayoutKind) -> None:
     p.set_defaults(handler=cmd_measure, kind=kind.name)
 
 
+def _add_simulate(subparsers: Any, kind: LayoutKind) -> None:
+    from structgen.domains.warehouse.simulator import PLANNERS
+
+    p = subparsers.add_parser(
+        "simulate",
+        help="run robots on a warehouse layout and print its throughput",
+        description="Simulate N robots fetching goals (an endpoint, then a workstation, and so on) on the layout in "
+        "FILE for T steps, planning collision-free paths 10 steps ahead every 5 steps, and print the throughput "
+        "(goals reached per step), the tasks finished, whether the floor congested (more than half of the robots "
+        "stood still for 5 steps, which stops the run) and the wall time.",
+    )
+    p.add_argument("file", metavar="FILE", help="map JSON file (a repaired, valid layout)")
+    p.add_argument("--agents", type=whole_number(1, 10**6), default=200, metavar="N", help="robots (default 200)")
+    p.add_argument("--steps", type=whole_number(1, 10**7), default=1000, metavar="T", help="steps (default 1000)")
+    p.add_argument("--planner", choices=PLANNERS, default=PLANNERS[0], help="path planner (default %(default)s)")
+    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="start cells and goals' seed")
+    p.add_argument("--uneven", action="store_true", help="left-half workstations five times likelier goals")
+    p.add_argument("--frames", type=output_path, default=None, metavar="OUT.png", help="also draw six snapshots")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_simulate, kind=kind.name)
+
+
 class LayoutCommands(DomainCommands):
     def __init__(self, kind: str, verbs: tuple[str, ...]) -> None:
         self.kind = kind
         self.verbs = verbs
 
     def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
-        adders = {"generate": _add_generate, "repair": _add_repair, "show": _add_show, "measure": _add_measure}
+        adders = {
+            "generate": _add_generate,
+            "repair": _add_repair,
+            "simulate": _add_simulate,
+            "show": _add_show,
+            "measure": _add_measure,
+        }
         for name in verbs_wanted([v for v in adders if v in self.verbs], only):
             adders[name](subparsers, KINDS[self.kind])
 
@@ -325,6 +409,6 @@ class LayoutCommands(DomainCommands):
         return f"{output}: {problem.kind.name} {tiles.shape[0]}x{tiles.shape[1]} (unrepaired)"
 
 
-WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("generate", "repair", "show", "measure"))
+WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("generate", "repair", "simulate", "show", "measure"))
 MANUFACTURING_COMMANDS = LayoutCommands("manufacturing", ("generate", "repair", "show", "measure"))
 MAZE_COMMANDS = LayoutCommands("maze", ("generate", "show", "measure"))

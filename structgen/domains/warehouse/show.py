@@ -38,3 +38,33 @@ def draw(grids: list[Grid], kind: LayoutKind, output: Path, *, titles: list[str]
     fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 4), fontsize=7, frameon=False)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
     return atomic_write(output, figure_png(fig, dpi))
+
+
+def draw_frames(
+    grid: Grid, kind: LayoutKind, positions: np.ndarray, times: list[int], output: Path, *, title: str, dpi: int = 110
+) -> Path:
+    """A strip of snapshots of a simulation: the layout with every agent as a dot, at each of ``times``.
+
+    ``positions`` is the simulation's trace, ``(steps + 1, agents)`` flat cell indices."""
+    from matplotlib.colors import ListedColormap
+
+    rows, cols = grid.shape
+    scale = min(0.16, 6.0 / max(cols, 1))  # inches per cell
+    across = min(3, len(times))
+    down = -(-len(times) // across)
+    fig = new_figure(figsize=(max(2.5, cols * scale) * across + 0.3, (rows * scale + 0.3) * down + 0.6))
+    axes = fig.subplots(down, across, squeeze=False).ravel()
+    for ax in axes[len(times) :]:
+        ax.set_axis_off()
+    colours = ListedColormap([kind.colours[c] for c in kind.vocabulary])
+    dot = (scale * 72 * 0.7) ** 2  # marker area in points squared: most of a cell
+    for ax, t in zip(axes, times):
+        ax.imshow(grid.tiles, cmap=colours, vmin=-0.5, vmax=len(kind.vocabulary) - 0.5, interpolation="nearest")
+        cells = positions[t]
+        ax.scatter(cells % cols, cells // cols, s=dot, color="#d62728", linewidths=0)
+        ax.set_title(f"step {t}", fontsize=8)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return atomic_write(output, figure_png(fig, dpi))

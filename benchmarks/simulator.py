@@ -1,0 +1,106 @@
+"""The lifelong warehouse simulator against the paper's (RHCR with PBS), and its speed.
+
+    python benchmarks/simulator.py [--seeds 5] [--skip-large]
+
+Prints two tables. Fidelity: the original's layouts, our throughput (mean and standard deviation over seeds, and how
+many runs congested) beside RHCR's: measured with the authors' code at 1,000 steps (research notes 1.8) and the
+paper's README values at 5,000 steps. Speed: wall time and agent-steps per second at 200 agents (33x36) and 1,000
+agents (101x102), with the process's peak memory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import resource
+from pathlib import Path
+
+import numpy as np
+
+from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
+from structgen.domains.warehouse.simulator import simulate
+from structgen.grid import Grid
+
+MAPS = reference_maps() or Path("no reference maps")
+OURS = "warehouse/ours/nca_to_show"
+CMA_MAE = f"{OURS}/cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5.json"
+DSAGE = f"{OURS}/dsage_comp/kiva_large_200_agents_dsage_opt_entropy_throughput_hamming_a=5.json"
+HUMAN = "warehouse/human/kiva_large_w_mode.json"
+LARGE = f"{OURS}/xxlarge_maps/iter=200/kiva_xxlarge_cma-mae_global_opt_repaired_one_endpt_throughput-hamming_a=5.json"
+LARGE_UNEVEN = (
+    f"{OURS}/xxlarge_maps/iter=200/kiva_xxlarge_cma-mae_global_opt_repaired_one_endpt_uneven_throughput-hamming_a=5.json"
+)
+# (label, map, agents, steps, uneven, RHCR's throughput as recorded)
+FIDELITY = [
+    ("CMA-MAE a=5", CMA_MAE, 200, 1000, False, "6.698"),
+    ("DSAGE a=5", DSAGE, 200, 1000, False, "6.323"),
+    ("human", HUMAN, 200, 1000, False, "congested (1.098)"),
+    ("human", HUMAN, 150, 1000, False, "4.887"),
+    ("human", HUMAN, 100, 1000, False, "3.346"),
+    ("CMA-MAE a=5", CMA_MAE, 200, 5000, False, "6.74 (README)"),
+    ("DSAGE a=5", DSAGE, 200, 5000, False, "6.35 (README)"),
+    ("CMA-MAE a=5 uneven", CMA_MAE.replace("throughput_hamming", "uneven_throughput_hamming"), 200, 5000, True, "6.82 (README)"),
+    (
+        "DSAGE a=5 uneven",
+        DSAGE.replace("throughput_hamming_a=5", "throughput_hamming_uneven_a=5"),
+        200,
+        5000,
+        True,
+        "6.40 (README)",
+    ),
+]
+LARGE_FIDELITY = [
+    ("CMA-MAE a=5, 101x102", LARGE, 1000, 5000, False, "16.01 (README)"),
+    ("CMA-MAE a=5 uneven, 101x102", LARGE_UNEVEN, 1000, 5000, True, "12.03 (README)"),
+]
+
+
+def load(name: str) -> np.ndarray:
+    return Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles
+
+
+def fidelity(cases, seeds: int) -> None:
+    print("| layout | agents | steps | ours: mean ± sd | congested | RHCR (PBS) | s per run |")
+    print("|---|---|---|---|---|---|---|")
+    for label, name, agents, steps, uneven, theirs in cases:
+        runs = [simulate(load(name), agents, steps, seed=seed, uneven=uneven) for seed in range(seeds)]
+        values = np.array([r.throughput for r in runs])
+        congested = sum(r.congested for r in runs)
+        print(
+            f"| {label} | {agents} | {steps:,} | {values.mean():.3f} ± {values.std():.3f} | {congested} of {seeds} | "
+            f"{theirs} | {np.mean([r.seconds for r in runs]):.1f} |",
+            flush=True,
+        )
+
+
+def speed() -> None:
+    print("| map | agents | steps | wall s | agent-steps per s | peak memory (process) |")
+    print("|---|---|---|---|---|---|")
+    for name, agents in ((CMA_MAE, 200), (LARGE, 1000)):
+        tiles = load(name)
+        result = simulate(tiles, agents, 1000, seed=0)
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        print(
+            f"| {tiles.shape[0]}x{tiles.shape[1]} | {agents} | {result.stopped_at} | {result.seconds:.2f} | "
+            f"{agents * result.stopped_at / result.seconds:,.0f} | {peak:.0f} MiB |",
+            flush=True,
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, default=5, help="simulations per row (seeds 0, 1, ...)")
+    parser.add_argument("--skip-large", action="store_true", help="leave out the 101x102 rows with 1,000 agents")
+    args = parser.parse_args()
+    if not MAPS.is_dir():
+        parser.error("needs the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
+    print(f"machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}; Python {platform.python_version()}")
+    simulate(load(CMA_MAE), 10, 10)  # compile (or load the compiled planner) before timing anything
+    speed()
+    print()
+    fidelity(FIDELITY + ([] if args.skip_large else LARGE_FIDELITY), args.seeds)
+
+
+if __name__ == "__main__":
+    main()
