@@ -111,3 +111,20 @@ def test_simulate_from_the_command_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and f"{layout}: 5000 agents do not fit" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "no.png").exists()
+
+
+def test_the_warehouse_objective_is_throughput_plus_alpha_times_similarity():
+    from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
+
+    settings = WarehouseSettings(
+        size="6x8", shelves=6, iterations=5, hidden=8, repair_node_limit=50, agents=4, simulations=2, simulation_steps=60
+    )
+    problem = LayoutProblem(settings)
+    genomes = problem.initial_genomes(2, np.random.default_rng(0))
+    result = problem.evaluate(genomes, np.arange(2))
+    fields = result.fields
+    np.testing.assert_allclose(result.objective, fields["throughput"] + 5.0 * fields["similarity"])
+    assert (fields["throughput"] > 0).any() and ((fields["congested"] >= 0) & (fields["congested"] <= 1)).all()
+    # Without simulations the objective is the similarity term alone, as for manufacturing.
+    quiet = LayoutProblem(WarehouseSettings(**{**settings.__dict__, "simulations": 0})).evaluate(genomes, np.arange(2))
+    np.testing.assert_allclose(quiet.objective, 5.0 * quiet.fields["similarity"])

@@ -4,9 +4,11 @@
 - :mod:`.measures`: shelf components, pattern entropy, similarity, and the independent validity check;
 - :mod:`.repair`: the fewest-changes repair as a MILP solved by HiGHS, with a greedy start for large maps;
 - :mod:`.maze`: start and goal of a maze, and agents that walk it;
-- :mod:`.problem`: the three problems; :mod:`.commands`: ``generate``, ``repair``, ``show``, ``measure``.
+- :mod:`.simulator` (with the compiled :mod:`._mapf`): robots fetching goals on a warehouse floor, its throughput;
+- :mod:`.problem`: the three problems; :mod:`.commands`: ``generate``, ``repair``, ``simulate``, ``show``,
+  ``measure``.
 
-This file only describes the domains; torch and HiGHS load on first use.
+This file only describes the domains; torch, HiGHS and numba load on first use.
 """
 
 from structgen.domains.registry import DomainSpec, MainJob
@@ -24,11 +26,20 @@ WAREHOUSE = DomainSpec(
     id="warehouse-v0",
     entry_point=f"{_PACKAGE}.problem:LayoutProblem",
     settings=f"{_PACKAGE}.problem:WarehouseSettings",
-    summary="warehouse layouts grown by a conv NCA, repaired by a MILP (objective: similarity until the simulator)",
+    summary="warehouse layouts grown by a conv NCA, repaired by a MILP, scored by simulated robots' throughput",
     commands=f"{_PACKAGE}.commands:WAREHOUSE_COMMANDS",
-    libraries=("torch", "highspy"),
+    libraries=("torch", "highspy", "numba"),
     main_job=_MAIN,
-    test_settings={"size": "6x8", "shelves": 6, "iterations": 5, "hidden": 8, "repair_node_limit": 50},
+    test_settings={
+        "size": "6x8",
+        "shelves": 6,
+        "iterations": 5,
+        "hidden": 8,
+        "repair_node_limit": 50,
+        "agents": 4,
+        "simulations": 2,
+        "simulation_steps": 30,
+    },
 )
 
 MANUFACTURING = DomainSpec(

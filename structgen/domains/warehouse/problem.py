@@ -1,9 +1,10 @@
 """The three layout domains as problems: a genome is the conv NCA's weights; evaluating grows a layout from the seed
 block, repairs it (warehouse, manufacturing) and measures it.
 
-Until the multi-robot simulator lands (the next part of this work), the objective of the warehouse and manufacturing
-domains is the original's similarity term alone, ``alpha * similarity`` (its throughput term is missing): search
-then favours NCAs whose layouts need little repair. The maze's objective is the original's: 1 if solvable, else 0.
+The warehouse objective is the original's: the mean throughput of ``simulations`` runs of the multi-robot simulator
+on the repaired layout plus ``alpha * similarity``. Manufacturing has no simulator yet, so its objective is the
+similarity term alone (search then favours NCAs whose layouts need little repair). The maze's objective is the
+original's: 1 if solvable, else 0.
 Measures are the original's: shelf components and pattern entropy (warehouse), station count and pattern entropy
 (manufacturing), pattern entropy and the agent's mean path length (maze).
 """
@@ -35,7 +36,11 @@ class WarehouseSettings:
     iterations: NCA steps (0: the paper's for the size, 50 or 200).
     shelves: exact shelf count of the repair (0: the paper's for the size; required for sizes it did not use).
     alpha: weight of the similarity score in the objective.
-    uneven: left workstations five times likelier as goals (used by the simulator; recorded until then).
+    agents: robots in each simulation (200 in the paper); for manufacturing, the cells kept free of stations.
+    simulations: simulations per layout, their throughputs averaged (5 in the paper; 0: the objective is the
+        similarity term alone).
+    simulation_steps: steps of each simulation (1,000 in the paper's training).
+    uneven: left workstations five times likelier as goals.
     repair_time_limit: seconds HiGHS may spend on one layout.
     repair_threads: HiGHS's threads per repair.
     repair_node_limit: stop each repair after this many branch-and-bound nodes (0: no limit). Repairs cut short
@@ -47,6 +52,9 @@ class WarehouseSettings:
     iterations: int = 0
     shelves: int = 0
     alpha: float = 5.0
+    agents: int = 200
+    simulations: int = 5
+    simulation_steps: int = 1000
     uneven: bool = False
     repair_time_limit: float = 60.0
     repair_threads: int = 1
@@ -62,6 +70,9 @@ class WarehouseSettings:
         _positive_int("repair_threads", self.repair_threads, 1, 1024)
         _positive_int("repair_node_limit", self.repair_node_limit, 0, 10**9)
         _positive_int("hidden", self.hidden, 1, 1024)
+        _positive_int("agents", self.agents, 0, 10**7)
+        _positive_int("simulations", self.simulations, 0, 1000)
+        _positive_int("simulation_steps", self.simulation_steps, 1, 10**7)
         if not (isinstance(self.alpha, (int, float)) and np.isfinite(self.alpha)):
             raise ValueError(f"problem alpha must be a finite number, got {self.alpha!r}")
         if not (isinstance(self.repair_time_limit, (int, float)) and 0 < self.repair_time_limit <= 86400):
@@ -70,14 +81,16 @@ class WarehouseSettings:
 
 @dataclass(frozen=True)
 class ManufacturingSettings(WarehouseSettings):
-    """Attributes (beyond the warehouse's): agents: cells that must stay free of stations (200 in the paper)."""
+    """The warehouse's attributes; ``agents`` is the number of cells that must stay free of stations (200 in the
+    paper), and ``simulations`` must stay 0 until the manufacturing simulator exists."""
 
-    agents: int = 200
+    simulations: int = 0
     kind = "manufacturing"
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _positive_int("agents", self.agents, 0, 10**7)
+        if self.simulations:
+            raise ValueError("problem simulations must be 0 for manufacturing: its simulator is not built yet")
 
 
 @dataclass(frozen=True)
@@ -129,7 +142,7 @@ class LayoutProblem(Problem):
             low, high = (140.0, 240.0) if settings.size == "33x36" and self.shelves == 240 else (0.0, float(max(self.shelves, 1)))
             self.measure_names = ("shelf_components", "entropy")
             self.measure_ranges = ((low, high), (0.0, 1.0))
-            self.field_names = ("similarity", "hamming", "optimal", "failed")
+            self.field_names = ("throughput", "congested", "similarity", "hamming", "optimal", "failed")
         elif self.kind.name == "manufacturing":
             self.measure_names = ("stations", "entropy")
             self.measure_ranges = ((0.0, 600.0 if settings.size == "33x36" else float(full[0] * full[1])), (0.0, 1.0))
@@ -175,7 +188,7 @@ class LayoutProblem(Problem):
                 tiles,
                 self.kind,
                 shelves=self.shelves if self.kind.name == "warehouse" else None,
-                agents=getattr(self.settings, "agents", 0),
+                agents=self.settings.agents if self.kind.name == "manufacturing" else 0,
                 time_limit=self.settings.repair_time_limit,
                 seed=seed % (2**31),
                 threads=self.settings.repair_threads,
@@ -196,4 +209,25 @@ class LayoutProblem(Problem):
             "optimal": float(result.optimal),
             "failed": 0.0,
         }
-        return self.settings.alpha * score, (first, pattern_entropy(result.tiles, self.kind)), fields
+        objective = self.settings.alpha * score
+        if self.kind.name == "warehouse":
+            throughput, congested = self._simulate(result.tiles, seed)
+            fields.update(throughput=throughput, congested=congested)
+            objective += throughput
+        return objective, (first, pattern_entropy(result.tiles, self.kind)), fields
+
+    def _simulate(self, tiles: np.ndarray, seed: int) -> tuple[float, float]:
+        """Mean throughput over the simulations, and the share of them that congested."""
+        from structgen.domains.warehouse.simulator import simulate
+
+        settings = self.settings
+        if settings.simulations == 0:
+            return 0.0, 0.0
+        free = int((~np.isin(tiles, self.kind.blocking_tiles())).sum())
+        if settings.agents > free:  # a layout with too little floor for the robots cannot work at all
+            return 0.0, 1.0
+        runs = [
+            simulate(tiles, settings.agents, settings.simulation_steps, seed=int(s), uneven=settings.uneven)
+            for s in np.random.SeedSequence(seed).generate_state(settings.simulations)
+        ]
+        return float(np.mean([r.throughput for r in runs])), float(np.mean([r.congested for r in runs]))
