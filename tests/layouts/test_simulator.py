@@ -43,9 +43,10 @@ def check_moves(tiles: np.ndarray, positions: np.ndarray) -> None:
         assert not any((b, a) in swapped for a, b in swapped), "two agents swapped cells"
 
 
-def test_moves_are_collision_free_and_goals_count_as_tasks():
+@pytest.mark.parametrize("planner", ["pp", "pibt"])
+def test_moves_are_collision_free_and_goals_count_as_tasks(planner):
     tiles = small_warehouse()
-    result = simulate(tiles, 30, 200, seed=3, trace=True)
+    result = simulate(tiles, 30, 200, seed=3, trace=True, planner=planner)
     assert result.positions.shape == (201, 30)
     check_moves(tiles, result.positions)
     assert not result.congested and result.stopped_at == 200

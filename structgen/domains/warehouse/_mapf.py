@@ -213,3 +213,121 @@ def plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, 
         else:
             held[a] = True
         used += 1
+
+
+@nb.njit(cache=True)
+def _rank_moves(a, depth, position, goal_cell, target_of, dist, neighbours, noise, moves, n_moves):
+    """Agent ``a``'s possible next cells (its four neighbours and its own), nearest to its goal first."""
+    here = position[a]
+    keys = np.empty(5, dtype=np.float64)
+    cells = np.empty(5, dtype=np.int64)
+    count = 0
+    for d in range(5):
+        cell = here if d == 4 else neighbours[here, d]
+        if cell < 0:
+            continue
+        cells[count] = cell
+        keys[count] = (UNREACHABLE if goal_cell[a] < 0 else dist[target_of[goal_cell[a]], cell]) + noise[a, d]
+        count += 1
+    ranked = np.argsort(keys[:count])
+    for i in range(count):
+        moves[depth, i] = cells[ranked[i]]
+    n_moves[depth] = count
+
+
+@nb.njit(cache=True)
+def _pibt(root, position, next_position, occupant, reserved, goal_cell, target_of, dist, neighbours, noise, frames):
+    """Choose the next cell of ``root`` and of every agent it pushes (priority inheritance).
+
+    An agent takes the best free cell; if another undecided agent stands there, that one chooses first and may not
+    take the pusher's cell; if it cannot move away, the pusher tries its next cell. An agent with no cell left stays.
+    Written with an explicit stack instead of recursion: numba cannot cache recursive functions."""
+    agent, parent, tried, moves, n_moves = frames
+    depth = 0
+    agent[0], parent[0], tried[0] = root, -1, 0
+    _rank_moves(root, 0, position, goal_cell, target_of, dist, neighbours, noise, moves, n_moves)
+    returning, result = False, False
+    while depth >= 0:
+        a, pusher = agent[depth], parent[depth]
+        if returning:
+            returning = False
+            if result:  # the pushed agent moved away: keep this agent's choice
+                result = next_position[a] != position[a] or pusher < 0
+                depth -= 1
+                returning = True
+                continue
+            next_position[a] = -1  # the pushed agent stays on that cell (holding it): try the next one
+        pushed = False
+        while tried[depth] < n_moves[depth]:
+            cell = moves[depth, tried[depth]]
+            tried[depth] += 1
+            if reserved[cell] >= 0 or (pusher >= 0 and cell == position[pusher]):
+                continue  # taken, or a swap with the pusher
+            reserved[cell] = a
+            next_position[a] = cell
+            other = occupant[cell]
+            if other >= 0 and other != a and next_position[other] < 0:
+                depth += 1
+                agent[depth], parent[depth], tried[depth] = other, a, 0
+                _rank_moves(other, depth, position, goal_cell, target_of, dist, neighbours, noise, moves, n_moves)
+                pushed = True
+                break
+            result = cell != position[a] or pusher < 0
+            depth -= 1
+            returning = True
+            pushed = True
+            break
+        if not pushed:  # nowhere to go: stay
+            here = position[a]
+            next_position[a] = here
+            reserved[here] = a
+            result = False
+            depth -= 1
+            returning = True
+
+
+@nb.njit(cache=True)
+def pibt_window(positions, goals, n_goals, target_of, dist, neighbours, steps, waited, seed):
+    """``steps`` steps of PIBT (one step of look-ahead, priority to agents that waited longest for a goal).
+    Returns ``paths`` like :func:`plan_window`: ``(agents, steps + 1)`` cells."""
+    np.random.seed(seed)
+    n_agents = len(positions)
+    n = neighbours.shape[0]
+    paths = np.empty((n_agents, steps + 1), dtype=np.int32)
+    position = positions.astype(np.int64)
+    reached = np.zeros(n_agents, dtype=np.int64)
+    age = waited.astype(np.float64)
+    occupant = -np.ones(n, dtype=np.int64)
+    reserved = -np.ones(n, dtype=np.int64)
+    next_position = -np.ones(n_agents, dtype=np.int64)
+    goal_cell = np.empty(n_agents, dtype=np.int64)
+    frames = (
+        np.empty(n_agents + 1, dtype=np.int64),
+        np.empty(n_agents + 1, dtype=np.int64),
+        np.empty(n_agents + 1, dtype=np.int64),
+        np.empty((n_agents + 1, 5), dtype=np.int64),
+        np.empty(n_agents + 1, dtype=np.int64),
+    )
+    paths[:, 0] = positions
+    for t in range(1, steps + 1):
+        for a in range(n_agents):
+            occupant[position[a]] = a
+            goal_cell[a] = goals[a, reached[a]] if reached[a] < n_goals[a] else -1
+        noise = np.random.random((n_agents, 5)) * 0.5
+        order = np.argsort(-(age + np.random.random(n_agents) * 0.5))
+        for i in range(n_agents):
+            a = order[i]
+            if next_position[a] < 0:
+                _pibt(a, position, next_position, occupant, reserved, goal_cell, target_of, dist, neighbours, noise, frames)
+        for a in range(n_agents):
+            occupant[position[a]] = -1
+            reserved[next_position[a]] = -1
+            position[a] = next_position[a]
+            next_position[a] = -1
+            paths[a, t] = position[a]
+            if goal_cell[a] >= 0 and position[a] == goal_cell[a]:
+                reached[a] += 1
+                age[a] = 0.0
+            else:
+                age[a] += 1.0
+    return paths

@@ -28,7 +28,7 @@ from structgen.errors import InputError
 
 __all__ = ["PLANNERS", "SimulationResult", "simulate"]
 
-PLANNERS = ("pp",)
+PLANNERS = ("pp", "pibt")
 #: Goals queued ahead per agent at most (the queue is filled until it is longer than one replanning interval).
 MAX_GOALS = 8
 
@@ -162,7 +162,14 @@ def simulate(
         if priority == "waiting":  # longest since its last goal first; ties in random order
             order = order[np.argsort(last_done[order], kind="stable")]
         order = order.astype(np.int64)
-        paths, used, held = _mapf.plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, order, restarts)
+        if planner == "pp":
+            paths, used, held = _mapf.plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, order, restarts)
+        else:  # PIBT decides one step at a time: its "plan" is the interval itself
+            waited = (t - last_done).astype(np.int64)
+            paths = _mapf.pibt_window(
+                positions, goals, n_goals, target_of, dist, neighbours, replan, waited, int(rng.integers(2**31))
+            )
+            used = held = 0
         restarts_used += used
         held_total += held
         todo = min(replan, steps - t)
