@@ -179,6 +179,16 @@ def test_the_greedy_repair_is_valid_and_seeds_the_milp():
     assert seeded.method in ("greedy", "milp from greedy") and seeded.hamming <= int((greedy != tiles).sum())
 
 
+def test_when_highs_finds_nothing_in_time_the_greedy_repair_answers():
+    # A random NCA's 33x36 layout, nearly all shelves: HiGHS found no layout in a whole minute.
+    nca = ConvNCA(3)
+    genome = np.random.default_rng(0).normal(0, 0.2, (4, nca.n_params))[0]
+    tiles = WAREHOUSE.complete(nca.grow(genome, WAREHOUSE.seed(WAREHOUSE.size("33x36").grown), 50))
+    result = repair(tiles, WAREHOUSE, shelves=240, time_limit=1.0, greedy_first=False)
+    assert result.method == "greedy" and not result.optimal
+    assert violations(result.tiles, WAREHOUSE, shelves=240, fixed=tiles) == []
+
+
 def test_impossible_rules_are_a_clear_error():
     tiles = WAREHOUSE.complete(np.zeros((4, 4), dtype=np.uint8))
     with pytest.raises(RepairError, match="17 shelves do not fit in a storage area of 16 cells"):
