@@ -384,7 +384,13 @@ def _add_simulate(subparsers: Any, kind: LayoutKind) -> None:
         help="pp: windowed prioritized planning, ranks layouts as the paper's simulator does (default); pibt: "
         "one step of look-ahead, faster, but stalls in one-wide dead ends and ranks layouts differently",
     )
-    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="start cells and goals' seed")
+    p.add_argument(
+        "--seed",
+        type=whole_number(0, MAX_SEED),
+        default=0,
+        metavar="S",
+        help="seed of the start cells, the goals and the planners' tie-breaks (default 0)",
+    )
     p.add_argument("--uneven", action="store_true", help="left-half workstations five times likelier goals")
     p.add_argument("--frames", type=output_path, default=None, metavar="OUT.png", help="also draw six snapshots")
     p.add_argument("--json", action="store_true", help="print one JSON object")
