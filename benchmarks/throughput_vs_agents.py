@@ -1,0 +1,78 @@
+"""Throughput against the number of robots, on the paper's optimised layouts and its human-designed ones.
+
+    python benchmarks/throughput_vs_agents.py [--seeds 3] [--output docs/throughput_vs_agents.png]
+
+At 33x36 (CMA-MAE, DSAGE, human) and 101x102 (CMA-MAE grown at 200 steps and repaired, human), 1,000 steps each,
+planner ``pp``. Prints a table (mean throughput over seeds; a run that congested counts with the throughput it
+reached, and the table says how many did) and draws both sizes side by side.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+from pathlib import Path
+
+import numpy as np
+
+from evolution.files import atomic_write
+from evolution.plots import figure_png, new_figure
+from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
+from structgen.domains.warehouse.simulator import simulate
+from structgen.grid import Grid
+
+MAPS = reference_maps() or Path("no reference maps")
+OURS = "warehouse/ours/nca_to_show"
+SIZES = {
+    "33x36": (
+        {
+            "CMA-MAE": f"{OURS}/cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5.json",
+            "DSAGE": f"{OURS}/dsage_comp/kiva_large_200_agents_dsage_opt_entropy_throughput_hamming_a=5.json",
+            "human": "warehouse/human/kiva_large_w_mode.json",
+        },
+        (50, 100, 150, 200, 250),
+    ),
+    "101x102": (
+        {
+            "CMA-MAE": f"{OURS}/xxlarge_maps/iter=200/kiva_xxlarge_cma-mae_global_opt_repaired_one_endpt_throughput-hamming_a=5.json",
+            "human": "warehouse/human/kiva_xxlarge_w_mode.json",
+        },
+        (200, 400, 600, 800, 1000, 1200),
+    ),
+}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, default=3, help="simulations per point (seeds 0, 1, ...; default 3)")
+    parser.add_argument("--output", type=Path, default=Path("docs/throughput_vs_agents.png"), help="the plot to write")
+    args = parser.parse_args()
+    if not MAPS.is_dir():
+        parser.error("needs the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
+    print(f"machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}; Python {platform.python_version()}")
+    figure = new_figure(figsize=(11, 4.2), layout="constrained")
+    axes = figure.subplots(1, len(SIZES))
+    print("| size | layout | robots | throughput (mean over seeds) | congested |")
+    print("|---|---|---|---|---|")
+    for ax, (size, (layouts, counts)) in zip(axes, SIZES.items()):
+        for label, name in layouts.items():
+            tiles = Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles
+            means = []
+            for agents in counts:
+                runs = [simulate(tiles, agents, 1000, seed=seed) for seed in range(args.seeds)]
+                means.append(float(np.mean([r.throughput for r in runs])))
+                jams = sum(r.congested for r in runs)
+                print(f"| {size} | {label} | {agents} | {means[-1]:.3f} | {jams} of {args.seeds} |", flush=True)
+            ax.plot(counts, means, marker="o", label=label)
+        ax.set_title(f"{size}, 1,000 steps, planner pp")
+        ax.set_xlabel("robots")
+        ax.set_ylabel("throughput (goals per step)")
+        ax.grid(alpha=0.3)
+        ax.legend()
+    atomic_write(args.output, figure_png(figure, 110))
+    print(f"{args.output}: written")
+
+
+if __name__ == "__main__":
+    main()
