@@ -20,6 +20,7 @@ from structgen.conv_nca import ConvNCA
 from structgen.domains.warehouse.layouts import KINDS, LayoutKind
 from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity
 from structgen.domains.warehouse.repair import RepairError, repair
+from structgen.errors import InputError
 
 __all__ = ["LayoutProblem", "ManufacturingSettings", "MazeSettings", "WarehouseSettings"]
 
@@ -223,11 +224,11 @@ class LayoutProblem(Problem):
         settings = self.settings
         if settings.simulations == 0:
             return 0.0, 0.0
-        free = int((~np.isin(tiles, self.kind.blocking_tiles())).sum())
-        if settings.agents > free:  # a layout with too little floor for the robots cannot work at all
+        try:
+            runs = [
+                simulate(tiles, settings.agents, settings.simulation_steps, seed=int(s), uneven=settings.uneven)
+                for s in np.random.SeedSequence(seed).generate_state(settings.simulations)
+            ]
+        except InputError:  # the simulator refuses the layout (too little floor for the robots): it cannot work
             return 0.0, 1.0
-        runs = [
-            simulate(tiles, settings.agents, settings.simulation_steps, seed=int(s), uneven=settings.uneven)
-            for s in np.random.SeedSequence(seed).generate_state(settings.simulations)
-        ]
         return float(np.mean([r.throughput for r in runs])), float(np.mean([r.congested for r in runs]))

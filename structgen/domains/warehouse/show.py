@@ -13,24 +13,30 @@ from structgen.domains.warehouse.layouts import LayoutKind
 from structgen.grid import Grid
 
 
-def draw(grids: list[Grid], kind: LayoutKind, output: Path, *, titles: list[str], dpi: int = 110) -> Path:
+def _draw_tiles(ax, tiles: np.ndarray, kind: LayoutKind, title: str) -> None:
+    """The layout on ``ax``, each tile in its kind's colour, without ticks."""
     from matplotlib.colors import ListedColormap
+
+    colours = ListedColormap([kind.colours[c] for c in kind.vocabulary])
+    ax.imshow(tiles, cmap=colours, vmin=-0.5, vmax=len(kind.vocabulary) - 0.5, interpolation="nearest")
+    ax.set_title(title, fontsize=8)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def draw(grids: list[Grid], kind: LayoutKind, output: Path, *, titles: list[str], dpi: int = 110) -> Path:
     from matplotlib.patches import Patch, Rectangle
 
     rows, cols = grids[0].shape
     scale = min(0.22, 9.0 / max(cols, 1))
     fig = new_figure(figsize=(max(3.0, cols * scale) * len(grids) + 0.5, rows * scale + 1.4))
     axes = fig.subplots(1, len(grids), squeeze=False)
-    colours = ListedColormap([kind.colours[c] for c in kind.vocabulary])
     changed = grids[0].tiles != grids[1].tiles if len(grids) == 2 else None
     for ax, grid, title in zip(axes[0], grids, titles):
-        ax.imshow(grid.tiles, cmap=colours, vmin=-0.5, vmax=len(kind.vocabulary) - 0.5, interpolation="nearest")
+        _draw_tiles(ax, grid.tiles, kind, title)
         if changed is not None:
             for r, c in np.argwhere(changed):
                 ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1, 1, fill=False, edgecolor="#e41a1c", linewidth=0.9))
-        ax.set_title(title, fontsize=8)
-        ax.set_xticks([])
-        ax.set_yticks([])
     present = [c for c in kind.vocabulary if any(g.count(c) for g in grids)]
     handles = [Patch(facecolor=kind.colours[c], edgecolor="#999999", label=f"{kind.tile_names[c]} '{c}'") for c in present]
     if changed is not None:
@@ -46,8 +52,6 @@ def draw_frames(
     """A strip of snapshots of a simulation: the layout with every agent as a dot, at each of ``times``.
 
     ``positions`` is the simulation's trace, ``(steps + 1, agents)`` flat cell indices."""
-    from matplotlib.colors import ListedColormap
-
     rows, cols = grid.shape
     scale = min(0.16, 6.0 / max(cols, 1))  # inches per cell
     across = min(3, len(times))
@@ -56,15 +60,11 @@ def draw_frames(
     axes = fig.subplots(down, across, squeeze=False).ravel()
     for ax in axes[len(times) :]:
         ax.set_axis_off()
-    colours = ListedColormap([kind.colours[c] for c in kind.vocabulary])
     dot = (scale * 72 * 0.7) ** 2  # marker area in points squared: most of a cell
     for ax, t in zip(axes, times):
-        ax.imshow(grid.tiles, cmap=colours, vmin=-0.5, vmax=len(kind.vocabulary) - 0.5, interpolation="nearest")
+        _draw_tiles(ax, grid.tiles, kind, f"step {t}")
         cells = positions[t]
         ax.scatter(cells % cols, cells // cols, s=dot, color="#d62728", linewidths=0)
-        ax.set_title(f"step {t}", fontsize=8)
-        ax.set_xticks([])
-        ax.set_yticks([])
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     return atomic_write(output, figure_png(fig, dpi))

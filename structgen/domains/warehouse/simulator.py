@@ -53,7 +53,7 @@ class SimulationResult:
     positions: np.ndarray | None = None
 
 
-def _workstation_weights(kind: LayoutKind, cells: np.ndarray, cols: int, uneven: bool) -> np.ndarray:
+def _workstation_weights(cells: np.ndarray, cols: int, uneven: bool) -> np.ndarray:
     weights = np.ones(len(cells))
     if uneven:  # the paper's uneven setting: the left column's workstations are five times likelier
         weights[cells % cols < cols // 2] = 5.0
@@ -111,7 +111,7 @@ def simulate(
     endpoints = np.flatnonzero(tiles.ravel() == code("e"))
     if len(workstations) == 0 or len(endpoints) == 0:
         raise InputError("a warehouse simulation needs workstations and endpoints")
-    weights = _workstation_weights(kind, workstations, cols, uneven)
+    weights = _workstation_weights(workstations, cols, uneven)
     neighbours = _mapf.grid_neighbours(passable)
     targets = np.concatenate([workstations, endpoints]).astype(np.int32)
     target_of = np.full(rows * cols, -1, dtype=np.int32)
@@ -120,9 +120,7 @@ def simulate(
 
     rng = np.random.default_rng(seed)
     positions = rng.permutation(free)[:agents].astype(np.int32)
-    is_workstation = np.zeros(rows * cols, dtype=bool)
-    is_workstation[workstations] = True
-    wants_workstation = ~is_workstation[positions]  # the kind of goal after the first endpoint
+    wants_workstation = ~np.isin(positions, workstations)  # the kind of goal after the first endpoint
     goals = np.zeros((agents, MAX_GOALS), dtype=np.int32)
     n_goals = np.ones(agents, dtype=np.int64)
     goals[:, 0] = rng.choice(endpoints, agents)
