@@ -1,11 +1,12 @@
-"""The lifelong warehouse simulator against the paper's (RHCR with PBS), and its speed.
+"""The lifelong warehouse and manufacturing simulator against the paper's (RHCR with PBS), and its speed.
 
     python benchmarks/simulator.py [--seeds 5] [--skip-large]
 
-Prints two tables. Fidelity: the original's layouts, our throughput with each planner (mean and standard deviation
-over seeds, and how many runs congested; PIBT apart, never mixed into the first's numbers) beside RHCR's: measured with the authors' code at 1,000 steps (research notes 1.8) and the
-paper's README values at 5,000 steps. Speed: wall time and agent-steps per second at 200 agents (33x36) and 1,000
-agents (101x102), with the process's peak memory.
+Prints two tables. Speed: wall time and agent-steps per second at 200 agents (33x36) and 1,000 agents (101x102),
+with the process's peak memory. Fidelity: the original's layouts, our throughput with each planner (mean and
+standard deviation over seeds, and how many runs congested; PIBT apart, never mixed into the first's numbers) beside
+RHCR's: measured with the authors' code at 1,000 steps (research notes 1.8) and the paper's README values at 5,000
+steps.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
+from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
 from structgen.domains.warehouse.simulator import PLANNERS, simulate
 from structgen.grid import Grid
 
@@ -31,7 +32,12 @@ LARGE = f"{OURS}/xxlarge_maps/iter=200/kiva_xxlarge_cma-mae_global_opt_repaired_
 LARGE_UNEVEN = (
     f"{OURS}/xxlarge_maps/iter=200/kiva_xxlarge_cma-mae_global_opt_repaired_one_endpt_uneven_throughput-hamming_a=5.json"
 )
-# (label, map, agents, steps, uneven, RHCR's throughput as recorded)
+FACTORY = "manufacture/ours/nca_to_show/manufacture_large_200_agents_{}_opt_alpha=5_sw=5.json"
+FACTORY_HUMAN = "manufacture/human/manufacture_large_93_stations.json"
+FACTORY_LARGE = (
+    "manufacture/ours/xxlarge/manufacture_xxlarge_cma-mae_global_opt_repaired_one_endpt_throughput-hamming_a=5_sw=5_iter=200.json"
+)
+# (label, map, agents, steps, uneven, RHCR's throughput as recorded); manufacturing maps are under manufacture/.
 FIDELITY = [
     ("CMA-MAE a=5", CMA_MAE, 200, 1000, False, "6.698"),
     ("DSAGE a=5", DSAGE, 200, 1000, False, "6.323"),
@@ -49,15 +55,23 @@ FIDELITY = [
         True,
         "6.40 (README)",
     ),
+    ("manufacturing CMA-MAE a=5", FACTORY.format("cma-mae"), 200, 5000, False, "6.82 (README)"),
+    ("manufacturing DSAGE a=5", FACTORY.format("dsage"), 200, 5000, False, "5.61 (README)"),
+    ("manufacturing human (93 stations)", FACTORY_HUMAN, 200, 5000, False, "5.92 (README)"),
 ]
 LARGE_FIDELITY = [
     ("CMA-MAE a=5, 101x102", LARGE, 1000, 5000, False, "16.01 (README)"),
     ("CMA-MAE a=5 uneven, 101x102", LARGE_UNEVEN, 1000, 5000, True, "12.03 (README)"),
+    ("manufacturing CMA-MAE a=5, 101x102", FACTORY_LARGE, 1000, 5000, False, "23.11 (README)"),
 ]
 
 
+def kind_of(name: str):
+    return MANUFACTURING if name.startswith("manufacture/") else WAREHOUSE
+
+
 def load(name: str) -> np.ndarray:
-    return Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles
+    return Grid.load(MAPS / name, kind_of(name).vocabulary).tiles
 
 
 def fidelity(cases, seeds: int) -> None:
@@ -66,7 +80,10 @@ def fidelity(cases, seeds: int) -> None:
     for label, name, agents, steps, uneven, theirs in cases:
         cells = []
         for planner in PLANNERS:
-            runs = [simulate(load(name), agents, steps, seed=s, uneven=uneven, planner=planner) for s in range(seeds)]
+            runs = [
+                simulate(load(name), agents, steps, kind=kind_of(name), seed=s, uneven=uneven, planner=planner)
+                for s in range(seeds)
+            ]
             values = np.array([r.throughput for r in runs])
             cells.append(f"{values.mean():.3f} ± {values.std():.3f} | {sum(r.congested for r in runs)} of {seeds}")
         print(f"| {label} | {agents} | {steps:,} | {cells[0]} | {theirs} | {cells[1]} |", flush=True)
@@ -75,13 +92,13 @@ def fidelity(cases, seeds: int) -> None:
 def speed() -> None:
     print("| map | agents | steps | planner | wall s | agent-steps per s | peak memory (process) |")
     print("|---|---|---|---|---|---|---|")
-    for name, agents in ((CMA_MAE, 200), (LARGE, 1000)):
+    for name, agents in ((CMA_MAE, 200), (LARGE, 1000), (FACTORY.format("cma-mae"), 200), (FACTORY_LARGE, 1000)):
         tiles = load(name)
         for planner in PLANNERS:
-            result = simulate(tiles, agents, 1000, seed=0, planner=planner)
+            result = simulate(tiles, agents, 1000, kind=kind_of(name), seed=0, planner=planner)
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(
-                f"| {tiles.shape[0]}x{tiles.shape[1]} | {agents} | {result.stopped_at} | {planner} | "
+                f"| {kind_of(name).name} {tiles.shape[0]}x{tiles.shape[1]} | {agents} | {result.stopped_at} | {planner} | "
                 f"{result.seconds:.2f} | {agents * result.stopped_at / result.seconds:,.0f} | {peak:.0f} MiB |",
                 flush=True,
             )

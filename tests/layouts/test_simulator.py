@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from structgen.cli import main
-from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
-from structgen.domains.warehouse.simulator import simulate
+from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
+from structgen.domains.warehouse.simulator import STATION_WAITS, simulate
 from structgen.grid import Grid
 
 E, SHELF = WAREHOUSE.vocabulary.index("e"), WAREHOUSE.vocabulary.index("@")
@@ -29,10 +29,26 @@ def small_warehouse() -> np.ndarray:
     return WAREHOUSE.complete(storage)
 
 
-def check_moves(tiles: np.ndarray, positions: np.ndarray) -> None:
+def small_factory() -> np.ndarray:
+    """Three islands of stations 0, 1, 2 with endpoints around them, on open floor."""
+    rows = [
+        "............",
+        "..ee..ee..ee",
+        ".e00ee11ee22",
+        "..ee..ee..ee",
+        "............",
+        "............",
+        "..eee...ee..",
+        ".e012e.e20e.",
+        "..eee...ee..",
+    ]
+    return np.array([[MANUFACTURING.vocabulary.index(c) for c in row] for row in rows], dtype=np.uint8)
+
+
+def check_moves(tiles: np.ndarray, positions: np.ndarray, kind=WAREHOUSE) -> None:
     """No two agents on one cell, no two swapping, every move one step to a free 4-neighbour (or a wait)."""
     cols = tiles.shape[1]
-    blocked = np.isin(tiles.ravel(), WAREHOUSE.blocking_tiles())
+    blocked = np.isin(tiles.ravel(), kind.blocking_tiles())
     for before, after in zip(positions[:-1], positions[1:]):
         assert len(set(after.tolist())) == len(after), "two agents on one cell"
         assert not blocked[after].any(), "an agent on a shelf"
@@ -51,6 +67,33 @@ def test_moves_are_collision_free_and_goals_count_as_tasks(planner):
     check_moves(tiles, result.positions)
     assert not result.congested and result.stopped_at == 200
     assert result.tasks > 30 and result.throughput == result.tasks / 200
+
+
+@pytest.mark.parametrize("planner", ["pp", "pibt"])
+def test_manufacturing_robots_visit_station_kinds_in_turn_and_stand_for_each_task(planner):
+    tiles = small_factory()
+    rows, cols = tiles.shape
+    result = simulate(tiles, 12, 300, kind=MANUFACTURING, seed=2, trace=True, planner=planner)
+    check_moves(tiles, result.positions, MANUFACTURING)
+    assert len(result.finished) == result.tasks > 12
+    stations = [np.pad(tiles == MANUFACTURING.vocabulary.index(k), 1) for k in "012"]
+    done_by = np.zeros(12, dtype=int)
+    for step, agent, cell in result.finished:
+        kind = done_by[agent] % 3  # every robot starts with kind 0, then 1, 2, 0, ...
+        done_by[agent] += 1
+        r, c = divmod(int(cell), cols)
+        assert tiles[r, c] == MANUFACTURING.vocabulary.index("e")
+        beside = stations[kind][r, c + 1] | stations[kind][r + 2, c + 1] | stations[kind][r + 1, c] | stations[kind][r + 1, c + 2]
+        assert beside, f"task {done_by[agent]} of agent {agent} at {r, c} is not beside a station of kind {kind}"
+        # It arrived at least the task's wait before and stood still since.
+        wait = STATION_WAITS[kind]
+        assert step >= wait and (result.positions[step - wait : step + 1, agent] == cell).all()
+
+
+def test_standing_for_a_task_is_not_congestion():
+    # One robot: with standing for a 10-step task counted as standing still, the run would stop at its first task.
+    result = simulate(small_factory(), 1, 200, kind=MANUFACTURING, seed=0)
+    assert not result.congested and result.tasks >= 6
 
 
 def test_the_same_seed_gives_the_same_run():
@@ -79,6 +122,11 @@ def test_bad_settings_are_clear_errors():
         simulate(tiles, 5, 10, planner="magic")
     with pytest.raises(ValueError, match="needs workstations and endpoints"):
         simulate(np.zeros((5, 5), dtype=np.uint8), 3, 10)
+    no_kind_2 = np.where(
+        small_factory() == MANUFACTURING.vocabulary.index("2"), MANUFACTURING.vocabulary.index("1"), small_factory()
+    )
+    with pytest.raises(ValueError, match="beside a station of kind 2"):
+        simulate(no_kind_2, 3, 10, kind=MANUFACTURING)
 
 
 @needs_maps

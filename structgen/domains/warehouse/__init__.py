@@ -48,11 +48,19 @@ MANUFACTURING = DomainSpec(
     id="manufacturing-v0",
     entry_point=f"{_PACKAGE}.problem:LayoutProblem",
     settings=f"{_PACKAGE}.problem:ManufacturingSettings",
-    summary="manufacturing floors (three station kinds) grown by a conv NCA, repaired by a MILP",
+    summary="manufacturing floors (three station kinds) grown by a conv NCA, repaired by a MILP, scored by robots' throughput",
     commands=f"{_PACKAGE}.commands:MANUFACTURING_COMMANDS",
-    libraries=("torch", "highspy"),
+    libraries=("torch", "highspy", "numba"),
     main_job=_MAIN,
-    test_settings={"size": "5x6", "iterations": 5, "hidden": 8, "agents": 2, "repair_node_limit": 5},
+    test_settings={
+        "size": "5x6",
+        "iterations": 5,
+        "hidden": 8,
+        "agents": 2,
+        "repair_node_limit": 5,
+        "simulations": 2,
+        "simulation_steps": 30,
+    },
 )
 
 MAZE = DomainSpec(

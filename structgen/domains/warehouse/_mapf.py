@@ -96,24 +96,41 @@ def _heap_pop(keys, states, size):
 
 @nb.njit(cache=True)
 def _search(
-    start, goals, n_goals, target_of, dist, neighbours, occupied, window, seen, parent, stamp, heap_keys, heap_states, path
+    start,
+    goals,
+    waits,
+    n_goals,
+    pinned,
+    target_of,
+    dist,
+    neighbours,
+    occupied,
+    window,
+    seen,
+    parent,
+    stamp,
+    heap_keys,
+    heap_states,
+    path,
 ):
     """Space-time A* for one agent over ``window`` steps, avoiding the cells and swaps ``occupied`` reserves.
 
-    A state is (cell, time, goals reached). Its cost is the time of arrival at the last goal: exact within the window,
-    and the remaining distance (ignoring other agents) beyond it, as in rolling-horizon planning. Writes the best path
-    into ``path`` (``window + 1`` cells) and returns whether one exists."""
+    A state is (cell, time, goals reached). Its cost is the time of finishing the last goal: exact within the window,
+    and the remaining distance and task waits (ignoring other agents) beyond it, as in rolling-horizon planning.
+    A goal with ``waits[k] > 0`` (a manufacturing task) is finished by standing on it that many steps, one move in
+    the search; ``pinned`` agents are in the middle of such a task and may only finish it. Writes the best path into
+    ``path`` (``window + 1`` cells) and returns whether one exists."""
     n = neighbours.shape[0]
     levels = n_goals + 1
-    # rest[k]: moves from goal k-1 to the last goal, along the goal sequence.
+    # rest[k]: moves and waits from goal k-1 to the end of the last goal, along the goal sequence.
     rest = np.zeros(levels + 1, dtype=np.int64)
     for k in range(n_goals - 1, 0, -1):
-        rest[k] = rest[k + 1] + dist[target_of[goals[k]], goals[k - 1]]
+        rest[k] = rest[k + 1] + dist[target_of[goals[k]], goals[k - 1]] + waits[k]
     size = 0
     first = start * levels
     seen[first] = stamp
     parent[first] = -1
-    h0 = 0 if n_goals == 0 else dist[target_of[goals[0]], start] + rest[1]
+    h0 = 0 if n_goals == 0 else dist[target_of[goals[0]], start] + waits[0] + rest[1]
     size = _heap_push(heap_keys, heap_states, size, h0 * (window + 2) + window, first)
     slab = n * levels  # states per time step
     while size > 0:
@@ -122,11 +139,31 @@ def _search(
         cell = (state % slab) // levels
         k = state % levels
         if t == window:
-            s = state
-            for back in range(window, -1, -1):
-                path[back] = (s % slab) // levels
+            # Walk back; a task move spans several steps on one cell.
+            s, high = state, window
+            while s >= 0:
+                here = (s % slab) // levels
+                for back in range(s // slab, high + 1):
+                    path[back] = here
+                high = s // slab - 1
                 s = parent[s]
             return True
+        if k < n_goals and cell == goals[k] and waits[k] > 0:
+            end = min(t + waits[k], window)
+            free = True
+            for u in range(t + 1, end + 1):
+                if occupied[u, cell] >= 0:
+                    free = False
+                    break
+            child = end * slab + cell * levels + k + 1
+            if free and seen[child] != stamp:
+                seen[child] = stamp
+                parent[child] = state
+                h = 0 if k + 1 == n_goals else dist[target_of[goals[k + 1]], cell] + waits[k + 1] + rest[k + 2]
+                cost = t + waits[k] + h  # a task cut by the window still counts its whole wait
+                size = _heap_push(heap_keys, heap_states, size, cost * (window + 2) + window - end, child)
+        if pinned and t == 0:
+            continue
         for d in range(5):
             nxt = cell if d == 4 else neighbours[cell, d]
             if nxt < 0 or occupied[t + 1, nxt] >= 0:
@@ -135,20 +172,21 @@ def _search(
                 other = occupied[t, nxt]
                 if other >= 0 and occupied[t + 1, cell] == other:
                     continue  # the two would swap cells
-            nk = k + 1 if k < n_goals and nxt == goals[k] else k
+            nk = k + 1 if k < n_goals and nxt == goals[k] and waits[k] == 0 else k
             child = (t + 1) * slab + nxt * levels + nk
             if seen[child] == stamp:
                 continue
             seen[child] = stamp
             parent[child] = state
-            h = 0 if nk == n_goals else dist[target_of[goals[nk]], nxt] + rest[nk + 1]
+            h = 0 if nk == n_goals else dist[target_of[goals[nk]], nxt] + waits[nk] + rest[nk + 1]
             size = _heap_push(heap_keys, heap_states, size, (t + 1 + h) * (window + 2) + window - (t + 1), child)
     return False
 
 
 @nb.njit(cache=True)
-def plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, order, restarts):
-    """Collision-free paths for all agents over ``window`` steps by prioritized planning.
+def plan_window(positions, goals, waits, n_goals, pinned, target_of, dist, neighbours, window, order, restarts):
+    """Collision-free paths for all agents over ``window`` steps by prioritized planning (``waits`` and ``pinned``
+    as in :func:`_search`).
 
     Agents plan in ``order``, each around the paths of those before it. An agent that finds no path moves to the
     front and planning starts again (up to ``restarts`` times); after that, agents that still fail stay where they
@@ -184,7 +222,9 @@ def plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, 
             ok = _search(
                 positions[a],
                 goals[a],
+                waits[a],
                 n_goals[a],
+                pinned[a],
                 target_of,
                 dist,
                 neighbours,
@@ -287,15 +327,18 @@ def _pibt(root, position, next_position, occupant, reserved, goal_cell, target_o
 
 
 @nb.njit(cache=True)
-def pibt_window(positions, goals, n_goals, target_of, dist, neighbours, steps, waited, seed):
+def pibt_window(positions, goals, waits, n_goals, served, target_of, dist, neighbours, steps, waited, seed):
     """``steps`` steps of PIBT (one step of look-ahead, priority to agents that waited longest for a goal).
-    Returns ``paths`` like :func:`plan_window`: ``(agents, steps + 1)`` cells."""
+    A goal with ``waits[k] > 0`` is finished after standing on it that many steps; ``served`` counts the steps each
+    agent already stood on its first goal (-1: not on it). Returns ``paths`` like :func:`plan_window`:
+    ``(agents, steps + 1)`` cells."""
     np.random.seed(seed)
     n_agents = len(positions)
     n = neighbours.shape[0]
     paths = np.empty((n_agents, steps + 1), dtype=np.int32)
     position = positions.astype(np.int64)
     reached = np.zeros(n_agents, dtype=np.int64)
+    serve = served.astype(np.int64)
     age = waited.astype(np.float64)
     occupant = -np.ones(n, dtype=np.int64)
     reserved = -np.ones(n, dtype=np.int64)
@@ -322,12 +365,17 @@ def pibt_window(positions, goals, n_goals, target_of, dist, neighbours, steps, w
         for a in range(n_agents):
             occupant[position[a]] = -1
             reserved[next_position[a]] = -1
+            stayed = position[a] == next_position[a]
             position[a] = next_position[a]
             next_position[a] = -1
             paths[a, t] = position[a]
-            if goal_cell[a] >= 0 and position[a] == goal_cell[a]:
+            age[a] += 1.0
+            if goal_cell[a] < 0 or position[a] != goal_cell[a]:
+                serve[a] = -1
+                continue
+            serve[a] = serve[a] + 1 if stayed and serve[a] >= 0 else 0
+            if serve[a] >= waits[a, reached[a]]:
                 reached[a] += 1
                 age[a] = 0.0
-            else:
-                age[a] += 1.0
+                serve[a] = 0 if reached[a] < n_goals[a] and goals[a, reached[a]] == position[a] else -1
     return paths

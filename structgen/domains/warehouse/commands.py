@@ -1,5 +1,5 @@
 """The verbs of the layout domains: ``structgen warehouse|manufacturing|maze generate|repair|simulate|show|measure``
-(``simulate``: warehouses only, for now)."""
+(``simulate``: warehouses and manufacturing floors)."""
 
 from __future__ import annotations
 
@@ -198,7 +198,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             kind=kind,
             seed=args.seed,
             planner=args.planner,
-            uneven=args.uneven,
+            uneven=getattr(args, "uneven", False),
             trace=args.frames is not None,
         )
     except InputError as error:
@@ -213,7 +213,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         "stopped_at": result.stopped_at,
         "planner": result.planner,
         "seed": args.seed,
-        "uneven": args.uneven,
+        "uneven": getattr(args, "uneven", False),
         "seconds": round(result.seconds, 3),
     }
     if args.frames is not None:
@@ -366,13 +366,20 @@ def _add_measure(subparsers: Any, kind: LayoutKind) -> None:
 def _add_simulate(subparsers: Any, kind: LayoutKind) -> None:
     from structgen.domains.warehouse.simulator import PLANNERS
 
+    if kind.name == "manufacturing":
+        goals = (
+            "visiting stations of kind 0, 1, 2, 0, ... in turn and standing 2, 5 or 10 steps on an endpoint beside "
+            "each for its task"
+        )
+    else:
+        goals = "fetching goals (an endpoint, then a workstation, and so on)"
     p = subparsers.add_parser(
         "simulate",
-        help="run robots on a warehouse layout and print its throughput",
-        description="Simulate N robots fetching goals (an endpoint, then a workstation, and so on) on the layout in "
-        "FILE for T steps, planning collision-free paths 10 steps ahead every 5 steps, and print the throughput "
-        "(goals reached per step), the tasks finished, whether the floor congested (more than half of the robots "
-        "stood still for 5 steps, which stops the run) and the wall time.",
+        help=f"run robots on a {kind.name} layout and print its throughput",
+        description=f"Simulate N robots {goals} on the layout in FILE for T steps, planning collision-free paths 10 "
+        "steps ahead every 5 steps, and print the throughput (tasks finished per step), the tasks finished, whether "
+        "the floor congested (more than half of the robots stood still, not counting tasks, for 5 steps, which stops "
+        "the run) and the wall time.",
     )
     p.add_argument("file", metavar="FILE", help="map JSON file (a repaired, valid layout)")
     p.add_argument("--agents", type=whole_number(1, 10**6), default=200, metavar="N", help="robots (default 200)")
@@ -391,7 +398,8 @@ def _add_simulate(subparsers: Any, kind: LayoutKind) -> None:
         metavar="S",
         help="seed of the start cells, the goals and the planners' tie-breaks (default 0)",
     )
-    p.add_argument("--uneven", action="store_true", help="left-half workstations five times likelier goals")
+    if kind.name == "warehouse":
+        p.add_argument("--uneven", action="store_true", help="left-half workstations five times likelier goals")
     p.add_argument("--frames", type=output_path, default=None, metavar="OUT.png", help="also draw six snapshots")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(handler=cmd_simulate, kind=kind.name)
@@ -422,5 +430,5 @@ class LayoutCommands(DomainCommands):
 
 
 WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("generate", "repair", "simulate", "show", "measure"))
-MANUFACTURING_COMMANDS = LayoutCommands("manufacturing", ("generate", "repair", "show", "measure"))
+MANUFACTURING_COMMANDS = LayoutCommands("manufacturing", ("generate", "repair", "simulate", "show", "measure"))
 MAZE_COMMANDS = LayoutCommands("maze", ("generate", "show", "measure"))

@@ -1,10 +1,9 @@
 """The three layout domains as problems: a genome is the conv NCA's weights; evaluating grows a layout from the seed
 block, repairs it (warehouse, manufacturing) and measures it.
 
-The warehouse objective is the original's: the mean throughput of ``simulations`` runs of the multi-robot simulator
-on the repaired layout plus ``alpha * similarity``. Manufacturing has no simulator yet, so its objective is the
-similarity term alone (search then favours NCAs whose layouts need little repair). The maze's objective is the
-original's: 1 if solvable, else 0.
+The warehouse and manufacturing objective is the original's: the mean throughput of ``simulations`` runs of the
+multi-robot simulator on the repaired layout plus ``alpha * similarity`` (with ``simulations = 0``, the similarity
+term alone). The maze's objective is the original's: 1 if solvable, else 0.
 Measures are the original's: shelf components and pattern entropy (warehouse), station count and pattern entropy
 (manufacturing), pattern entropy and the agent's mean path length (maze).
 """
@@ -82,16 +81,15 @@ class WarehouseSettings:
 
 @dataclass(frozen=True)
 class ManufacturingSettings(WarehouseSettings):
-    """The warehouse's attributes; ``agents`` is the number of cells that must stay free of stations (200 in the
-    paper), and ``simulations`` must stay 0 until the manufacturing simulator exists."""
+    """The warehouse's attributes; ``agents`` is also the number of cells the repair keeps free of stations (200 in
+    the paper), and ``uneven`` does not apply."""
 
-    simulations: int = 0
     kind = "manufacturing"
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.simulations:
-            raise ValueError("problem simulations must be 0 for manufacturing: its simulator is not built yet")
+        if self.uneven:
+            raise ValueError("problem uneven applies to warehouses only (manufacturing has no workstations)")
 
 
 @dataclass(frozen=True)
@@ -147,7 +145,7 @@ class LayoutProblem(Problem):
         elif self.kind.name == "manufacturing":
             self.measure_names = ("stations", "entropy")
             self.measure_ranges = ((0.0, 600.0 if settings.size == "33x36" else float(full[0] * full[1])), (0.0, 1.0))
-            self.field_names = ("similarity", "hamming", "optimal", "failed")
+            self.field_names = ("throughput", "congested", "similarity", "hamming", "optimal", "failed")
         else:
             self.measure_names = ("entropy", "path_length")
             self.measure_ranges = ((0.0, 1.0), (0.0, float(2 * full[0] * full[1])))
@@ -210,11 +208,9 @@ class LayoutProblem(Problem):
             "optimal": float(result.optimal),
             "failed": 0.0,
         }
-        objective = self.settings.alpha * score
-        if self.kind.name == "warehouse":
-            throughput, congested = self._simulate(result.tiles, seed)
-            fields.update(throughput=throughput, congested=congested)
-            objective += throughput
+        throughput, congested = self._simulate(result.tiles, seed)
+        fields.update(throughput=throughput, congested=congested)
+        objective = throughput + self.settings.alpha * score
         return objective, (first, pattern_entropy(result.tiles, self.kind)), fields
 
     def _simulate(self, tiles: np.ndarray, seed: int) -> tuple[float, float]:
@@ -226,7 +222,7 @@ class LayoutProblem(Problem):
             return 0.0, 0.0
         try:
             runs = [
-                simulate(tiles, settings.agents, settings.simulation_steps, seed=int(s), uneven=settings.uneven)
+                simulate(tiles, settings.agents, settings.simulation_steps, kind=self.kind, seed=int(s), uneven=settings.uneven)
                 for s in np.random.SeedSequence(seed).generate_state(settings.simulations)
             ]
         except InputError:  # the simulator refuses the layout (too little floor for the robots): it cannot work

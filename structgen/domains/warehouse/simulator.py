@@ -1,8 +1,11 @@
-"""A lifelong multi-robot warehouse simulation that scores a layout by its throughput.
+"""A lifelong multi-robot simulation that scores a warehouse or manufacturing layout by its throughput.
 
-The task model follows the paper's simulator (research notes 1.7): agents start on distinct non-shelf cells; each
-gets a random endpoint first, then goals alternate between a workstation (drawn by weight) and an endpoint; agents
-move to a 4-neighbour cell or wait each step, without rotation; shelves block, everything else is traversable.
+The task models follow the paper's simulator (research notes 1.7): agents start on distinct non-shelf cells and
+move to a 4-neighbour cell or wait each step, without rotation; shelves and stations block, everything else is
+traversable. Warehouse: each agent gets a random endpoint first, then goals alternate between a workstation (drawn
+by weight) and an endpoint. Manufacturing: goals are endpoints next to a station, visiting station kinds 0, 1, 2,
+0, ... in turn (an endpoint beside two stations of a kind is twice as likely); a task is done after standing on its
+endpoint 2, 5 or 10 steps by kind, and standing there for a task does not count towards congestion.
 Every ``replan`` steps all agents plan collision-free paths for the next ``window`` steps (rolling-horizon planning)
 and the first ``replan`` steps are carried out. Throughput is the number of goals reached divided by the number of
 steps asked for. When more than half of the agents stood still over a whole replanning interval, the run is
@@ -23,12 +26,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from structgen.domains.warehouse.layouts import WAREHOUSE, LayoutKind
+from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
 from structgen.errors import InputError
 
 __all__ = ["PLANNERS", "SimulationResult", "simulate"]
 
 PLANNERS = ("pp", "pibt")
+#: Steps a manufacturing task takes at a station of each kind (the original's ``station_wait_times``).
+STATION_WAITS = (2, 5, 10)
 #: Goals queued ahead per agent at most (the queue is filled until it is longer than one replanning interval).
 MAX_GOALS = 8
 
@@ -38,7 +43,8 @@ class SimulationResult:
     """One simulation: ``throughput`` = goals reached / ``steps``; ``congested`` says the run stopped early (at
     ``stopped_at``) because more than half of the agents stood still over a replanning interval; ``restarts``
     and ``held`` count planning rounds started again and agents made to wait because they found no path;
-    ``positions`` is the trace when asked for."""
+    ``positions`` (every agent's cell at every step) and ``finished`` (one row ``step, agent, cell`` per task
+    finished) are the trace when asked for."""
 
     throughput: float
     tasks: int
@@ -51,13 +57,69 @@ class SimulationResult:
     restarts: int
     held: int
     positions: np.ndarray | None = None
+    finished: np.ndarray | None = None
 
 
-def _workstation_weights(cells: np.ndarray, cols: int, uneven: bool) -> np.ndarray:
-    weights = np.ones(len(cells))
-    if uneven:  # the paper's uneven setting: the left column's workstations are five times likelier
-        weights[cells % cols < cols // 2] = 5.0
-    return weights / weights.sum()
+class _WarehouseTasks:
+    """Goals alternate between a workstation (by weight) and an endpoint; no task waits."""
+
+    def __init__(self, tiles: np.ndarray, kind: LayoutKind, uneven: bool, rng: np.random.Generator) -> None:
+        code = kind.vocabulary.index
+        self.workstations = np.flatnonzero(tiles.ravel() == code("w"))
+        self.endpoints = np.flatnonzero(tiles.ravel() == code("e"))
+        if len(self.workstations) == 0 or len(self.endpoints) == 0:
+            raise InputError("a warehouse simulation needs workstations and endpoints")
+        self.weights = np.ones(len(self.workstations))
+        if uneven:  # the paper's uneven setting: the left column's workstations are five times likelier
+            self.weights[self.workstations % tiles.shape[1] < tiles.shape[1] // 2] = 5.0
+        self.weights /= self.weights.sum()
+        self.targets = np.concatenate([self.workstations, self.endpoints]).astype(np.int32)
+        self.rng = rng
+
+    def first(self, positions: np.ndarray) -> tuple[np.ndarray, int]:
+        self.wants_workstation = ~np.isin(positions, self.workstations)  # the kind of goal after the first endpoint
+        return self.rng.choice(self.endpoints, len(positions)), 0
+
+    def next(self, agent: int, last: int) -> tuple[int, int]:
+        while True:
+            if self.wants_workstation[agent]:
+                goal = int(self.rng.choice(self.workstations, p=self.weights))
+            else:
+                goal = int(self.rng.choice(self.endpoints))
+            if goal != last:
+                self.wants_workstation[agent] = ~self.wants_workstation[agent]
+                return goal, 0
+
+
+class _ManufacturingTasks:
+    """Goals visit endpoints beside stations of kind 0, 1, 2, 0, ...; each task waits by its station's kind."""
+
+    def __init__(self, tiles: np.ndarray, kind: LayoutKind, rng: np.random.Generator) -> None:
+        rows, cols = tiles.shape
+        endpoint = tiles == kind.vocabulary.index("e")
+        self.beside: list[np.ndarray] = []  # per station kind: endpoints, once per adjacent station of the kind
+        for station, name in enumerate("012"):
+            is_station = np.pad(tiles == kind.vocabulary.index(name), 1)
+            cells = []
+            for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                next_to = endpoint & is_station[1 + dr : 1 + dr + rows, 1 + dc : 1 + dc + cols]
+                cells.append(np.flatnonzero(next_to))
+            found = np.sort(np.concatenate(cells))
+            if len(found) == 0:
+                raise InputError(f"a manufacturing simulation needs an endpoint beside a station of kind {station}")
+            self.beside.append(found)
+        self.targets = np.unique(np.concatenate(self.beside)).astype(np.int32)
+        self.rng = rng
+
+    def first(self, positions: np.ndarray) -> tuple[np.ndarray, int]:
+        self.station = np.zeros(len(positions), dtype=np.int64)
+        return self.rng.choice(self.beside[0], len(positions)), STATION_WAITS[0]
+
+    def next(self, agent: int, last: int) -> tuple[int, int]:
+        # The same endpoint may serve two kinds in a row: the original allows it, and so does this.
+        station = (int(self.station[agent]) + 1) % len(STATION_WAITS)
+        self.station[agent] = station
+        return int(self.rng.choice(self.beside[station])), STATION_WAITS[station]
 
 
 def simulate(
@@ -78,16 +140,20 @@ def simulate(
     """Simulate ``agents`` robots on a whole warehouse map for ``steps`` steps and return the throughput.
 
     Args:
-        tiles: the whole map as tile numbers of ``kind`` (shelves block; workstations ``w``, endpoints ``e``).
+        tiles: the whole map as tile numbers of ``kind`` (warehouse: shelves block, goals are workstations ``w`` and
+            endpoints ``e``; manufacturing: stations block, goals are the endpoints beside them).
         seed: draws the start cells, the goals and the tie-breaks between equal priorities.
-        uneven: the left half's workstations are five times likelier goals than the right half's.
+        uneven: the left half's workstations are five times likelier goals than the right half's (warehouse).
         window, replan: plan ``window`` steps ahead every ``replan`` steps (the paper's 10 and 5).
-        restarts: how many times a round of planning starts again with a failing agent first; None: one per 40
-            agents, at least 5. (Five at 200 agents reproduces where the original congests; with fixed five, 1,000
-            agents at 101x102 congested in two runs of five, agents held in place blocking others in a cascade.)
+        restarts: how many times a round of planning starts again with a failing agent first; None: at least 5, and
+            one per 40 agents in a warehouse, one per 4 in manufacturing. (Five at 200 agents reproduces where the
+            original congests in a warehouse; with fixed five, 1,000 agents at 101x102 congested in two runs of five,
+            agents held in place blocking others in a cascade. In manufacturing every robot first heads for the
+            kind-0 stations; with five restarts the human layout jammed there in all runs, where RHCR scores 5.92.)
         priority: ``"waiting"`` (agents that reached a goal longest ago plan first; the calibrated default) or
             ``"random"`` (a fresh random order each round).
-        trace: keep every agent's cell at every step (``result.positions``, ``(steps + 1, agents)`` flat cells).
+        trace: keep every agent's cell at every step (``result.positions``, ``(steps + 1, agents)`` flat cells) and
+            the tasks finished (``result.finished``).
     """
     from structgen.domains.warehouse import _mapf
 
@@ -98,90 +164,95 @@ def simulate(
     if not 1 <= replan <= window:
         raise InputError(f"replan ({replan}) must be between 1 and window ({window})")
     if restarts is None:
-        restarts = max(5, agents // 40)
+        restarts = max(5, agents // (4 if kind.name == MANUFACTURING.name else 40))
     began = time.perf_counter()
     tiles = np.asarray(tiles)
     rows, cols = tiles.shape
-    code = kind.vocabulary.index
     passable = ~np.isin(tiles, kind.blocking_tiles())
     free = np.flatnonzero(passable.ravel())
     if not 0 < agents <= len(free):
         raise InputError(f"{agents} agents do not fit on {len(free)} free cells")
-    workstations = np.flatnonzero(tiles.ravel() == code("w"))
-    endpoints = np.flatnonzero(tiles.ravel() == code("e"))
-    if len(workstations) == 0 or len(endpoints) == 0:
-        raise InputError("a warehouse simulation needs workstations and endpoints")
-    weights = _workstation_weights(workstations, cols, uneven)
+    rng = np.random.default_rng(seed)
+    if kind.name == MANUFACTURING.name:
+        tasks_of = _ManufacturingTasks(tiles, kind, rng)
+    else:
+        tasks_of = _WarehouseTasks(tiles, kind, uneven, rng)
     neighbours = _mapf.grid_neighbours(passable)
-    targets = np.concatenate([workstations, endpoints]).astype(np.int32)
+    targets = tasks_of.targets
     target_of = np.full(rows * cols, -1, dtype=np.int32)
     target_of[targets] = np.arange(len(targets), dtype=np.int32)
     dist = _mapf.distance_tables(neighbours, targets)
 
-    rng = np.random.default_rng(seed)
     positions = rng.permutation(free)[:agents].astype(np.int32)
-    wants_workstation = ~np.isin(positions, workstations)  # the kind of goal after the first endpoint
     goals = np.zeros((agents, MAX_GOALS), dtype=np.int32)
+    waits = np.zeros((agents, MAX_GOALS), dtype=np.int32)
     n_goals = np.ones(agents, dtype=np.int64)
-    goals[:, 0] = rng.choice(endpoints, agents)
-
-    def next_goal(agent: int, last: int) -> int:
-        while True:
-            if wants_workstation[agent]:
-                goal = int(rng.choice(workstations, p=weights))
-            else:
-                goal = int(rng.choice(endpoints))
-            if goal != last:
-                wants_workstation[agent] = ~wants_workstation[agent]
-                return goal
+    goals[:, 0], waits[:, 0] = tasks_of.first(positions)
+    served = np.full(agents, -1, dtype=np.int64)  # steps stood on the first goal (-1: not on it)
 
     def manhattan(a: int, b: int) -> int:
         return abs(a // cols - b // cols) + abs(a % cols - b % cols)
 
     tasks = restarts_used = held_total = 0
     trail = [positions.copy()] if trace else None
+    finished: list[tuple[int, int, int]] = []
     last_done = np.zeros(agents, dtype=np.int64)
     congested = False
     t = 0
     while t < steps:
-        # Queue goals until the route through them is longer than one replanning interval (the original's rule).
+        # Queue goals until the route through them, task waits included, is longer than one replanning interval
+        # (the original's rule).
         for a in range(agents):
             last, length = int(positions[a]), 0
             for k in range(n_goals[a]):
-                length += manhattan(last, int(goals[a, k]))
+                length += manhattan(last, int(goals[a, k])) + int(waits[a, k])
                 last = int(goals[a, k])
             while length <= replan and n_goals[a] < MAX_GOALS:
-                goal = next_goal(a, last)
-                goals[a, n_goals[a]] = goal
+                goal, wait = tasks_of.next(a, last)
+                goals[a, n_goals[a]], waits[a, n_goals[a]] = goal, wait
                 n_goals[a] += 1
-                length += manhattan(last, goal)
+                length += manhattan(last, goal) + wait
                 last = goal
         order = rng.permutation(agents)
         if priority == "waiting":  # longest since its last goal first; ties in random order
             order = order[np.argsort(last_done[order], kind="stable")]
         order = order.astype(np.int64)
         if planner == "pp":
-            paths, used, held = _mapf.plan_window(positions, goals, n_goals, target_of, dist, neighbours, window, order, restarts)
+            # An agent part-way through a task finishes it first, with the steps it has left.
+            pinned = served > 0
+            left = waits.copy()
+            left[pinned, 0] -= served[pinned].astype(np.int32)
+            paths, used, held = _mapf.plan_window(
+                positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, restarts
+            )
         else:  # PIBT decides one step at a time: its "plan" is the interval itself
             waited = (t - last_done).astype(np.int64)
             paths = _mapf.pibt_window(
-                positions, goals, n_goals, target_of, dist, neighbours, replan, waited, int(rng.integers(2**31))
+                positions, goals, waits, n_goals, served, target_of, dist, neighbours, replan, waited, int(rng.integers(2**31))
             )
             used = held = 0
         restarts_used += used
         held_total += held
         todo = min(replan, steps - t)
+        working = np.zeros(agents, dtype=bool)  # stood on a goal for its task during this interval
         for step in range(1, todo + 1):
             here = paths[:, step]
-            done = (here == goals[:, 0]) & (n_goals > 0)
+            on_goal = (here == goals[:, 0]) & (n_goals > 0)
+            stood = on_goal & (here == paths[:, step - 1]) & (served >= 0)
+            served = np.where(on_goal, np.where(stood, served + 1, 0), -1)
+            working |= stood
+            done = on_goal & (served >= waits[:, 0])
             for a in np.flatnonzero(done):
                 last_done[a] = t + step
                 goals[a, :-1] = goals[a, 1:]
+                waits[a, :-1] = waits[a, 1:]
                 n_goals[a] -= 1
+                served[a] = 0 if n_goals[a] > 0 and goals[a, 0] == here[a] else -1
             tasks += int(done.sum())
             if trail is not None:
                 trail.append(here.copy())
-        still = (paths[:, :replan] == paths[:, :1]).all(axis=1)
+                finished.extend((t + step, int(a), int(here[a])) for a in np.flatnonzero(done))
+        still = (paths[:, :replan] == paths[:, :1]).all(axis=1) & ~working
         positions = paths[:, todo].copy()
         t += todo
         if todo == replan and int(still.sum()) > agents // 2:
@@ -199,4 +270,5 @@ def simulate(
         restarts=restarts_used,
         held=held_total,
         positions=None if trail is None else np.stack(trail),
+        finished=None if trail is None else np.array(finished, dtype=np.int64).reshape(-1, 3),
     )
