@@ -247,7 +247,8 @@ class MapElitesSettings:
 @dataclass(frozen=True)
 class CMAMAESettings:
     """CMA-MAE: CMA-ES emitters improving an archive that learns (``learning_rate``), results kept in a second,
-    ordinary archive. Defaults follow the warehouse NCA work (5 emitters, ranker "imp", restart on no improvement).
+    ordinary archive. Defaults follow the warehouse NCA work (5 emitters, ranker "imp", restart on no improvement);
+    CMA-ME is ``learning_rate = 1``, ``ranker = "2imp"``, ``selection = "filter"``, ``result_archive = false``.
 
     Attributes:
         cells: archive cells along each measure.
@@ -258,7 +259,16 @@ class CMAMAESettings:
         threshold_min: initial acceptance threshold of every cell; unset, just below the problem's objective floor,
             so that candidates scoring the floor still enter the archive (an empty archive stalls the emitters).
         es: the evolution strategy inside the emitters: "sep_cma_es" (diagonal, for thousands of parameters) or
-            "cma_es" (full covariance, for small problems).
+            "cma_es" (full covariance: the original's, slower per generation with thousands of parameters).
+        ranker: how an emitter ranks its batch (pyribs' names): "imp" (improvement over the cell's threshold),
+            "2imp" (new cells first, then improvement), "obj" (objective) or "2obj".
+        selection: "mu" (the better half becomes the parents) or "filter" (those that entered the archive).
+        restart: "no_improvement" (restart an emitter when none of its batch entered the archive) or "basic"
+            (only when its step size collapses).
+        result_archive: keep the best of each cell in a second archive (CMA-MAE), or report the learning archive
+            itself (CMA-ME).
+        x0: where the emitters start: "random" (one genome from the problem's initial distribution) or "zeros"
+            (the origin, as the warehouse work does).
     """
 
     cells: tuple[int, ...] = (16, 16)
@@ -268,6 +278,11 @@ class CMAMAESettings:
     learning_rate: float = 0.01
     threshold_min: float | None = None
     es: str = "sep_cma_es"
+    ranker: str = "imp"
+    selection: str = "mu"
+    restart: str = "no_improvement"
+    result_archive: bool = True
+    x0: str = "random"
 
     def __post_init__(self) -> None:
         _positive_int(self, "emitters", "batch_size")
@@ -275,5 +290,16 @@ class CMAMAESettings:
         _in_range(self, "learning_rate", 0.0, 1.0, low_open=True)
         if self.threshold_min is not None and not math.isfinite(self.threshold_min):
             raise ValueError(f"optimizer threshold_min must be finite, got {self.threshold_min!r}")
-        if self.es not in ("sep_cma_es", "cma_es"):
-            raise ValueError(f"optimizer es must be 'sep_cma_es' or 'cma_es', got {self.es!r}")
+        choices = {
+            "es": ("sep_cma_es", "cma_es"),
+            "ranker": ("imp", "2imp", "obj", "2obj"),
+            "selection": ("mu", "filter"),
+            "restart": ("no_improvement", "basic"),
+            "x0": ("random", "zeros"),
+        }
+        for name, allowed in choices.items():
+            if getattr(self, name) not in allowed:
+                options = " or ".join(repr(a) for a in allowed)
+                raise ValueError(f"optimizer {name} must be {options}, got {getattr(self, name)!r}")
+        if not isinstance(self.result_archive, bool):
+            raise ValueError(f"optimizer result_archive must be true or false, got {self.result_archive!r}")

@@ -1,4 +1,5 @@
-"""Plots written with a run: the objective over generations, and the quality-diversity archive as a heatmap.
+"""Plots written with a run: the objective over generations and, for quality diversity, the archive as a heatmap and
+its QD score and coverage over generations.
 
 Drawn with matplotlib's object interface on the Agg canvas: no display, no global pyplot state.
 """
@@ -83,10 +84,28 @@ def archive_figure(archive: Any, problem: Problem) -> Any:
     return figure
 
 
+def qd_figure(rows: list[dict[str, Any]], problem: Problem) -> Any:
+    """The archive's QD score and coverage over generations, one above the other."""
+    figure = new_figure(figsize=(8, 5), layout="constrained")
+    top, bottom = figure.subplots(2, 1, sharex=True)
+    generation = [row["generation"] for row in rows]
+    top.plot(generation, [row["qd_score"] for row in rows], lw=2, color="tab:blue")
+    top.set_ylabel(f"QD score\n(objective above {problem.objective_floor:g}, summed)", fontsize=9)
+    top.set_title(f"{problem.name}: archive over generations ({rows[-1]['evaluations']} evaluations)")
+    bottom.plot(generation, [100 * row["coverage"] for row in rows], lw=2, color="tab:orange")
+    bottom.set_ylabel("coverage (% of cells)", fontsize=9)
+    bottom.set_xlabel("generation")
+    for ax in (top, bottom):
+        ax.grid(alpha=0.3)
+    return figure
+
+
 def write_plots(folder: RunFolder, problem: Problem, archive: Any = None) -> None:
-    """Redraw ``objective.png`` from metrics.jsonl and, for quality diversity, ``archive.png``."""
+    """Redraw ``objective.png`` from metrics.jsonl and, for quality diversity, ``archive.png`` and ``qd.png``."""
     rows = folder.metrics()
     if rows:
         atomic_write(folder / folder.OBJECTIVE_PLOT, figure_png(objective_figure(rows, problem)))
+    if rows and "qd_score" in rows[-1]:
+        atomic_write(folder / folder.QD_PLOT, figure_png(qd_figure([r for r in rows if "qd_score" in r], problem)))
     if archive is not None and len(problem.measure_names) in (1, 2):
         atomic_write(folder / folder.ARCHIVE_PLOT, figure_png(archive_figure(archive, problem)))

@@ -127,16 +127,18 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
     if threshold is None:  # a hair below the floor: a candidate scoring exactly the floor must still get in
         threshold = problem.objective_floor - 1e-6 * max(1.0, abs(problem.objective_floor))
     archive = _grid_archive(problem, cells, int(seeds[0]), learning_rate=settings.learning_rate, threshold_min=threshold)
-    result_archive = _grid_archive(problem, cells, int(seeds[1]))
+    result_archive = _grid_archive(problem, cells, int(seeds[1])) if settings.result_archive else None
     x0 = np.asarray(problem.initial_genomes(1, np.random.default_rng(int(seeds[2]))), dtype=np.float64)[0]
+    if settings.x0 == "zeros":
+        x0 = np.zeros_like(x0)
     emitters = [
         EvolutionStrategyEmitter(
             archive,
             x0=x0,
             sigma0=settings.sigma0,
-            ranker="imp",
-            selection_rule="mu",
-            restart_rule="no_improvement",
+            ranker=settings.ranker,
+            selection_rule=settings.selection,
+            restart_rule=settings.restart,
             es=settings.es,
             batch_size=settings.batch_size,
             seed=int(seeds[k + 3]),

@@ -13,7 +13,8 @@ A run folder holds:
   ``archive_genomes.jsonl`` (one JSON value per line) for any other kind.
 - ``best/``: the best genome (``genome.npy`` or ``genome.json``), its scores (``best.json``), and whatever the
   problem writes to show it (a structure, a mesh, a picture).
-- ``objective.png`` and, for quality diversity, ``archive.png``: plots (see :mod:`evolution.plots`).
+- ``objective.png`` and, for quality diversity, ``archive.png`` and ``qd.png`` (QD score and coverage over
+  generations): plots (see :mod:`evolution.plots`).
 
 Every file is replaced atomically, so a kill at any moment leaves either the old file or the new one.
 """
@@ -116,7 +117,7 @@ class RunFolder:
     CONFIG, MANIFEST, CHECKPOINT, METRICS = "config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl"
     ARCHIVE, SOLUTIONS, GENOMES, BEST = "archive.csv", "archive_solutions.npy", "archive_genomes.jsonl", "best"
     LOCK = ".lock"
-    OBJECTIVE_PLOT, ARCHIVE_PLOT = "objective.png", "archive.png"
+    OBJECTIVE_PLOT, ARCHIVE_PLOT, QD_PLOT = "objective.png", "archive.png", "qd.png"
 
     def __init__(self, path: str | os.PathLike) -> None:
         self.path = Path(path)

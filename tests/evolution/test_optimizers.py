@@ -191,6 +191,23 @@ def test_cma_mae_learns_in_one_archive_and_keeps_results_in_another():
     assert optimizer.archive.stats.num_elites > 0
 
 
+def test_cma_me_settings_reach_the_emitters_and_report_the_learning_archive():
+    # The maze run of the warehouse paper: 2imp ranking, filter selection, learning rate 0.5, no result archive.
+    settings = CMAMAESettings(
+        cells=(6, 6), emitters=2, batch_size=5, learning_rate=0.5, threshold_min=0.0, es="cma_es", ranker="2imp",
+        selection="filter", result_archive=False, x0="zeros",
+    )  # fmt: skip
+    optimizer = make_optimizer("cma_mae", Sphere(), settings, seed=0)
+    emitter = optimizer.scheduler.emitters[0]
+    assert type(emitter._ranker).__name__ == "TwoStageImprovementRanker" and emitter._selection_rule == "filter"
+    assert emitter._opt.__class__.__name__ == "CMAEvolutionStrategy" and not emitter.x0.any()
+    for g in range(3):
+        step(optimizer, Sphere(), g)
+    assert optimizer.archive is optimizer.scheduler.archive and optimizer.archive.learning_rate == 0.5
+    with pytest.raises(ValueError, match="optimizer selection must be 'mu' or 'filter', got 'best'"):
+        CMAMAESettings(selection="best")
+
+
 def test_quality_diversity_settings_must_match_the_measures():
     with pytest.raises(ValueError, match="cells has 3 entries but sphere has 2 measures"):
         make_optimizer("map_elites", Sphere(), MapElitesSettings(cells=(4, 4, 4)))

@@ -105,7 +105,7 @@ def test_run_folder_contents(tmp_path):
     advance(folder, problem, state, settings, SerialEvaluator(), progress=False)
     names = {p.name for p in folder.path.iterdir()}
     assert {"config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl", "archive.csv", "archive_solutions.npy"} <= names
-    assert {"best", "objective.png", "archive.png"} <= names
+    assert {"best", "objective.png", "archive.png", "qd.png"} <= names
     row = folder.metrics()[-1]
     for key in (
         "generation",

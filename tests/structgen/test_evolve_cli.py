@@ -90,7 +90,7 @@ def test_evolve_writes_a_complete_run_folder(tmp_path, capsys, optimizer):
     names = {p.name for p in run.iterdir()}
     assert {"config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl", "objective.png", "best"} <= names
     quality_diversity = optimizer in ("map_elites", "cma_mae")
-    assert ({"archive.csv", "archive_solutions.npy", "archive.png"} <= names) is quality_diversity
+    assert ({"archive.csv", "archive_solutions.npy", "archive.png", "qd.png"} <= names) is quality_diversity
     rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
     assert [r["generation"] for r in rows] == [1, 2, 3, 4]
     for key in ("evaluations", "best_objective", "mean_objective", "best_integrity", "best_height", "best_complexity", "wall_s"):

@@ -11,6 +11,7 @@ Measures are the original's: shelf components and pattern entropy (warehouse), s
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -183,16 +184,7 @@ class LayoutProblem(Problem):
             }
             return solvable, (pattern_entropy(grown, self.kind), stats.mean_steps), fields
         try:
-            result = repair(
-                tiles,
-                self.kind,
-                shelves=self.shelves if self.kind.name == "warehouse" else None,
-                agents=self.settings.agents if self.kind.name == "manufacturing" else 0,
-                time_limit=self.settings.repair_time_limit,
-                seed=seed % (2**31),
-                threads=self.settings.repair_threads,
-                node_limit=self.settings.repair_node_limit or None,
-            )
+            result = self._repair(tiles, seed)
         except RepairError:
             low = [lo for lo, _ in self.measure_ranges]
             return self.objective_floor, low, {name: 1.0 if name == "failed" else 0.0 for name in self.field_names}
@@ -212,6 +204,43 @@ class LayoutProblem(Problem):
         fields.update(throughput=throughput, congested=congested)
         objective = throughput + self.settings.alpha * score
         return objective, (first, pattern_entropy(result.tiles, self.kind)), fields
+
+    def _repair(self, tiles: np.ndarray, seed: int):
+        return repair(
+            tiles,
+            self.kind,
+            shelves=self.shelves if self.kind.name == "warehouse" else None,
+            agents=self.settings.agents if self.kind.name == "manufacturing" else 0,
+            time_limit=self.settings.repair_time_limit,
+            seed=seed % (2**31),
+            threads=self.settings.repair_threads,
+            node_limit=self.settings.repair_node_limit or None,
+        )
+
+    def write_artifacts(self, genome, folder: Path) -> list[Path]:
+        """The genome's layout: ``layout.json`` and ``layout.png``; warehouse and manufacturing layouts are repaired
+        first (with seed 0 and the run's repair settings; a layout HiGHS cannot repair keeps only
+        ``unrepaired.json``), the picture showing the grown and repaired maps side by side."""
+        from structgen.domains.warehouse.show import draw
+
+        tiles = self.grow(np.asarray(genome)[None])[0]
+        name = "layout" if self.kind.name == "maze" else "unrepaired"
+        grown = self.kind.grid(tiles, name=name, kind=self.kind.name, iterations=self.iterations)
+        if self.kind.name == "maze":
+            written = [grown.save(folder / "layout.json")]
+            return written + [draw([grown], self.kind, folder / "layout.png", titles=["grown"])]
+        written = [grown.save(folder / "unrepaired.json")]
+        try:
+            result = self._repair(tiles, 0)
+        except RepairError:
+            return written
+        hamming, score = similarity(tiles, result.tiles, self.kind)
+        repaired = self.kind.grid(
+            result.tiles, name="layout", kind=self.kind.name, hamming=hamming, sim_score=score, optimal=result.optimal
+        )
+        written.append(repaired.save(folder / "layout.json"))
+        titles = ["grown by the NCA", f"repaired ({hamming} cells changed)"]
+        return written + [draw([grown, repaired], self.kind, folder / "layout.png", titles=titles)]
 
     def _simulate(self, tiles: np.ndarray, seed: int) -> tuple[float, float]:
         """Mean throughput over the simulations, and the share of them that congested."""

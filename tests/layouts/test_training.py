@@ -1,0 +1,81 @@
+"""Training layouts through the generic run machinery: the paper's CMA-MAE shape on a tiny warehouse, its run folder,
+and a run killed with SIGKILL that resumes to the result of one never stopped."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+
+import pytest
+
+from structgen.grid import Grid
+from tests.structgen.test_evolve_cli import cli, outcome, structgen_command, wait_for_lines
+
+# configs/warehouse_cma_mae.toml in miniature: every optimiser setting of the paper's, a 6x8 floor, 4 robots.
+TINY_WAREHOUSE = """\
+[run]
+generations = 5
+seed = 1
+workers = 0
+checkpoint_every = 1
+
+[problem]
+name = "warehouse-v0"
+size = "6x8"
+shelves = 6
+iterations = 5
+hidden = 8
+repair_node_limit = 50
+agents = 4
+simulations = 2
+simulation_steps = 40
+
+[optimizer]
+name = "cma_mae"
+emitters = 2
+batch_size = 3
+sigma0 = 0.2
+learning_rate = 0.01
+threshold_min = 0.0
+es = "cma_es"
+ranker = "imp"
+selection = "mu"
+restart = "no_improvement"
+result_archive = true
+x0 = "zeros"
+cells = [6, 10]
+"""
+
+
+@pytest.mark.slow
+def test_a_killed_warehouse_run_resumes_to_the_same_result(tmp_path, capsys):
+    config = tmp_path / "warehouse.toml"
+    config.write_text(TINY_WAREHOUSE)
+    code, out, err = cli(capsys, "evolve", config, "--run-dir", tmp_path / "whole")
+    assert code == 0, err
+    whole = tmp_path / "whole"
+    names = {p.name for p in whole.iterdir()}
+    assert {"objective.png", "archive.png", "qd.png", "archive.csv", "metrics.jsonl"} <= names
+    best = json.loads((whole / "best" / "best.json").read_text())
+    layout = Grid.load(whole / "best" / "layout.json")
+    assert layout.shape == (6, 12) and layout.count("@") == 6  # repaired to the exact shelf count, with workstations
+    assert (whole / "best" / "layout.png").read_bytes()[:4] == b"\x89PNG"
+    assert best["objective"] == pytest.approx(best["fields"]["throughput"] + 5 * best["fields"]["similarity"])
+    rows = [json.loads(line) for line in (whole / "metrics.jsonl").read_text().splitlines()]
+    assert [r["generation"] for r in rows] == [1, 2, 3, 4, 5] and rows[-1]["num_elites"] >= 1
+
+    run = tmp_path / "killed"
+    process = subprocess.Popen(
+        [*structgen_command(), "evolve", str(config), "--run-dir", str(run)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    wait_for_lines(run / "metrics.jsonl", 2, process, limit=300)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert process.returncode == -signal.SIGKILL
+    code, out, err = cli(capsys, "resume", run)
+    assert code == 0, err
+    assert outcome(run) == outcome(whole)
+    assert (run / "best" / "layout.json").read_bytes() == (whole / "best" / "layout.json").read_bytes()
