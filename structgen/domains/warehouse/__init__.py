@@ -17,10 +17,9 @@ _PACKAGE = "structgen.domains.warehouse"
 
 # The main job of each: the original's CMA-MAE shape (5 emitters of 10, sigma0 0.2) for a few generations.
 _CMA_MAE = {"cma_mae": {"emitters": 5, "batch_size": 10, "sigma0": 0.2, "cells": [100, 100]}}
-_MAIN = MainJob(run={"generations": 4, "seed": 0}, optimizer="cma_mae", optimizers=_CMA_MAE)
-# A warehouse evaluation repairs and simulates: random NCAs' layouts can hold HiGHS for its whole minute, so the
-# main job gives it 5 s (the greedy repair answers when HiGHS has nothing) and runs two generations.
-_WAREHOUSE_MAIN = MainJob(
+# An evaluation repairs and simulates: random NCAs' layouts can hold HiGHS for its whole minute, so the main job
+# gives it 5 s (the greedy repair answers when HiGHS has nothing) and runs two generations.
+_REPAIRED_MAIN = MainJob(
     run={"generations": 2, "seed": 0}, problem={"repair_time_limit": 5.0}, optimizer="cma_mae", optimizers=_CMA_MAE
 )
 
@@ -31,7 +30,7 @@ WAREHOUSE = DomainSpec(
     summary="warehouse layouts grown by a conv NCA, repaired by a MILP, scored by simulated robots' throughput",
     commands=f"{_PACKAGE}.commands:WAREHOUSE_COMMANDS",
     libraries=("torch", "highspy", "numba"),
-    main_job=_WAREHOUSE_MAIN,
+    main_job=_REPAIRED_MAIN,
     test_settings={
         "size": "6x8",
         "shelves": 6,
@@ -51,7 +50,7 @@ MANUFACTURING = DomainSpec(
     summary="manufacturing floors (three station kinds) grown by a conv NCA, repaired by a MILP, scored by robots' throughput",
     commands=f"{_PACKAGE}.commands:MANUFACTURING_COMMANDS",
     libraries=("torch", "highspy", "numba"),
-    main_job=_MAIN,
+    main_job=_REPAIRED_MAIN,
     test_settings={
         "size": "5x6",
         "iterations": 5,
