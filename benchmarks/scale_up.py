@@ -1,13 +1,13 @@
 """Train small, grow large: a warehouse NCA trained at 33x36 grown at every larger size of the paper, repaired and
 simulated beside the human layout of the same size.
 
-    python benchmarks/scale_up.py RUN_DIR [--seeds 3] [--repair-time-limit 120] [--layouts DIR]
-        [--output docs/scale_up.png]
+    python benchmarks/scale_up.py RUN_DIR [--seeds 3] [--repair-time-limit 120] [--sizes 33x36,101x102]
+        [--layouts DIR] [--output docs/scale_up.png]
 
 RUN_DIR is a warehouse training run (configs/warehouse_cma_mae.toml); its best genome grows 50 steps at 33x36 (as
 trained) and 200 steps at 45x47 ... 101x102 (the paper's rule for the large maps), and each layout is repaired to
 the paper's shelf count for its size. Prints two tables: per size, the repair and the throughput of ours and the
-human layout with robots at the density of 200 robots on 33x36 (at most 1,000); and throughput against robot count
+human layout with robots at the density of 150 robots on 33x36 (at most 800); and throughput against robot count
 at 33x36 and 101x102, with the paper's own CMA-MAE layouts for reference. Draws both (planner pp, 1,000 steps).
 """
 
@@ -19,6 +19,7 @@ import platform
 from pathlib import Path
 
 import numpy as np
+from throughput_vs_agents import sweep  # the script beside this one
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
@@ -48,8 +49,9 @@ STEPS = 1000
 
 
 def robots_for(tiles: np.ndarray) -> int:
-    """200 robots on 33x36, the same density elsewhere, at most 1,000 (the paper's count at 101x102)."""
-    return min(1000, int(round(200 * tiles.size / (33 * 36) / 50)) * 50)
+    """150 robots on 33x36 (the most the human layout takes without congesting), the same density elsewhere, at
+    most 800 (the most its 101x102 layout takes)."""
+    return min(800, int(round(150 * tiles.size / (33 * 36) / 50)) * 50)
 
 
 def mean_throughput(tiles: np.ndarray, agents: int, seeds: int) -> tuple[float, int]:
@@ -62,6 +64,7 @@ def main() -> None:
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a warehouse training run")
     parser.add_argument("--seeds", type=int, default=3, help="simulations per point (seeds 0, 1, ...; default 3)")
     parser.add_argument("--repair-time-limit", type=float, default=120.0, help="seconds per repair (default 120)")
+    parser.add_argument("--sizes", default=",".join(HUMAN), help="comma-separated sizes (default: all seven)")
     parser.add_argument("--layouts", type=Path, default=None, metavar="DIR", help="also save every layout here")
     parser.add_argument("--output", type=Path, default=Path("docs/scale_up.png"), help="the plot to write")
     args = parser.parse_args()
@@ -78,7 +81,11 @@ def main() -> None:
     ours: dict[str, np.ndarray] = {}
     print("| size | NCA steps | cells changed by the repair | repair s | robots | ours | human | congested (ours, human) |")
     print("|---|---|---|---|---|---|---|---|")
-    for size, human_file in HUMAN.items():
+    sizes = args.sizes.split(",")
+    if unknown := [size for size in sizes if size not in HUMAN]:
+        parser.error(f"--sizes: {', '.join(unknown)} not among {', '.join(HUMAN)}")
+    for size in sizes:
+        human_file = HUMAN[size]
         shape = WAREHOUSE.size(size)
         steps = problem.iterations if size == experiment.problem_settings.size else 200
         grown = WAREHOUSE.complete(problem.nca.grow(genome, WAREHOUSE.seed(shape.grown), steps))
@@ -100,28 +107,20 @@ def main() -> None:
             flush=True,
         )
 
-    figure = new_figure(figsize=(11, 4.2), layout="constrained")
-    axes = figure.subplots(1, len(SWEEPS))
+    swept = {size: counts for size, counts in SWEEPS.items() if size in ours}
+    if not swept:
+        return
+    figure = new_figure(figsize=(5.5 * len(swept), 4.2), layout="constrained")
+    axes = figure.subplots(1, len(swept), squeeze=False)[0]
     print("\n| size | layout | robots | throughput (mean over seeds) | congested |")
     print("|---|---|---|---|---|")
-    for ax, (size, counts) in zip(axes, SWEEPS.items()):
+    for ax, (size, counts) in zip(axes, swept.items()):
         layouts = {
             "ours (trained at 33x36)": ours[size],
             "paper's CMA-MAE": Grid.load(MAPS / PAPER[size], WAREHOUSE.vocabulary).tiles,
             "human": Grid.load(MAPS / HUMAN[size], WAREHOUSE.vocabulary).tiles,
         }
-        for label, tiles in layouts.items():
-            means = []
-            for agents in counts:
-                mean, jams = mean_throughput(tiles, agents, args.seeds)
-                means.append(mean)
-                print(f"| {size} | {label} | {agents} | {mean:.3f} | {jams} of {args.seeds} |", flush=True)
-            ax.plot(counts, means, marker="o", label=label)
-        ax.set_title(f"{size}, {STEPS:,} steps, planner pp")
-        ax.set_xlabel("robots")
-        ax.set_ylabel("throughput (tasks per step)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        sweep(ax, size, layouts, counts, args.seeds)
     atomic_write(args.output, figure_png(figure, 110))
     print(f"{args.output}: written")
 

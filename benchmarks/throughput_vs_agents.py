@@ -43,6 +43,23 @@ SIZES = {
 }
 
 
+def sweep(ax, size: str, layouts: dict[str, np.ndarray], counts: tuple[int, ...], seeds: int) -> None:
+    """Simulate each layout at each robot count, print a table row per point and draw a line per layout on ``ax``."""
+    for label, tiles in layouts.items():
+        means = []
+        for agents in counts:
+            runs = [simulate(tiles, agents, 1000, seed=seed) for seed in range(seeds)]
+            means.append(float(np.mean([r.throughput for r in runs])))
+            jams = sum(r.congested for r in runs)
+            print(f"| {size} | {label} | {agents} | {means[-1]:.3f} | {jams} of {seeds} |", flush=True)
+        ax.plot(counts, means, marker="o", label=label)
+    ax.set_title(f"{size}, 1,000 steps, planner pp")
+    ax.set_xlabel("robots")
+    ax.set_ylabel("throughput (tasks per step)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=3, help="simulations per point (seeds 0, 1, ...; default 3)")
@@ -56,20 +73,8 @@ def main() -> None:
     print("| size | layout | robots | throughput (mean over seeds) | congested |")
     print("|---|---|---|---|---|")
     for ax, (size, (layouts, counts)) in zip(axes, SIZES.items()):
-        for label, name in layouts.items():
-            tiles = Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles
-            means = []
-            for agents in counts:
-                runs = [simulate(tiles, agents, 1000, seed=seed) for seed in range(args.seeds)]
-                means.append(float(np.mean([r.throughput for r in runs])))
-                jams = sum(r.congested for r in runs)
-                print(f"| {size} | {label} | {agents} | {means[-1]:.3f} | {jams} of {args.seeds} |", flush=True)
-            ax.plot(counts, means, marker="o", label=label)
-        ax.set_title(f"{size}, 1,000 steps, planner pp")
-        ax.set_xlabel("robots")
-        ax.set_ylabel("throughput (goals per step)")
-        ax.grid(alpha=0.3)
-        ax.legend()
+        tiles = {label: Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles for label, name in layouts.items()}
+        sweep(ax, size, tiles, counts, args.seeds)
     atomic_write(args.output, figure_png(figure, 110))
     print(f"{args.output}: written")
 
