@@ -64,7 +64,7 @@ def similarity(unrepaired: np.ndarray, repaired: np.ndarray, kind: LayoutKind = 
     return hamming, 1.0 - hamming / same.size
 
 
-def _neighbours(mask: np.ndarray) -> np.ndarray:
+def neighbour_count(mask: np.ndarray) -> np.ndarray:
     """How many of each cell's four neighbours are in ``mask``."""
     m = mask.astype(np.int16)
     count = np.zeros_like(m)
@@ -88,7 +88,7 @@ def _unreached(passable: np.ndarray, targets: np.ndarray, starts: list[tuple[int
             if 0 <= nr < rows and 0 <= nc < cols and passable[nr, nc] and not seen[nr, nc]:
                 seen[nr, nc] = True
                 queue.append((nr, nc))
-    touched = seen | (_neighbours(seen) > 0)
+    touched = seen | (neighbour_count(seen) > 0)
     reached = np.where(passable, seen, touched)
     return int((targets & ~reached).sum())
 
@@ -140,10 +140,10 @@ def violations(
         starts = np.argwhere(passable)
     else:
         raise ValueError(f"no validity rules for {kind.name} layouts")
-    lonely_shelves = int((shelf & (_neighbours(endpoint) == 0)).sum())
+    lonely_shelves = int((shelf & (neighbour_count(endpoint) == 0)).sum())
     if lonely_shelves:
         found.append(f"{lonely_shelves} {'shelves' if kind.name == 'warehouse' else 'stations'} with no endpoint next to them")
-    lonely_endpoints = int((endpoint & (_neighbours(shelf) == 0)).sum())
+    lonely_endpoints = int((endpoint & (neighbour_count(shelf) == 0)).sum())
     if lonely_endpoints:
         found.append(f"{lonely_endpoints} endpoints with no {'shelf' if kind.name == 'warehouse' else 'station'} next to them")
     if len(starts) == 0:

@@ -63,6 +63,9 @@ class SimulationResult:
 class _WarehouseTasks:
     """Goals alternate between a workstation (by weight) and an endpoint; no task waits."""
 
+    #: The planner's default restart budget: one per this many agents (see ``simulate``'s ``restarts``).
+    agents_per_restart = 40
+
     def __init__(self, tiles: np.ndarray, kind: LayoutKind, uneven: bool, rng: np.random.Generator) -> None:
         code = kind.vocabulary.index
         self.workstations = np.flatnonzero(tiles.ravel() == code("w"))
@@ -94,17 +97,16 @@ class _WarehouseTasks:
 class _ManufacturingTasks:
     """Goals visit endpoints beside stations of kind 0, 1, 2, 0, ...; each task waits by its station's kind."""
 
+    agents_per_restart = 4
+
     def __init__(self, tiles: np.ndarray, kind: LayoutKind, rng: np.random.Generator) -> None:
-        rows, cols = tiles.shape
-        endpoint = tiles == kind.vocabulary.index("e")
+        from structgen.domains.warehouse.measures import neighbour_count  # loads scipy: not at command start-up
+
+        endpoint = (tiles == kind.vocabulary.index("e")).ravel()
         self.beside: list[np.ndarray] = []  # per station kind: endpoints, once per adjacent station of the kind
         for station, name in enumerate("012"):
-            is_station = np.pad(tiles == kind.vocabulary.index(name), 1)
-            cells = []
-            for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-                next_to = endpoint & is_station[1 + dr : 1 + dr + rows, 1 + dc : 1 + dc + cols]
-                cells.append(np.flatnonzero(next_to))
-            found = np.sort(np.concatenate(cells))
+            touching = np.where(endpoint, neighbour_count(tiles == kind.vocabulary.index(name)).ravel(), 0)
+            found = np.repeat(np.arange(len(touching)), touching)
             if len(found) == 0:
                 raise InputError(f"a manufacturing simulation needs an endpoint beside a station of kind {station}")
             self.beside.append(found)
@@ -163,8 +165,6 @@ def simulate(
         raise InputError(f"unknown priority {priority!r}; choose 'waiting' or 'random'")
     if not 1 <= replan <= window:
         raise InputError(f"replan ({replan}) must be between 1 and window ({window})")
-    if restarts is None:
-        restarts = max(5, agents // (4 if kind.name == MANUFACTURING.name else 40))
     began = time.perf_counter()
     tiles = np.asarray(tiles)
     rows, cols = tiles.shape
@@ -177,6 +177,8 @@ def simulate(
         tasks_of = _ManufacturingTasks(tiles, kind, rng)
     else:
         tasks_of = _WarehouseTasks(tiles, kind, uneven, rng)
+    if restarts is None:
+        restarts = max(5, agents // tasks_of.agents_per_restart)
     neighbours = _mapf.grid_neighbours(passable)
     targets = tasks_of.targets
     target_of = np.full(rows * cols, -1, dtype=np.int32)
