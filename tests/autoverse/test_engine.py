@@ -1,0 +1,110 @@
+"""The batched engine against the plain reference, step for step, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from structgen.domains.autoverse.engine import Engine, Mechanics, Observation
+from structgen.domains.autoverse.game import check_game, mutate_game, random_game
+from tests.autoverse import reference_autoverse as ref
+
+
+def _games(rng: np.random.Generator, count: int) -> list[dict]:
+    """Random games of every kind the engine meets: as drawn, mutated (stacked and empty cells, stray force), with
+    full 3x3 kernels, and with an empty input pattern."""
+    games = []
+    for i in range(count):
+        game = random_game(rng)
+        if i % 4 == 1:
+            game = mutate_game(mutate_game(game, rng), rng)
+        elif i % 4 == 2:  # arbitrary 3x3 kernels, rotations unrelated: the engine must not assume 1x3 patterns
+            k_in = rng.integers(0, 2, size=(5, 4, 5, 3, 3)) * (rng.random((5, 4, 5, 3, 3)) < 0.3)
+            k_out = rng.integers(0, 2, size=(5, 4, 5, 3, 3)) - k_in
+            game["rules"] = np.stack([k_in, k_out], axis=2).astype(np.int8)
+            game["rules"][:, :, :, 0] = 0
+        elif i % 4 == 3:
+            game["rules"][0, :, 0] = 0  # rule 0 has nothing to match
+            game["rewards"][0] = 1
+        games.append(check_game(game))
+    return games
+
+
+@pytest.mark.parametrize("mechanics", [Mechanics(), Mechanics.original()], ids=["default", "original"])
+def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics):
+    rng = np.random.default_rng(11)
+    games = _games(rng, 12)
+    engine = Engine(games, mechanics=mechanics)
+    state = engine.reset()
+    refs = [ref.reset(g) for g in games]
+    options = {"force_clear": mechanics.force_clear, "empty_rules_fire": mechanics.empty_rules_fire}
+    for _ in range(101):
+        actions = rng.integers(0, 5, size=len(games))
+        state, reward, done = engine.step(state, torch.as_tensor(actions))
+        for i, game in enumerate(games):
+            refs[i], want_reward, want_done = ref.step(game, refs[i], int(actions[i]), **options)
+            assert np.array_equal(state.map[i].numpy(), refs[i][0])
+            assert int(state.rot[i]) == refs[i][1]
+            assert tuple(state.pos[i].tolist()) == refs[i][2]
+            assert float(reward[i]) == want_reward
+            assert bool(done[i]) == want_done
+    assert bool(done.all()), "the 101st step ends the episode"
+
+
+def test_quirks_change_what_they_name():
+    rng = np.random.default_rng(3)
+    game = random_game(rng)
+    game["rules"][:] = 0  # no rules: only the player's actions change the map
+    game["map"][1] = 0
+    engine_default = Engine([game])
+    engine_original = Engine([game], mechanics=Mechanics.original())
+    for engine, force_left in ((engine_default, 1), (engine_original, 0)):
+        state = engine.reset()
+        state, _, _ = engine.step(state, torch.tensor([4]))  # place force in front
+        assert int(state.map[0, 1].sum()) == 1
+        state, _, _ = engine.step(state, torch.tensor([0]))  # turn, then turn back: front is the force cell again
+        state, _, _ = engine.step(state, torch.tensor([1]))
+        assert int(state.map[0, 1].sum()) == force_left
+    game["rewards"][:] = [1, 0, 0, 0, 0]  # rule 0, with nothing to match, pays 1 a match
+    _, reward_default, _ = Engine([game]).step(Engine([game]).reset(), torch.tensor([0]))
+    original = Engine([game], mechanics=Mechanics.original())
+    _, reward_original, _ = original.step(original.reset(), torch.tensor([0]))
+    assert float(reward_default[0]) == 0
+    assert float(reward_original[0]) == 16 * 16 * 4
+
+
+def test_rows_may_play_any_game_in_any_order():
+    rng = np.random.default_rng(5)
+    games = _games(rng, 4)
+    engine = Engine(games)
+    order = torch.tensor([3, 3, 0, 2, 1])
+    state = engine.reset(order)
+    actions = torch.tensor([0, 2, 4, 3, 1])
+    stepped, reward, _ = engine.step(state, actions)
+    for row, game_index in enumerate(order.tolist()):
+        alone = Engine([games[game_index]])
+        want, want_reward, _ = alone.step(alone.reset(), actions[row : row + 1])
+        assert torch.equal(stepped.map[row], want.map[0])
+        assert float(reward[row]) == float(want_reward[0])
+
+
+def test_observation_window_and_padding():
+    rng = np.random.default_rng(8)
+    game = random_game(rng)
+    engine = Engine([game])
+    state = engine.reset()
+    view, flat = engine.observe(state)
+    assert view.shape == (1, 5, 31, 31) and flat.shape == (1, 1811)
+    # the player is at the centre, and the wrapped view repeats the map with period 16
+    assert view[0, 0, 15, 15] == 1 and int(view[0, 0].sum()) == 1
+    assert torch.equal(view[0, :, :15, :], view[0, :, 16:31, :][:, :15])
+    zero_padded, _ = engine.observe(state, Observation(padding="zeros"))
+    assert int(zero_padded[0].sum()) == 256  # one-hot map, every cell seen once
+    windowed, _ = engine.observe(state, Observation(window=5))
+    assert int((windowed[0].sum(0) > 0).sum()) == 25 and windowed[0, :, 13:18, 13:18].sum() == 25
+    blank, _ = engine.observe(state, Observation.original(window=5))
+    assert int(blank.sum()) == 0  # the original environment's windowed view
+    _, hidden = engine.observe(state, Observation(hide_rules=True))
+    assert hidden[0, :4].tolist() == [1, 0, 0, 0] and int(hidden[0, 4:].abs().sum()) == 0
+    assert torch.equal(flat[0, 4:1804], torch.as_tensor(game["rules"]).float().flatten())
