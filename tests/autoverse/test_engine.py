@@ -44,7 +44,7 @@ def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics):
         state, reward, done = engine.step(state, torch.as_tensor(actions))
         for i, game in enumerate(games):
             refs[i], want_reward, want_done = ref.step(game, refs[i], int(actions[i]), **options)
-            assert np.array_equal(state.map[i].numpy(), refs[i][0])
+            assert np.array_equal(state.multi_hot()[i].numpy(), refs[i][0])
             assert int(state.rot[i]) == refs[i][1]
             assert tuple(state.pos[i].tolist()) == refs[i][2]
             assert float(reward[i]) == want_reward
@@ -62,10 +62,10 @@ def test_quirks_change_what_they_name():
     for engine, force_left in ((engine_default, 1), (engine_original, 0)):
         state = engine.reset()
         state, _, _ = engine.step(state, torch.tensor([4]))  # place force in front
-        assert int(state.map[0, 1].sum()) == 1
+        assert int(state.multi_hot()[0, 1].sum()) == 1
         state, _, _ = engine.step(state, torch.tensor([0]))  # turn, then turn back: front is the force cell again
         state, _, _ = engine.step(state, torch.tensor([1]))
-        assert int(state.map[0, 1].sum()) == force_left
+        assert int(state.multi_hot()[0, 1].sum()) == force_left
     game["rewards"][:] = [1, 0, 0, 0, 0]  # rule 0, with nothing to match, pays 1 a match
     _, reward_default, _ = Engine([game]).step(Engine([game]).reset(), torch.tensor([0]))
     original = Engine([game], mechanics=Mechanics.original())
@@ -85,7 +85,7 @@ def test_rows_may_play_any_game_in_any_order():
     for row, game_index in enumerate(order.tolist()):
         alone = Engine([games[game_index]])
         want, want_reward, _ = alone.step(alone.reset(), actions[row : row + 1])
-        assert torch.equal(stepped.map[row], want.map[0])
+        assert torch.equal(stepped.map[row], want.map[0]) and torch.equal(stepped.pos[row], want.pos[0])
         assert float(reward[row]) == float(want_reward[0])
 
 

@@ -15,9 +15,12 @@ One step, as the original runs it (``gen_env/envs/play_env.py``):
 4. The episode ends after ``episode_steps + 1`` steps (the original's cap is checked before its step counter grows:
    101 steps for 100).
 
-How it is computed: for each rotation slot, the kernel cells that any game uses there (3 of 9 for 1x3 patterns)
-are read from the circularly padded map, a batched matrix product counts each rule's satisfied input tiles per cell,
-and a second one spreads the outputs of the matches back; ``Mechanics`` names the original's quirks.
+How it is computed: a cell's tiles are one 5-bit code, so the state is a ``(B, N, N)`` uint8 map of codes. For each
+rotation slot and each kernel cell that some game uses there (3 of 9 for 1x3 patterns), a per-game lookup table
+turns the code under that cell into the set of rules whose input is satisfied there (a 5-bit mask); the masks of a
+slot's cells are ANDed, and two more tables turn a cell's matching rules into its reward and into its writes (the
+five tiles' -5..+5 changes packed in one int64), which are summed over the shifted cells and decoded. Everything is
+gathers and integer arithmetic over the whole batch; ``Mechanics`` names the original's quirks.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ import torch.nn.functional as F
 
 from structgen.domains.autoverse.game import FORCE, N_TILES, PLAYER
 
-__all__ = ["DIRECTIONS", "EPISODE_STEPS", "Engine", "Mechanics", "Observation", "State", "stack_games"]
+__all__ = ["DIRECTIONS", "EPISODE_STEPS", "Engine", "Mechanics", "Observation", "State", "codes", "multi_hot", "stack_games"]
 
 #: (row, column) step of each facing, by ``rot``.
 DIRECTIONS = ((0, -1), (1, 0), (0, 1), (-1, 0))
@@ -104,7 +107,7 @@ class State:
     """A batch of game states; row ``i`` plays game ``game[i]`` of its engine.
 
     Attributes:
-        map: ``(B, 5, N, N)`` uint8 multi-hot.
+        map: ``(B, N, N)`` uint8 tile codes: bit ``c`` set when the cell holds tile ``c`` (see :func:`codes`).
         rot: ``(B,)`` int64 facing.
         pos: ``(B, 2)`` int64 (row, column) of the player.
         step: ``(B,)`` int64 steps taken in the episode.
@@ -125,14 +128,29 @@ class State:
 
     def where(self, mask: torch.Tensor, other: State) -> State:
         """Rows of ``other`` where ``mask`` is set, of this state elsewhere."""
-        m = mask.view(-1, 1, 1, 1)
         return State(
-            torch.where(m, other.map, self.map),
+            torch.where(mask.view(-1, 1, 1), other.map, self.map),
             torch.where(mask, other.rot, self.rot),
             torch.where(mask.view(-1, 1), other.pos, self.pos),
             torch.where(mask, other.step, self.step),
             torch.where(mask, other.game, self.game),
         )
+
+    def multi_hot(self) -> torch.Tensor:
+        """``(B, 5, N, N)`` uint8: the maps in the games' own form."""
+        return multi_hot(self.map)
+
+
+def codes(maps: torch.Tensor) -> torch.Tensor:
+    """``(..., 5, N, N)`` multi-hot -> ``(..., N, N)`` uint8 codes."""
+    weights = (2 ** torch.arange(N_TILES, device=maps.device)).view(N_TILES, 1, 1)
+    return (maps.to(torch.int64) * weights).sum(dim=-3).to(torch.uint8)
+
+
+def multi_hot(code: torch.Tensor) -> torch.Tensor:
+    """``(..., N, N)`` codes -> ``(..., 5, N, N)`` uint8 multi-hot."""
+    shifts = torch.arange(N_TILES, dtype=torch.uint8, device=code.device).view(N_TILES, 1, 1)
+    return (code.unsqueeze(-3).to(torch.uint8) >> shifts) & 1
 
 
 def stack_games(games: Sequence[dict[str, Any]]) -> dict[str, np.ndarray]:
@@ -142,11 +160,16 @@ def stack_games(games: Sequence[dict[str, Any]]) -> dict[str, np.ndarray]:
     return {key: np.stack([np.asarray(g[key]) for g in games]) for key in ("rules", "rewards", "map")}
 
 
+_FIELD = 10  # bits per tile in a packed write: up to 36 contributions of 0..10 each
+_BIAS = 5  # a contribution of -5..+5 is stored as 0..10
+
+
 class Engine:
     """The games' rules compiled for batched stepping, on one device.
 
     ``step`` is a function of (state, actions): states are never modified in place, so a search can keep any
-    number of them and step any subset.
+    number of them and step any subset. Rules must leave the player channel alone (as every generated rule does):
+    the player's position is tracked, not searched for.
     """
 
     def __init__(
@@ -161,43 +184,57 @@ class Engine:
         self.device = torch.device(device)
         self.mechanics = mechanics
         self.episode_steps = episode_steps
-        rules = torch.as_tensor(np.asarray(arrays["rules"], dtype=np.int8), device=self.device).float()
-        self.rules = rules  # (G, R, 4, 2, C, 3, 3)
-        self.rewards = torch.as_tensor(np.asarray(arrays["rewards"]), device=self.device).float()
-        self.maps = torch.as_tensor(np.asarray(arrays["map"], dtype=np.uint8), device=self.device)
+        rules = torch.as_tensor(np.asarray(arrays["rules"], dtype=np.int8)).to(torch.int64)  # (G, R, 4, 2, C, 3, 3)
+        if (rules[:, :, :, :, PLAYER] != 0).any():
+            raise ValueError("rules must not read or write the player channel")
+        rewards = torch.as_tensor(np.asarray(arrays["rewards"])).to(torch.int64)
+        maps = torch.as_tensor(np.asarray(arrays["map"], dtype=np.uint8))
         self.n_games, self.n_rules = rules.shape[:2]
-        self.size = int(self.maps.shape[-1])
-        if self.maps.shape[1] != N_TILES or self.maps.shape[-2] != self.size:
-            raise ValueError(f"maps must be (G, {N_TILES}, N, N), got {tuple(self.maps.shape)}")
+        if self.n_rules > 8:
+            raise ValueError(f"at most 8 rules per game, got {self.n_rules}")
+        self.size = int(maps.shape[-1])
+        if maps.shape[1] != N_TILES or maps.shape[-2] != self.size:
+            raise ValueError(f"maps must be (G, {N_TILES}, N, N), got {tuple(maps.shape)}")
+        self.rules, self.rewards = rules.to(self.device), rewards.to(self.device)
+        self.codes = codes(maps).to(self.device)
         self._directions = torch.tensor(DIRECTIONS, device=self.device)
         self._turn = torch.tensor(_TURN, device=self.device)
         self._move = torch.tensor(_MOVE, device=self.device)
-        # Per rotation slot: the kernel cells some game uses, and the kernels reduced to them.
+        masks = torch.arange(1 << self.n_rules)  # every set of matching rules
+        bits = (masks.view(-1, 1) >> torch.arange(self.n_rules)) & 1  # (M, R)
+        tile_bit = 2 ** torch.arange(N_TILES)
+        all_codes = torch.arange(1 << N_TILES)
+        # reward of a cell from the set of rules matching there
+        self._reward_table = (bits.unsqueeze(0) * rewards.unsqueeze(1)).sum(-1).to(self.device)  # (G, M)
         self._slots = []
         for o in range(rules.shape[2]):
             used = (rules[:, :, o] != 0).any(dim=(0, 1, 2, 3))  # (3, 3)
             # A slot nobody uses still runs (on the centre cell) when empty inputs fire everywhere.
             cells = [(int(dy), int(dx)) for dy, dx in used.nonzero().tolist()] or [(1, 1)]
-            ys, xs = zip(*cells)
-            k_in = rules[:, :, o, 0][..., list(ys), list(xs)]  # (G, R, C, L)
-            k_out = rules[:, :, o, 1][..., list(ys), list(xs)]
-            need = rules[:, :, o, 0].sum(dim=(-3, -2, -1))  # (G, R)
-            # An input with no tiles matches everywhere in the original; a rule that can never match is the same as
-            # one that never fires, so the sensible behaviour sets its count out of reach.
-            if not mechanics.empty_rules_fire:
-                need = torch.where(need == 0, torch.full_like(need, -1.0), need)
+            match_tables, write_tables = [], []
+            empty = rules[:, :, o, 0].sum(dim=(-3, -2, -1)) == 0  # (G, R)
+            for index, (dy, dx) in enumerate(cells):
+                required = (rules[:, :, o, 0, :, dy, dx] * tile_bit).sum(-1)  # (G, R) tile codes
+                ok = (all_codes.view(1, 1, -1) & required.unsqueeze(-1)) == required.unsqueeze(-1)  # (G, R, 32)
+                if index == 0 and not mechanics.empty_rules_fire:
+                    ok &= ~empty.unsqueeze(-1)
+                match_tables.append((ok.to(torch.int64) << torch.arange(self.n_rules).view(1, -1, 1)).sum(1))
+                out = rules[:, :, o, 1, :, dy, dx]  # (G, R, C)
+                change = (bits.view(1, -1, self.n_rules, 1) * out.unsqueeze(1)).sum(2) + _BIAS  # (G, M, C)
+                write_tables.append((change << (_FIELD * torch.arange(N_TILES))).sum(-1))  # (G, M)
             self._slots.append(
-                (
-                    cells,
-                    k_in.reshape(self.n_games, self.n_rules, -1).contiguous(),  # (G, R, C*L)
-                    k_out.reshape(self.n_games, self.n_rules, -1).transpose(1, 2).contiguous(),  # (G, C*L, R)
-                    need,
-                )
+                (cells, torch.stack(match_tables, 1).to(self.device), torch.stack(write_tables, 1).to(self.device))
             )
-        self._flat_rules = torch.cat(
-            [rules.reshape(self.n_games, -1), self.rewards, torch.zeros(self.n_games, 2, device=self.device)], dim=1
+        self._writes_per_cell = sum(len(cells) for cells, _, _ in self._slots)
+        if self._writes_per_cell * 2 * _BIAS >= 1 << _FIELD:
+            raise ValueError("too many kernel cells in use for the packed writes")
+        self._flat_rules = (
+            torch.cat([rules.reshape(self.n_games, -1), rewards, torch.zeros(self.n_games, 2, dtype=torch.int64)], dim=1)
+            .to(torch.int8)
+            .to(self.device)
         )
-        self.initial_pos = self._player_positions(self.maps)
+        self.initial_pos = self._player_positions(maps).to(self.device)
+        self._tile_shifts = torch.arange(N_TILES, dtype=torch.uint8, device=self.device).view(1, N_TILES, 1)
 
     # -- states ----------------------------------------------------------------------------------------------------------
     def _player_positions(self, maps: torch.Tensor) -> torch.Tensor:
@@ -213,58 +250,66 @@ class Engine:
         if games is None:
             games = torch.arange(self.n_games, device=self.device)
         games = games.to(self.device)
-        count = len(games)
-        zeros = torch.zeros(count, dtype=torch.int64, device=self.device)
-        return State(self.maps[games].clone(), zeros.clone(), self.initial_pos[games].clone(), zeros, games)
+        zeros = torch.zeros(len(games), dtype=torch.int64, device=self.device)
+        return State(self.codes[games], zeros.clone(), self.initial_pos[games], zeros, games)
 
     # -- dynamics --------------------------------------------------------------------------------------------------------
     def act(self, state: State, actions: torch.Tensor) -> State:
         """The player's part of a step: turn, move, place."""
         actions = actions.to(self.device).long()
-        n, size = self.size, len(state)
+        n = self.size
         rot = (state.rot + self._turn[actions]) % 4
         facing = self._directions[rot]
         pos = (state.pos + self._move[actions, None] * facing) % n
         target = (pos + facing) % n
-        game_map = state.map.clone()
-        rows = torch.arange(size, device=self.device)
-        game_map[rows, PLAYER, state.pos[:, 0], state.pos[:, 1]] = 0
-        place = actions == 4
+        flat = state.map.reshape(len(state), n * n).clone()
+        old_cell = (state.pos[:, 0] * n + state.pos[:, 1]).unsqueeze(1)
+        flat.scatter_(1, old_cell, flat.gather(1, old_cell) & ~(1 << PLAYER))
+        target_cell = (target[:, 0] * n + target[:, 1]).unsqueeze(1)
+        front = flat.gather(1, target_cell)
+        place = (actions == 4).unsqueeze(1)
         if self.mechanics.force_clear:
-            game_map[rows, FORCE, target[:, 0], target[:, 1]] = place.to(torch.uint8)
+            front = torch.where(place, front | (1 << FORCE), front & ~(1 << FORCE))
         else:
-            old = game_map[rows, FORCE, target[:, 0], target[:, 1]]
-            game_map[rows, FORCE, target[:, 0], target[:, 1]] = torch.where(place, torch.ones_like(old), old)
-        game_map[rows, PLAYER, pos[:, 0], pos[:, 1]] = 1
-        return State(game_map, rot, pos, state.step, state.game)
+            front = torch.where(place, front | (1 << FORCE), front)
+        flat.scatter_(1, target_cell, front)
+        new_cell = (pos[:, 0] * n + pos[:, 1]).unsqueeze(1)
+        flat.scatter_(1, new_cell, flat.gather(1, new_cell) | (1 << PLAYER))
+        return State(flat.view(len(state), n, n), rot, pos, state.step, state.game)
 
-    def apply_rules(self, maps: torch.Tensor, games: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        """Every rule on every map at once: ``(next maps, rewards)``; row ``i`` uses game ``games[i]``'s rules."""
-        count, n = len(maps), self.size
+    def apply_rules(self, code: torch.Tensor, games: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """Every rule on every map at once: ``(next codes, rewards)``; row ``i`` uses game ``games[i]``'s rules."""
+        count, n = len(code), self.size
         identity = games is None or (len(games) == self.n_games and bool((games == self._arange()).all()))
-        current = maps.float()
-        padded = F.pad(current, (1, 1, 1, 1), mode="circular")
-        writes = torch.zeros(count, N_TILES, n + 2, n + 2, device=self.device)
-        reward = torch.zeros(count, device=self.device)
-        rewards = self.rewards if identity else self.rewards[games]
-        for cells, k_in, k_out, need in self._slots:
+        padded = F.pad(code.unsqueeze(1).float(), (1, 1, 1, 1), mode="circular").squeeze(1).to(torch.int64)
+        writes = torch.zeros(count, n + 2, n + 2, dtype=torch.int64, device=self.device)
+        reward_table = self._reward_table if identity else self._reward_table[games]
+        reward = torch.zeros(count, dtype=torch.int64, device=self.device)
+        for cells, match_tables, write_tables in self._slots:
             if not identity:
-                k_in, k_out, need = k_in[games], k_out[games], need[games]
-            views = torch.stack([padded[:, :, dy : dy + n, dx : dx + n] for dy, dx in cells], dim=2)
-            counts = torch.bmm(k_in, views.reshape(count, -1, n * n))  # (B, R, N*N)
-            matches = (counts == need.unsqueeze(-1)).float()
-            reward += (matches.sum(dim=-1) * rewards).sum(dim=-1)
-            spread = torch.bmm(k_out, matches).view(count, N_TILES, len(cells), n, n)
+                match_tables, write_tables = match_tables[games], write_tables[games]
+            matching = None
             for index, (dy, dx) in enumerate(cells):
-                writes[:, :, dy : dy + n, dx : dx + n] += spread[:, :, index]
+                under = padded[:, dy : dy + n, dx : dx + n].reshape(count, n * n)
+                found = match_tables[:, index].gather(1, under)
+                matching = found if matching is None else matching & found
+            reward += reward_table.gather(1, matching).sum(dim=1)
+            for index, (dy, dx) in enumerate(cells):
+                writes[:, dy : dy + n, dx : dx + n] += write_tables[:, index].gather(1, matching).view(count, n, n)
         # Fold the writes that fell off an edge onto the other side of the torus (rows first, then columns, so that
         # corner writes reach the opposite corner).
+        writes[:, n] += writes[:, 0]
+        writes[:, 1] += writes[:, n + 1]
         writes[:, :, n] += writes[:, :, 0]
         writes[:, :, 1] += writes[:, :, n + 1]
-        writes[:, :, :, n] += writes[:, :, :, 0]
-        writes[:, :, :, 1] += writes[:, :, :, n + 1]
-        next_maps = (current + writes[:, :, 1 : n + 1, 1 : n + 1]).clamp_(0, 1).to(torch.uint8)
-        return next_maps, reward
+        writes = writes[:, 1 : n + 1, 1 : n + 1]
+        old = code.to(torch.int64)
+        new = torch.zeros_like(old)
+        base = self._writes_per_cell * _BIAS
+        for tile in range(N_TILES):
+            change = ((writes >> (_FIELD * tile)) & ((1 << _FIELD) - 1)) - base
+            new |= ((((old >> tile) & 1) + change) >= 1).to(torch.int64) << tile
+        return new.to(torch.uint8), reward.float()
 
     def _arange(self) -> torch.Tensor:
         if not hasattr(self, "_games_arange"):
@@ -280,30 +325,31 @@ class Engine:
 
     # -- observations ----------------------------------------------------------------------------------------------------
     def observe(self, state: State, observation: Observation = Observation()) -> tuple[torch.Tensor, torch.Tensor]:
-        """``(view (B, 5, 31, 31) float32, flat (B, 1811) float32)``: the map around the player (not turned with
-        it; the player at the centre) and the rotation one-hot, rules and rewards."""
+        """``(view (B, 5, 31, 31) uint8, flat (B, 1811) int8)``: the map around the player (not turned with it;
+        the player at the centre) and the rotation one-hot, rules and rewards. Small integers, so a batch is a
+        quarter of its float32 size; networks convert them on their device."""
         count, n, half = len(state), self.size, VIEW // 2
         offsets = torch.arange(-half, half + 1, device=self.device)
-        rows = state.pos[:, 0:1] + offsets  # (B, 31)
-        cols = state.pos[:, 1:2] + offsets
-        batch = torch.arange(count, device=self.device)[:, None, None]
-        if observation.padding == "wrap":
-            view = state.map[batch, :, rows[:, :, None] % n, cols[:, None, :] % n]  # (B, 31, 31, C)
-        else:
-            padded = F.pad(state.map, (half, half, half, half))
-            view = padded[batch, :, rows[:, :, None] + half, cols[:, None, :] + half]
-        view = view.permute(0, 3, 1, 2).float()
+        rows = (state.pos[:, 0:1] + offsets).unsqueeze(2)  # (B, 31, 1)
+        cols = (state.pos[:, 1:2] + offsets).unsqueeze(1)  # (B, 1, 31)
+        cells = ((rows % n) * n + cols % n).view(count, -1)
+        seen = state.map.reshape(count, n * n).gather(1, cells)  # (B, 961) codes
+        if observation.padding == "zeros":
+            inside = ((rows >= 0) & (rows < n) & (cols >= 0) & (cols < n)).view(count, -1)
+            seen = seen * inside
+        view = ((seen.unsqueeze(1) >> self._tile_shifts) & 1).view(count, N_TILES, VIEW, VIEW)
         if observation.window != -1:
             if observation.blank_window:
                 view = torch.zeros_like(view)
             else:
                 low = (VIEW - observation.window) // 2
                 high = low + observation.window
-                mask = torch.zeros(VIEW, VIEW, device=self.device)
+                mask = torch.zeros(VIEW, VIEW, dtype=torch.uint8, device=self.device)
                 mask[low:high, low:high] = 1
                 view = view * mask
-        rules = self._flat_rules[state.game]
+        identity = len(state) == self.n_games and bool((state.game == self._arange()).all())
+        rules = self._flat_rules if identity else self._flat_rules.index_select(0, state.game)
         if observation.hide_rules:
             rules = torch.zeros_like(rules)
-        flat = torch.cat([F.one_hot(state.rot, 4).float(), rules], dim=1)
+        flat = torch.cat([F.one_hot(state.rot, 4).to(torch.int8), rules], dim=1)
         return view, flat
