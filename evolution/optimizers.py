@@ -84,6 +84,8 @@ class GASettings:
         mutation_scale: a moved gene changes by a uniform value in [-scale, scale] (0.25 in the paper).
         crossover_rate: chance that a child starts from two parents combined (``Problem.crossover``) before mutation;
             0 by default, as the paper found recombination no better than random networks.
+        initial: random genomes in the first generation; 0 for ``population``. With ``parents = initial`` and
+            ``population = 2 * parents`` this is a (mu + lambda) strategy with mu = lambda (Autoverse's 40 + 40).
     """
 
     population: int = 100
@@ -91,6 +93,7 @@ class GASettings:
     mutation_rate: float = 0.05
     mutation_scale: float = 0.25
     crossover_rate: float = 0.0
+    initial: int = 0
 
     def __post_init__(self) -> None:
         _positive_int(self, "population", "parents")
@@ -99,10 +102,12 @@ class GASettings:
         _in_range(self, "mutation_rate", 0.0, 1.0, low_open=True)
         _in_range(self, "mutation_scale", 0.0, math.inf, low_open=True)
         _in_range(self, "crossover_rate", 0.0, 1.0)
+        if not isinstance(self.initial, int) or isinstance(self.initial, bool) or self.initial < 0:
+            raise ValueError(f"optimizer initial must be a whole number (0: population), got {self.initial!r}")
 
 
 class GeneticAlgorithm(Optimizer):
-    """Elitist GA: the first generation is ``population`` random genomes; every later one is
+    """Elitist GA: the first generation is ``initial`` (default ``population``) random genomes; every later one is
     ``population - parents`` children, and the parents for the next come from parents and children together."""
 
     def __init__(self, problem: Problem, settings: GASettings, seed: int) -> None:
@@ -115,7 +120,7 @@ class GeneticAlgorithm(Optimizer):
     def ask(self) -> Any:
         s = self.settings
         if self.parents is None:
-            self._asked = self.problem.initial_genomes(s.population, self.rng)
+            self._asked = self.problem.initial_genomes(s.initial or s.population, self.rng)
             return self._asked
         children = []
         n_parents = len(self.parent_objective)

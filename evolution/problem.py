@@ -34,12 +34,15 @@ class Evaluation:
         fields: extra per-candidate numbers, each ``(n,)`` float (integrity, vertex count, ...).
         failed: ``(n,)`` bool: candidates that could not be evaluated at all (their worker died or hung twice) and
             carry the scores of :meth:`Problem.failed_evaluation` instead. All False unless an evaluator says so.
+        extras: one picklable object per candidate that is not a number (a playtrace), handed to
+            :meth:`Problem.record`; None when the problem has none.
     """
 
     objective: np.ndarray
     measures: np.ndarray
     fields: dict[str, np.ndarray] = field(default_factory=dict)
     failed: np.ndarray | None = None
+    extras: list[Any] | None = None
 
     def __post_init__(self) -> None:
         objective = np.asarray(self.objective, dtype=np.float64).reshape(-1)
@@ -56,6 +59,11 @@ class Evaluation:
         object.__setattr__(self, "measures", measures)
         object.__setattr__(self, "fields", fields)
         object.__setattr__(self, "failed", failed)
+        if self.extras is not None:
+            extras = list(self.extras)
+            if len(extras) != n:
+                raise ValueError(f"{len(extras)} extras for {n} candidates")
+            object.__setattr__(self, "extras", extras)
 
     def __len__(self) -> int:
         return len(self.objective)
@@ -69,6 +77,7 @@ class Evaluation:
             measures=np.concatenate([p.measures for p in parts]),
             fields={name: np.concatenate([p.fields[name] for p in parts]) for name in names},
             failed=np.concatenate([p.failed for p in parts]),
+            extras=None if any(p.extras is None for p in parts) else [x for p in parts for x in p.extras],
         )
 
     def row(self, i: int) -> dict[str, Any]:
@@ -159,6 +168,27 @@ class Problem:
         if self.flat:
             return np.asarray(data, dtype=np.float64)
         return data
+
+    # -- what a problem may add to a run ------------------------------------------------------------------------------
+    def initial_schedule(self) -> dict[str, Any]:
+        """For problems whose evaluation changes over a run (a search budget that grows): the starting settings, a
+        small dict of plain data that the run checkpoints. Evaluation stays a pure function of each genome as
+        :meth:`prepare` hands it over."""
+        return {}
+
+    def prepare(self, genomes: Any, schedule: dict[str, Any]) -> Any:
+        """The genomes as they are evaluated under ``schedule`` (the default: unchanged). Must not modify its
+        arguments: the optimiser keeps the genomes it asked for."""
+        return genomes
+
+    def next_schedule(self, schedule: dict[str, Any], best_objective: float) -> dict[str, Any]:
+        """The schedule for the next generation, after one whose best objective so far is ``best_objective``."""
+        return schedule
+
+    def record(self, folder: Path, generation: int, genomes: Any, evaluation: Evaluation) -> None:
+        """Keep what a generation's evaluation found beyond its numbers (``evaluation.extras``) in the run folder.
+        Called after every generation with the genomes as evaluated; must write atomically, and writing the same
+        generation again (a resumed run repeats the generations after its checkpoint) must give the same files."""
 
     def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
         """Write files that show a genome (a structure, a picture) into ``folder``; returns their paths."""

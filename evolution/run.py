@@ -158,7 +158,10 @@ def advance(
     try:
         while state.generation < until:
             started = time.perf_counter()
-            genomes = optimizer.ask()
+            schedule = state.extra.get("schedule")
+            if schedule is None:
+                schedule = problem.initial_schedule()
+            genomes = problem.prepare(optimizer.ask(), schedule)
             seeds = np.random.SeedSequence([settings.seed, state.generation]).generate_state(len(genomes))
             evaluation = evaluator.evaluate(problem, genomes, seeds)
             if len(evaluation) != len(genomes):
@@ -177,8 +180,12 @@ def advance(
                     fields={name: row[name] for name in evaluation.fields},
                     generation=state.generation,
                 )
+            if schedule:
+                state.extra["schedule"] = problem.next_schedule(schedule, state.best.objective)
+            problem.record(folder.path, state.generation, genomes, evaluation)
             state.elapsed += time.perf_counter() - started
             metrics = _metrics_row(state, evaluation, optimizer, problem)
+            metrics.update({f"schedule_{name}": value for name, value in schedule.items()})
             folder.append_metrics(metrics)
             stopping = stop_requested()
             last = state.generation >= until or stopping

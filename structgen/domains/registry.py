@@ -54,6 +54,7 @@ BUILTIN = (
     "structgen.domains.warehouse:WAREHOUSE",
     "structgen.domains.warehouse:MANUFACTURING",
     "structgen.domains.warehouse:MAZE",
+    "structgen.domains.autoverse:AUTOVERSE",
 )
 #: The domain of ``structgen evolve`` with no configuration, and of configurations that name none.
 DEFAULT_DOMAIN = "structures-v0"

@@ -20,7 +20,7 @@ def test_batched_search_equals_reference_search(mechanics):
     options = {"force_clear": mechanics.force_clear, "empty_rules_fire": mechanics.empty_rules_fire}
     for game, budget, seed, result in zip(games, budgets, seeds, results):
         rng = np.random.default_rng(seed)
-        best_iteration, best, actions, iterations = ref.search(game, budget, lambda n: rng.permutation(5), **options)
+        best_iteration, best, actions, iterations = ref.search(game, budget, lambda n, rng=rng: rng.permutation(5), **options)
         assert (result.best_iteration, result.best_return, result.iterations) == (best_iteration, best, iterations)
         assert result.actions.tolist() == actions
         # replaying the actions earns the best return

@@ -177,12 +177,12 @@ class Engine:
         games: Sequence[dict[str, Any]] | dict[str, np.ndarray],
         *,
         device: str | torch.device = "cpu",
-        mechanics: Mechanics = Mechanics(),
+        mechanics: Mechanics | None = None,
         episode_steps: int = EPISODE_STEPS,
     ) -> None:
         arrays = games if isinstance(games, dict) else stack_games(games)
         self.device = torch.device(device)
-        self.mechanics = mechanics
+        self.mechanics = mechanics = mechanics or Mechanics()
         self.episode_steps = episode_steps
         rules = torch.as_tensor(np.asarray(arrays["rules"], dtype=np.int8)).to(torch.int64)  # (G, R, 4, 2, C, 3, 3)
         if (rules[:, :, :, :, PLAYER] != 0).any():
@@ -324,10 +324,11 @@ class Engine:
         return State(next_maps, moved.rot, moved.pos, state.step + 1, state.game), reward, done
 
     # -- observations ----------------------------------------------------------------------------------------------------
-    def observe(self, state: State, observation: Observation = Observation()) -> tuple[torch.Tensor, torch.Tensor]:
+    def observe(self, state: State, observation: Observation | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """``(view (B, 5, 31, 31) uint8, flat (B, 1811) int8)``: the map around the player (not turned with it;
         the player at the centre) and the rotation one-hot, rules and rewards. Small integers, so a batch is a
         quarter of its float32 size; networks convert them on their device."""
+        observation = observation or Observation()
         count, n, half = len(state), self.size, VIEW // 2
         offsets = torch.arange(-half, half + 1, device=self.device)
         rows = (state.pos[:, 0:1] + offsets).unsqueeze(2)  # (B, 31, 1)

@@ -122,7 +122,7 @@ def search(
     seeds: int | Sequence[int] = 0,
     *,
     device: str | torch.device = "cpu",
-    mechanics: Mechanics = Mechanics(),
+    mechanics: Mechanics | None = None,
 ) -> list[SearchResult]:
     """Best-first search on every game; game ``i`` expands at most ``budgets[i]`` nodes in the child order drawn
     from ``seeds[i]``. The same game, budget and seed give the same result, alone or in any batch."""

@@ -1,0 +1,232 @@
+"""Behaviour cloning on the playtraces of an evolution run, evaluated as the original evaluates it.
+
+- Data: the best playtrace of every distinct game the run evaluated (:func:`collect_playtraces`), games with fitness
+  below 2 left out, split as the original splits them (sorted by fitness; every 10th from the first to validation,
+  every 10th from the tenth to test, the rest to training).
+- Observations: the view around the player (a 5, 10 or 20 square, or the full 31x31) and the flat vector (facing,
+  rules, rewards; rules zeroed with ``hide_rules``). Each observation is paired with the action taken from it; the
+  original pairs it with the action that led to it (``original_pairing``).
+- Network: the original's ``ConvForward``: a 7x7 stride-2 convolution (256 channels) over the view, flattened and
+  joined with a 256-unit layer over the flat vector, two more 256-unit layers, a policy head and a value head. The
+  original also computes a second convolution whose output it throws away; it is left out here (no effect on
+  outputs).
+- Loss: -log pi(a|s); Adam (eps 1e-5) with the gradient norm clipped at 0.5; batches drawn uniformly.
+- Evaluation: each game played for ``eval_steps`` steps (the original: 10,000, about 99 episodes) with actions
+  sampled from the policy, the score being the sum of the original's normalised reward (:func:`normalisation`).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from structgen.domains.autoverse.engine import EPISODE_STEPS, Engine, Mechanics, Observation
+from structgen.domains.autoverse.game import game_key
+
+__all__ = ["CloneSettings", "Policy", "clone_run", "collect_playtraces", "evaluate_policy", "normalisation", "split"]
+
+
+@dataclass(frozen=True)
+class CloneSettings:
+    window: int = -1
+    hide_rules: bool = False
+    steps: int = 2000
+    batch_size: int = 256
+    learning_rate: float = 1e-4
+    seed: int = 0
+    device: str = "cpu"
+    eval_steps: int = 10_000
+    min_fitness: float = 2.0
+    original_pairing: bool = False
+
+
+class Policy(nn.Module):
+    """The original's ``ConvForward`` (without its unused second convolution): logits over 5 actions and a value."""
+
+    def __init__(self, flat_size: int = 1811, hidden: int = 256, view: int = 31) -> None:
+        super().__init__()
+        self.conv = nn.Conv2d(5, hidden, kernel_size=7, stride=2)
+        side = (view - 7) // 2 + 1
+        self.flat = nn.Linear(flat_size, hidden)
+        self.body = nn.Sequential(
+            nn.Linear(hidden * side * side + hidden, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU()
+        )
+        self.policy = nn.Linear(hidden, 5)
+        self.value = nn.Linear(hidden, 1)
+        nn.init.orthogonal_(self.policy.weight, 0.01)
+        nn.init.zeros_(self.policy.bias)
+        nn.init.orthogonal_(self.value.weight, 1.0)
+        nn.init.zeros_(self.value.bias)
+
+    def forward(self, view: torch.Tensor, flat: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        seen = torch.relu(self.conv(view.float())).flatten(1)
+        joined = torch.cat([seen, torch.relu(self.flat(flat.float()))], dim=1)
+        hidden = self.body(joined)
+        return self.policy(hidden), self.value(hidden).squeeze(-1)
+
+
+# -- data -------------------------------------------------------------------------------------------------------------------
+def collect_playtraces(run_dir: Path, min_fitness: float = 2.0) -> list[dict[str, Any]]:
+    """Every distinct game of the run's ``playtraces/`` with its best trace (highest return; the later generation
+    on ties), those with fitness of at least ``min_fitness``."""
+    from structgen.domains.autoverse.problem import PLAYTRACES
+
+    files = sorted((Path(run_dir) / PLAYTRACES).glob("gen-*.npz"))
+    if not files:
+        raise FileNotFoundError(f"{run_dir}: no {PLAYTRACES}/gen-*.npz (not an Autoverse run, or no generation yet)")
+    best: dict[str, dict[str, Any]] = {}
+    for path in files:
+        with np.load(path) as data:
+            for i in range(len(data["fitness"])):
+                game = {key: data[key][i] for key in ("rules", "rewards", "map")}
+                entry = {
+                    **game,
+                    "actions": data["actions"][i][data["actions"][i] >= 0],
+                    "fitness": float(data["fitness"][i]),
+                    "best_return": float(data["best_return"][i]),
+                }
+                key = game_key(game)
+                if key not in best or entry["best_return"] >= best[key]["best_return"]:
+                    best[key] = entry
+    return [entry for entry in best.values() if entry["fitness"] >= min_fitness]
+
+
+def split(entries: list[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
+    """The original's split: sorted by fitness, index % 10 == 0 to val, == 9 to test, the rest to train."""
+    ordered = sorted(entries, key=lambda e: e["fitness"])
+    parts: dict[str, list[dict[str, Any]]] = {"train": [], "val": [], "test": []}
+    for index, entry in enumerate(ordered):
+        parts["val" if index % 10 == 0 else "test" if index % 10 == 9 else "train"].append(entry)
+    return parts
+
+
+def transitions(
+    entries: list[dict[str, Any]], observation: Observation, *, original_pairing: bool = False, device: str = "cpu"
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """``(views, flats, actions)`` of every step of the traces, replayed in lockstep."""
+    engine = Engine(entries, device=device)
+    state = engine.reset()
+    length = max(len(e["actions"]) for e in entries)
+    actions = torch.full((len(entries), length), -1, dtype=torch.int64)
+    for row, entry in enumerate(entries):
+        actions[row, : len(entry["actions"])] = torch.as_tensor(entry["actions"], dtype=torch.int64)
+    actions = actions.to(engine.device)
+    views, flats, taken = [], [], []
+    for t in range(length):
+        valid = actions[:, t] >= 0
+        before = engine.observe(state, observation)
+        state, _, _ = engine.step(state, actions[:, t].clamp(min=0))
+        view, flat = engine.observe(state, observation) if original_pairing else before
+        views.append(view[valid])
+        flats.append(flat[valid])
+        taken.append(actions[valid, t])
+    return torch.cat(views), torch.cat(flats), torch.cat(taken)
+
+
+def normalisation(engine: Engine, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The original's per-game reward normalisation: ``(bias, scale, constant action)``. Its "random" baseline is
+    one action, drawn once and repeated (it samples inside a traced loop); ``bias`` is minus
+    that baseline's mean reward per step; ``scale`` is 1 / (max - min) of {the return of turning for one episode,
+    the baseline's largest one-step reward}, 1 where they are equal. A step's normalised reward is
+    ``(reward + bias / 100) * scale``."""
+    count = engine.n_games
+    steps = EPISODE_STEPS + 1
+    constant = torch.as_tensor(np.random.default_rng(seed).integers(0, 5, size=count), device=engine.device)
+    totals, largest, turning = [torch.zeros(count, device=engine.device) for _ in range(3)]
+    largest -= float("inf")
+    state = engine.reset()
+    turn = engine.reset()
+    # Episodes are deterministic, so one episode of each stands for all of them.
+    for _ in range(steps):
+        state, reward, _ = engine.step(state, constant)
+        totals += reward
+        largest = torch.maximum(largest, reward)
+        turn, reward, _ = engine.step(turn, torch.zeros(count, dtype=torch.int64, device=engine.device))
+        turning += reward
+    bias = -(totals / steps)
+    spread = torch.maximum(turning, largest) - torch.minimum(turning, largest)
+    scale = torch.where(spread == 0, torch.ones_like(spread), 1.0 / spread)
+    return bias, scale, constant
+
+
+@torch.no_grad()
+def evaluate_policy(
+    policy: Policy, entries: list[dict[str, Any]], observation: Observation, steps: int, seed: int = 0, device: str = "cpu"
+) -> np.ndarray:
+    """Sum of normalised reward over ``steps`` steps of each game (episodes restart where they end), actions sampled
+    from the policy."""
+    engine = Engine(entries, device=device, mechanics=Mechanics())
+    bias, scale, _ = normalisation(engine, seed)
+    generator = torch.Generator(device=engine.device).manual_seed(seed)
+    state, start = engine.reset(), engine.reset()
+    total = torch.zeros(engine.n_games, device=engine.device)
+    for _ in range(steps):
+        logits, _ = policy(*engine.observe(state, observation))
+        action = torch.multinomial(torch.softmax(logits, dim=1), 1, generator=generator).squeeze(1)
+        state, reward, done = engine.step(state, action)
+        total += (reward + bias / EPISODE_STEPS) * scale
+        state = state.where(done, start)
+    return total.cpu().numpy()
+
+
+def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress: bool = True) -> dict[str, Any]:
+    """Train a policy on the run's playtraces, evaluate it on every split, write ``policy.pt`` and ``report.json``."""
+    from tqdm import tqdm
+
+    from evolution.files import atomic_write
+
+    torch.manual_seed(settings.seed)
+    parts = split(collect_playtraces(run_dir, settings.min_fitness))
+    if not parts["train"]:
+        raise ValueError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
+    observation = Observation(window=settings.window, hide_rules=settings.hide_rules)
+    views, flats, actions = transitions(
+        parts["train"], observation, original_pairing=settings.original_pairing, device=settings.device
+    )
+    policy = Policy().to(settings.device)
+    optimiser = torch.optim.Adam(policy.parameters(), lr=settings.learning_rate, eps=1e-5)
+    generator = torch.Generator(device=views.device).manual_seed(settings.seed)
+    losses = []
+    for _ in tqdm(range(settings.steps), desc="clone", disable=not progress):
+        batch = torch.randint(len(actions), (settings.batch_size,), generator=generator, device=views.device)
+        logits, _ = policy(views[batch], flats[batch])
+        loss = nn.functional.cross_entropy(logits, actions[batch])
+        optimiser.zero_grad()
+        loss.backward()
+        nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
+        optimiser.step()
+        losses.append(float(loss.detach()))
+    policy.eval()
+    report: dict[str, Any] = {
+        "settings": asdict(settings),
+        "transitions": len(actions),
+        "final_loss": float(np.mean(losses[-50:])),
+    }
+    for name, entries in parts.items():
+        if not entries:
+            continue
+        returns = evaluate_policy(policy, entries, observation, settings.eval_steps, settings.seed, settings.device)
+        report.update(
+            {
+                f"{name}_games": len(entries),
+                f"{name}_mean": float(returns.mean()),
+                f"{name}_min": float(returns.min()),
+                f"{name}_max": float(returns.max()),
+                f"{name}_std": float(returns.std()),
+            }
+        )
+    output = Path(output)
+    output.mkdir(parents=True, exist_ok=True)
+    import io
+
+    buffer = io.BytesIO()
+    torch.save(policy.state_dict(), buffer)
+    atomic_write(output / "policy.pt", buffer.getvalue())
+    atomic_write(output / "report.json", json.dumps(report, indent=2) + "\n")
+    return report

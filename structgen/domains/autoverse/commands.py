@@ -1,0 +1,264 @@
+"""The verbs of Autoverse: ``structgen autoverse play|search|show|clone`` (``evolve`` comes with every domain).
+
+A game is named by a JSON file (``rules``, ``rewards``, ``map``: what ``best/genome.json`` of a run holds, or what
+``--save`` writes), by a run folder (its best game), or by ``--random SEED``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Collection
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, verbs_wanted, whole_number
+
+EXIT_OK = 0
+
+
+def _game_source(p: argparse.ArgumentParser) -> None:
+    p.add_argument("game", nargs="?", metavar="GAME", help="game JSON file, or a run folder (its best game)")
+    p.add_argument("--random", type=whole_number(0, MAX_SEED), metavar="SEED", help="a random game from this seed instead")
+    p.add_argument(
+        "--original",
+        action="store_true",
+        help="the original's mechanics: actions other than placing clear force in front of the player, and rules "
+        "with an empty input fire on every cell",
+    )
+
+
+def _mechanics(args: argparse.Namespace) -> Any:
+    from structgen.domains.autoverse.engine import Mechanics
+
+    return Mechanics.original() if args.original else Mechanics()
+
+
+def load_game(args: argparse.Namespace) -> dict[str, Any]:
+    from evolution.files import parse_json, read_text
+    from structgen.domains.autoverse.game import game_from_json, random_game
+
+    if (args.game is None) == (args.random is None):
+        raise InputError("give a GAME file or run folder, or --random SEED (one of them)")
+    if args.random is not None:
+        return random_game(np.random.default_rng(args.random))
+    path = Path(args.game)
+    if path.is_dir():
+        path = path / "best" / "genome.json"
+        if not path.is_file():
+            raise InputError(f"{args.game}: not a run folder with a best game ({path} is missing)")
+    data = parse_json(read_text(path, 10 << 20, what="a game JSON file"), str(path))
+    return game_from_json(data, str(path))
+
+
+def _parse_actions(text: str) -> np.ndarray:
+    try:
+        actions = np.array([int(a) for a in text.replace(",", " ").split()], dtype=np.int64)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected actions 0-4 separated by commas, got {text!r}") from None
+    if len(actions) == 0 or actions.min() < 0 or actions.max() > 4:
+        raise argparse.ArgumentTypeError(f"expected actions 0-4 separated by commas, got {text!r}")
+    return actions
+
+
+def _save(game: dict[str, Any], path: Path | None) -> None:
+    if path is None:
+        return
+    from evolution.files import atomic_write
+    from structgen.domains.autoverse.game import game_to_json
+
+    atomic_write(path, json.dumps(game_to_json(game)) + "\n")
+
+
+# -- play -----------------------------------------------------------------------------------------------------------------
+def cmd_play(args: argparse.Namespace) -> int:
+    from structgen.domains.autoverse.show import playtrace_gif, replay
+
+    game = load_game(args)
+    if args.actions is None:
+        actions = np.random.default_rng(args.seed).integers(0, 5, size=args.steps)
+    else:
+        actions = args.actions
+    maps, returns, _ = replay(game, actions, mechanics=_mechanics(args))
+    _save(game, args.save)
+    if args.gif is not None:
+        playtrace_gif(game, actions, args.gif, mechanics=_mechanics(args))
+    if args.json:
+        print(json.dumps({"actions": actions.tolist(), "return": returns[-1], "returns": returns[1:]}))
+    else:
+        print(f"{len(actions)} actions, return {returns[-1]:g}" + (f"; {args.gif}" if args.gif else ""))
+    return EXIT_OK
+
+
+# -- search ---------------------------------------------------------------------------------------------------------------
+def cmd_search(args: argparse.Namespace) -> int:
+    from structgen.domains.autoverse.search import search, search_fitness
+    from structgen.domains.autoverse.show import playtrace_gif
+
+    game = load_game(args)
+    result = search([game], args.budget, args.seed, device=args.device, mechanics=_mechanics(args))[0]
+    _save(game, args.save)
+    if args.gif is not None:
+        playtrace_gif(game, result.actions, args.gif, mechanics=_mechanics(args))
+    summary = {
+        "fitness": search_fitness(result),
+        "best_iteration": result.best_iteration,
+        "best_return": result.best_return,
+        "iterations": result.iterations,
+        "expansions": result.expansions,
+        "actions": result.actions.tolist(),
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"best return {result.best_return:g} first found at iteration {result.best_iteration} "
+            f"(of {result.expansions} expansions, budget {args.budget}); actions {','.join(map(str, result.actions))}"
+        )
+    return EXIT_OK
+
+
+# -- show -----------------------------------------------------------------------------------------------------------------
+def cmd_show(args: argparse.Namespace) -> int:
+    from structgen.domains.autoverse.search import search
+    from structgen.domains.autoverse.show import draw_game, playtrace_gif
+
+    game = load_game(args)
+    actions = args.actions
+    if actions is None and args.search:
+        actions = search([game], args.search, 0, mechanics=_mechanics(args))[0].actions
+    suffix = args.output.suffix.lower()
+    if suffix == ".gif":
+        if actions is None:
+            raise InputError(f"{args.output}: a GIF shows a playtrace; give --actions or --search BUDGET")
+        playtrace_gif(game, actions, args.output, mechanics=_mechanics(args))
+    elif suffix == ".png":
+        draw_game(game, args.output, actions, mechanics=_mechanics(args))
+    else:
+        raise InputError(f"{args.output}: write a .png (map and rules) or a .gif (a playtrace)")
+    print(args.output)
+    return EXIT_OK
+
+
+# -- clone ----------------------------------------------------------------------------------------------------------------
+def cmd_clone(args: argparse.Namespace) -> int:
+    from structgen.domains.autoverse.clone import CloneSettings, clone_run
+
+    settings = CloneSettings(
+        window=args.window,
+        hide_rules=args.hide_rules,
+        steps=args.steps,
+        batch_size=args.batch_size,
+        learning_rate=args.lr,
+        seed=args.seed,
+        device=args.device,
+        eval_steps=args.eval_steps,
+        min_fitness=args.min_fitness,
+        original_pairing=args.original_pairing,
+    )
+    report = clone_run(Path(args.run_dir), settings, args.output, progress=not args.json)
+    if args.json:
+        print(json.dumps(report))
+    else:
+        for split in ("train", "val", "test"):
+            if f"{split}_mean" in report:
+                print(f"{split}: {report[f'{split}_games']} games, mean normalised return {report[f'{split}_mean']:.2f}")
+        print(f"{args.output}: policy and report")
+    return EXIT_OK
+
+
+def _add_play(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "play",
+        help="play a game with given or random actions and print the return",
+        description="Step GAME with ACTIONS (or --steps random ones) and print the return; optionally save the game "
+        "and a GIF of the play. Actions: 0 and 1 turn, 2 moves forward, 3 back, 4 places force in front.",
+    )
+    _game_source(p)
+    p.add_argument("--actions", type=_parse_actions, metavar="A,A,...", help="actions 0-4, comma-separated")
+    p.add_argument("--steps", type=whole_number(1, 10**6), default=101, metavar="N", help="random actions (default 101)")
+    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed of random actions (default 0)")
+    p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animation of the play")
+    p.add_argument("--save", type=output_path, metavar="OUT.json", help="write the game as JSON")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_play)
+
+
+def _add_search(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "search",
+        help="find a game's best play with best-first search and print its fitness",
+        description="Run greedy best-first search on cumulative reward for BUDGET expansions and print the best "
+        "return, the iteration it was first found at (the evolution's fitness) and the actions that reach it.",
+    )
+    _game_source(p)
+    p.add_argument("--budget", type=whole_number(1, 10**7), default=200, metavar="N", help="expansions (default 200)")
+    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed of the child order (default 0)")
+    p.add_argument("--device", default="cpu", help="torch device of the engine (default cpu)")
+    p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animation of the best play")
+    p.add_argument("--save", type=output_path, metavar="OUT.json", help="write the game as JSON")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_search)
+
+
+def _add_show(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "show",
+        help="draw a game (PNG: map and rules) or a playtrace (GIF)",
+        description="Draw GAME: a .png shows the initial map and each rule as before/after 1x3 patterns with its "
+        "reward (and, with actions, the final map and the return along the play); a .gif animates a playtrace.",
+    )
+    _game_source(p)
+    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png|OUT.gif", help="file to write")
+    p.add_argument("--actions", type=_parse_actions, metavar="A,A,...", help="a playtrace to draw")
+    p.add_argument("--search", type=whole_number(1, 10**7), metavar="BUDGET", help="draw the best play search finds")
+    p.set_defaults(handler=cmd_show)
+
+
+def _add_clone(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "clone",
+        help="train a policy by behaviour cloning on a run's playtraces and evaluate it",
+        description="Collect the best playtrace of every distinct game a run evaluated (fitness at least "
+        "--min-fitness), split the games into train/val/test as the original does, train the original's "
+        "network by behaviour cloning on observations of the traces, and evaluate it on every game for "
+        "--eval-steps steps in the original's normalised return. Writes OUTPUT/policy.pt and OUTPUT/report.json.",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse run folder")
+    p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="folder to write")
+    p.add_argument("--window", type=int, default=-1, choices=(-1, 5, 10, 20), help="view around the player (-1: full)")
+    p.add_argument("--hide-rules", action="store_true", help="zero the rules in the observation")
+    p.add_argument("--steps", type=whole_number(1, 10**7), default=2000, metavar="N", help="gradient steps (default 2000)")
+    p.add_argument("--batch-size", type=whole_number(1, 10**6), default=256, metavar="N", help="batch (default 256)")
+    p.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (default 1e-4, the original's)")
+    p.add_argument("--eval-steps", type=whole_number(1, 10**7), default=10_000, metavar="N", help="per game (default 10,000)")
+    p.add_argument("--min-fitness", type=float, default=2.0, help="games below this fitness are left out (default 2)")
+    p.add_argument("--original-pairing", action="store_true", help="pair each observation with the action that led to it")
+    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed (default 0)")
+    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    p.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    p.set_defaults(handler=cmd_clone)
+
+
+class AutoverseCommands(DomainCommands):
+    def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
+        adders = {"play": _add_play, "search": _add_search, "show": _add_show, "clone": _add_clone}
+        for name in verbs_wanted(adders, only):
+            adders[name](subparsers)
+
+    def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
+        suffix = output.suffix.lower()
+        if suffix == ".json":
+            _save(genome, output)
+        elif suffix == ".png":
+            from structgen.domains.autoverse.show import draw_game
+
+            draw_game(genome, output)
+        else:
+            raise InputError(f"{output}: an Autoverse game exports as .json or .png")
+        return f"{output}: Autoverse game"
+
+
+AUTOVERSE_COMMANDS = AutoverseCommands()
