@@ -1,0 +1,94 @@
+"""Autoverse speed, measured the way the original was measured, beside its numbers.
+
+- env-steps/s: random games (as the original's initial population draws them), one random action per env, a step and
+  its observation (view and flat vector) per call, over a batch; 100 steps timed after 5 untimed.
+- search: one generation's searches (40 random games, budget 200) in one lockstep call; expansions/s and seconds.
+- generation: ``AutoverseProblem.evaluate`` on 40 mutated games at budget 200 (what a generation of the main job
+  costs).
+
+    python benchmarks/autoverse.py [--device cuda] [--batches 64 512 2048] [--threads 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import torch
+
+from structgen.domains.autoverse.engine import Engine
+from structgen.domains.autoverse.game import mutate_game, random_game
+from structgen.domains.autoverse.problem import AutoverseProblem
+from structgen.domains.autoverse.search import search
+
+# The original on this 2-core machine (JAX 0.10.2 CPU) and on one H100 (JAX 0.11.2), from the research notes (A11).
+ORIGINAL_CPU = {64: 2430, 512: 1634}
+ORIGINAL_H100 = {64: 69525, 1024: 509463, 16384: 559237, 65536: 359346}
+ORIGINAL_SEARCH_S = 5.4  # per individual, budget 200
+ORIGINAL_GENERATION_S = 216.0  # 40 individuals
+
+
+def env_steps_per_second(batch: int, device: str, observe: bool = True) -> float:
+    rng = np.random.default_rng(batch)
+    engine = Engine([random_game(rng) for _ in range(batch)], device=device)
+    state = engine.reset()
+    actions = torch.randint(0, 5, (105, batch), device=device)
+    for i in range(5):
+        state, _, _ = engine.step(state, actions[i])
+    if device.startswith("cuda"):
+        torch.cuda.synchronize()
+    started = time.perf_counter()
+    for i in range(5, 105):
+        state, reward, _ = engine.step(state, actions[i])
+        if observe:
+            view, flat = engine.observe(state)
+    if device.startswith("cuda"):
+        torch.cuda.synchronize()
+    return 100 * batch / (time.perf_counter() - started)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    parser.add_argument("--batches", type=int, nargs="+", default=[64, 512, 2048], help="batch sizes to time")
+    parser.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    original = ORIGINAL_H100 if args.device.startswith("cuda") else ORIGINAL_CPU
+    print(f"device: {args.device} ({torch.cuda.get_device_name() if args.device.startswith('cuda') else f'{args.threads} CPU threads'})\n")
+    print("| batch | env-steps/s, with observations | without | original (same device kind) | speed-up |")
+    print("|---:|---:|---:|---:|---:|")
+    for batch in args.batches:
+        with_obs = env_steps_per_second(batch, args.device)
+        without = env_steps_per_second(batch, args.device, observe=False)
+        theirs = original.get(batch)
+        ratio = f"{with_obs / theirs:.0f}x" if theirs else "-"
+        print(f"| {batch:,} | {with_obs:,.0f} | {without:,.0f} | {f'{theirs:,}' if theirs else '-'} | {ratio} |")
+
+    rng = np.random.default_rng(0)
+    games = [random_game(rng) for _ in range(40)]
+    search(games[:2], 5, device=args.device)
+    started = time.perf_counter()
+    results = search(games, 200, list(range(40)), device=args.device)
+    seconds = time.perf_counter() - started
+    expansions = sum(r.expansions for r in results)
+    ours_per_s = expansions / seconds
+    theirs_per_s = 200 / ORIGINAL_SEARCH_S
+    print("\n| search (40 games, budget 200) | seconds | expansions/s | original expansions/s | speed-up |")
+    print("|---|---:|---:|---:|---:|")
+    print(f"| lockstep best-first | {seconds:.2f} | {ours_per_s:,.0f} | {theirs_per_s:.0f} | {ours_per_s / theirs_per_s:.0f}x |")
+
+    problem = AutoverseProblem()
+    children = [mutate_game(g, rng) for g in games]
+    genomes = problem.prepare(children, {"budget": 200})
+    started = time.perf_counter()
+    problem.evaluate(genomes, np.arange(40))
+    seconds = time.perf_counter() - started
+    print("\n| one generation (40 children, budget 200) | seconds | original seconds | speed-up |")
+    print("|---|---:|---:|---:|")
+    print(f"| AutoverseProblem.evaluate | {seconds:.2f} | {ORIGINAL_GENERATION_S:.0f} | {ORIGINAL_GENERATION_S / seconds:.0f}x |")
+
+
+if __name__ == "__main__":
+    main()
