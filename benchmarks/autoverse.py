@@ -56,7 +56,9 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     original = ORIGINAL_H100 if args.device.startswith("cuda") else ORIGINAL_CPU
-    print(f"device: {args.device} ({torch.cuda.get_device_name() if args.device.startswith('cuda') else f'{args.threads} CPU threads'})\n")
+    print(
+        f"device: {args.device} ({torch.cuda.get_device_name() if args.device.startswith('cuda') else f'{args.threads} CPU threads'})\n"
+    )
     print("| batch | env-steps/s, with observations | without | original (same device kind) | speed-up |")
     print("|---:|---:|---:|---:|---:|")
     for batch in args.batches:
