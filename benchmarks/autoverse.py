@@ -1,7 +1,8 @@
 """Autoverse speed, measured the way the original was measured, beside its numbers.
 
 - env-steps/s: random games (as the original's initial population draws them), one random action per env, a step and
-  its observation (view and flat vector) per call, over a batch; 100 steps timed after 5 untimed.
+  its observation (view and flat vector) per call, over a batch; 100 steps timed after 5 untimed. On a CPU the engine
+  steps with its numba kernel; the tensor-code column is the same engine with ``backend="torch"`` (what runs on GPUs).
 - search: one generation's searches (40 random games, budget 200) in one lockstep call; expansions/s and seconds.
 - generation: ``AutoverseProblem.evaluate`` on 40 mutated games at budget 200 (what a generation of the main job
   costs).
@@ -29,9 +30,9 @@ ORIGINAL_SEARCH_S = 5.4  # per individual, budget 200
 ORIGINAL_GENERATION_S = 216.0  # 40 individuals
 
 
-def env_steps_per_second(batch: int, device: str, observe: bool = True) -> float:
+def env_steps_per_second(batch: int, device: str, observe: bool = True, backend: str = "auto") -> float:
     rng = np.random.default_rng(batch)
-    engine = Engine([random_game(rng) for _ in range(batch)], device=device)
+    engine = Engine([random_game(rng) for _ in range(batch)], device=device, backend=backend)
     state = engine.reset()
     actions = torch.randint(0, 5, (105, batch), device=device)
     for i in range(5):
@@ -59,14 +60,18 @@ def main() -> None:
     print(
         f"device: {args.device} ({torch.cuda.get_device_name() if args.device.startswith('cuda') else f'{args.threads} CPU threads'})\n"
     )
-    print("| batch | env-steps/s, with observations | without | original (same device kind) | speed-up |")
-    print("|---:|---:|---:|---:|---:|")
+    cpu = not args.device.startswith("cuda")
+    print(
+        "| batch | env-steps/s, with observations | without | tensor code on CPU, with observations | original (same device kind) | speed-up |"
+    )
+    print("|---:|---:|---:|---:|---:|---:|")
     for batch in args.batches:
         with_obs = env_steps_per_second(batch, args.device)
         without = env_steps_per_second(batch, args.device, observe=False)
+        tensor_code = f"{env_steps_per_second(batch, args.device, backend='torch'):,.0f}" if cpu else "-"
         theirs = original.get(batch)
         ratio = f"{with_obs / theirs:.0f}x" if theirs else "-"
-        print(f"| {batch:,} | {with_obs:,.0f} | {without:,.0f} | {f'{theirs:,}' if theirs else '-'} | {ratio} |")
+        print(f"| {batch:,} | {with_obs:,.0f} | {without:,.0f} | {tensor_code} | {f'{theirs:,}' if theirs else '-'} | {ratio} |")
 
     rng = np.random.default_rng(0)
     games = [random_game(rng) for _ in range(40)]

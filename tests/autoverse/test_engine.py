@@ -31,11 +31,12 @@ def _games(rng: np.random.Generator, count: int) -> list[dict]:
     return games
 
 
+@pytest.mark.parametrize("backend", ["torch", "numba"])
 @pytest.mark.parametrize("mechanics", [Mechanics(), Mechanics.original()], ids=["default", "original"])
-def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics):
+def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics, backend):
     rng = np.random.default_rng(11)
     games = _games(rng, 12)
-    engine = Engine(games, mechanics=mechanics)
+    engine = Engine(games, mechanics=mechanics, backend=backend)
     state = engine.reset()
     refs = [ref.reset(g) for g in games]
     options = {"force_clear": mechanics.force_clear, "empty_rules_fire": mechanics.empty_rules_fire}
@@ -52,13 +53,14 @@ def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics):
     assert bool(done.all()), "the 101st step ends the episode"
 
 
-def test_quirks_change_what_they_name():
+@pytest.mark.parametrize("backend", ["torch", "numba"])
+def test_quirks_change_what_they_name(backend):
     rng = np.random.default_rng(3)
     game = random_game(rng)
     game["rules"][:] = 0  # no rules: only the player's actions change the map
     game["map"][1] = 0
-    engine_default = Engine([game])
-    engine_original = Engine([game], mechanics=Mechanics.original())
+    engine_default = Engine([game], backend=backend)
+    engine_original = Engine([game], mechanics=Mechanics.original(), backend=backend)
     for engine, force_left in ((engine_default, 1), (engine_original, 0)):
         state = engine.reset()
         state, _, _ = engine.step(state, torch.tensor([4]))  # place force in front
@@ -67,17 +69,19 @@ def test_quirks_change_what_they_name():
         state, _, _ = engine.step(state, torch.tensor([1]))
         assert int(state.multi_hot()[0, 1].sum()) == force_left
     game["rewards"][:] = [1, 0, 0, 0, 0]  # rule 0, with nothing to match, pays 1 a match
-    _, reward_default, _ = Engine([game]).step(Engine([game]).reset(), torch.tensor([0]))
-    original = Engine([game], mechanics=Mechanics.original())
+    default = Engine([game], backend=backend)
+    _, reward_default, _ = default.step(default.reset(), torch.tensor([0]))
+    original = Engine([game], mechanics=Mechanics.original(), backend=backend)
     _, reward_original, _ = original.step(original.reset(), torch.tensor([0]))
     assert float(reward_default[0]) == 0
     assert float(reward_original[0]) == 16 * 16 * 4
 
 
-def test_rows_may_play_any_game_in_any_order():
+@pytest.mark.parametrize("backend", ["torch", "numba"])
+def test_rows_may_play_any_game_in_any_order(backend):
     rng = np.random.default_rng(5)
     games = _games(rng, 4)
-    engine = Engine(games)
+    engine = Engine(games, backend=backend)
     order = torch.tensor([3, 3, 0, 2, 1])
     state = engine.reset(order)
     actions = torch.tensor([0, 2, 4, 3, 1])

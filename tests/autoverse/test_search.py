@@ -5,18 +5,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from structgen.domains.autoverse.engine import Mechanics
+from structgen.domains.autoverse.engine import Engine, Mechanics
 from structgen.domains.autoverse.search import search, search_fitness
 from tests.autoverse import reference_autoverse as ref
 from tests.autoverse.test_engine import _games
 
 
+@pytest.mark.parametrize("backend", ["torch", "numba"])
 @pytest.mark.parametrize("mechanics", [Mechanics(), Mechanics.original()], ids=["default", "original"])
-def test_batched_search_equals_reference_search(mechanics):
+def test_batched_search_equals_reference_search(mechanics, backend):
     games = _games(np.random.default_rng(21), 6)
     budgets = [25, 40, 10, 60, 1, 30]
     seeds = [0, 1, 2, 3, 4, 5]
-    results = search(games, budgets, seeds, mechanics=mechanics)
+    results = search(Engine(games, mechanics=mechanics, backend=backend), budgets, seeds)
     options = {"force_clear": mechanics.force_clear, "empty_rules_fire": mechanics.empty_rules_fire}
     for game, budget, seed, result in zip(games, budgets, seeds, results):
         rng = np.random.default_rng(seed)

@@ -2,7 +2,7 @@
 many iterations to find their best play (Earle and Togelius).
 
 - :mod:`.game`: a game as arrays (rules, rewards, map); random games and mutation;
-- :mod:`.engine`: the batched torch engine (CPU or GPU) and observations;
+- :mod:`.engine`: the batched engine (torch on GPU, the numba kernel of :mod:`._kernels` on CPU) and observations;
 - :mod:`.search`: best-first search over many games at once;
 - :mod:`.problem`: the evolution problem (fitness = iteration of the best return; growing budget; playtraces);
 - :mod:`.show`: pictures and GIFs; :mod:`.commands`: ``play``, ``search``, ``clone``, ``show``.

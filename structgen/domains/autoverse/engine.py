@@ -20,7 +20,9 @@ rotation slot and each kernel cell that some game uses there (3 of 9 for 1x3 pat
 turns the code under that cell into the set of rules whose input is satisfied there (a 5-bit mask); the masks of a
 slot's cells are ANDed, and two more tables turn a cell's matching rules into its reward and into its writes (the
 five tiles' -5..+5 changes packed in one int64), which are summed over the shifted cells and decoded. Everything is
-gathers and integer arithmetic over the whole batch; ``Mechanics`` names the original's quirks.
+gathers and integer arithmetic over the whole batch; ``Mechanics`` names the original's quirks. On a CPU the same
+tables drive a numba kernel instead (:mod:`._kernels`, one game per parallel iteration), which avoids the overhead of
+many small tensor operations; ``backend="torch"`` keeps the tensor code there too. Both equal the plain reference.
 """
 
 from __future__ import annotations
@@ -179,9 +181,17 @@ class Engine:
         device: str | torch.device = "cpu",
         mechanics: Mechanics | None = None,
         episode_steps: int = EPISODE_STEPS,
+        backend: str = "auto",
     ) -> None:
         arrays = games if isinstance(games, dict) else stack_games(games)
         self.device = torch.device(device)
+        if backend not in ("auto", "torch", "numba"):
+            raise ValueError(f"backend must be 'auto', 'torch' or 'numba', got {backend!r}")
+        if backend == "auto":
+            backend = "numba" if self.device.type == "cpu" else "torch"
+        if backend == "numba" and self.device.type != "cpu":
+            raise ValueError("the numba backend runs on the CPU only")
+        self.backend = backend
         self.mechanics = mechanics = mechanics or Mechanics()
         self.episode_steps = episode_steps
         rules = torch.as_tensor(np.asarray(arrays["rules"], dtype=np.int8)).to(torch.int64)  # (G, R, 4, 2, C, 3, 3)
@@ -207,11 +217,12 @@ class Engine:
         # reward of a cell from the set of rules matching there
         self._reward_table = (bits.unsqueeze(0) * rewards.unsqueeze(1)).sum(-1).to(self.device)  # (G, M)
         self._slots = []
+        kernel_tables = []
         for o in range(rules.shape[2]):
             used = (rules[:, :, o] != 0).any(dim=(0, 1, 2, 3))  # (3, 3)
             # A slot nobody uses still runs (on the centre cell) when empty inputs fire everywhere.
             cells = [(int(dy), int(dx)) for dy, dx in used.nonzero().tolist()] or [(1, 1)]
-            match_tables, write_tables = [], []
+            match_tables, write_tables, changes = [], [], []
             empty = rules[:, :, o, 0].sum(dim=(-3, -2, -1)) == 0  # (G, R)
             for index, (dy, dx) in enumerate(cells):
                 required = (rules[:, :, o, 0, :, dy, dx] * tile_bit).sum(-1)  # (G, R) tile codes
@@ -222,9 +233,13 @@ class Engine:
                 out = rules[:, :, o, 1, :, dy, dx]  # (G, R, C)
                 change = (bits.view(1, -1, self.n_rules, 1) * out.unsqueeze(1)).sum(2) + _BIAS  # (G, M, C)
                 write_tables.append((change << (_FIELD * torch.arange(N_TILES))).sum(-1))  # (G, M)
+                changes.append(change - _BIAS)
             self._slots.append(
                 (cells, torch.stack(match_tables, 1).to(self.device), torch.stack(write_tables, 1).to(self.device))
             )
+            kernel_tables.append((cells, torch.stack(match_tables, 1), torch.stack(changes, 1)))
+        if backend == "numba":
+            self._kernel_tables = self._pad_for_kernel(kernel_tables)
         self._writes_per_cell = sum(len(cells) for cells, _, _ in self._slots)
         if self._writes_per_cell * 2 * _BIAS >= 1 << _FIELD:
             raise ValueError("too many kernel cells in use for the packed writes")
@@ -235,6 +250,20 @@ class Engine:
         )
         self.initial_pos = self._player_positions(maps).to(self.device)
         self._tile_shifts = torch.arange(N_TILES, dtype=torch.uint8, device=self.device).view(1, N_TILES, 1)
+
+    def _pad_for_kernel(self, tables: list) -> tuple[np.ndarray, ...]:
+        """The slots' tables as fixed-shape arrays for the numba kernel (cells padded to the widest slot)."""
+        width = max(len(cells) for cells, _, _ in tables)
+        masks = 1 << self.n_rules
+        n_cells = np.array([len(cells) for cells, _, _ in tables], dtype=np.int64)
+        cells = np.ones((len(tables), width, 2), dtype=np.int64)
+        match = np.zeros((self.n_games, len(tables), width, 1 << N_TILES), dtype=np.int64)
+        change = np.zeros((self.n_games, len(tables), width, masks, N_TILES), dtype=np.int64)
+        for s, (slot_cells, slot_match, slot_change) in enumerate(tables):
+            cells[s, : len(slot_cells)] = slot_cells
+            match[:, s, : len(slot_cells)] = slot_match.numpy()
+            change[:, s, : len(slot_cells)] = slot_change.numpy()
+        return n_cells, cells, match, change, self._reward_table.cpu().numpy().astype(np.int64)
 
     # -- states ----------------------------------------------------------------------------------------------------------
     def _player_positions(self, maps: torch.Tensor) -> torch.Tensor:
@@ -318,9 +347,29 @@ class Engine:
 
     def step(self, state: State, actions: torch.Tensor) -> tuple[State, torch.Tensor, torch.Tensor]:
         """``(next state, reward, done)`` for one action per row; rewards are the rules' raw rewards."""
+        done = state.step >= self.episode_steps
+        if self.backend == "numba":
+            from structgen.domains.autoverse import _kernels
+
+            count = len(state)
+            codes, rot, pos = torch.empty_like(state.map), torch.empty_like(state.rot), torch.empty_like(state.pos)
+            reward = np.empty(count, dtype=np.int64)
+            _kernels.step(
+                state.map.numpy(),
+                state.rot.numpy(),
+                state.pos.numpy(),
+                state.game.numpy(),
+                actions.to(torch.int64).numpy(),
+                *self._kernel_tables,
+                self.mechanics.force_clear,
+                codes.numpy(),
+                rot.numpy(),
+                pos.numpy(),
+                reward,
+            )
+            return State(codes, rot, pos, state.step + 1, state.game), torch.from_numpy(reward).float(), done
         moved = self.act(state, actions)
         next_maps, reward = self.apply_rules(moved.map, state.game)
-        done = state.step >= self.episode_steps
         return State(next_maps, moved.rot, moved.pos, state.step + 1, state.game), reward, done
 
     # -- observations ----------------------------------------------------------------------------------------------------
