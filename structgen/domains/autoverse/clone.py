@@ -133,7 +133,8 @@ def normalisation(engine: Engine, seed: int = 0) -> tuple[torch.Tensor, torch.Te
     """The original's per-game reward normalisation: ``(bias, scale, constant action)``. Its "random" baseline is
     one action, drawn once and repeated (it samples inside a traced loop); ``bias`` is minus
     that baseline's mean reward per step; ``scale`` is 1 / (max - min) of {the return of turning for one episode,
-    the baseline's largest one-step reward}, 1 where they are equal. A step's normalised reward is
+    the baseline's largest one-step reward}, 1 where they are equal. One difference: the turning return here is over
+    a whole episode of 101 steps; the original's scan runs 100. A step's normalised reward is
     ``(reward + bias / 100) * scale``."""
     count = engine.n_games
     steps = EPISODE_STEPS + 1
