@@ -112,3 +112,16 @@ def test_observation_window_and_padding():
     _, hidden = engine.observe(state, Observation(hide_rules=True))
     assert hidden[0, :4].tolist() == [1, 0, 0, 0] and int(hidden[0, 4:].abs().sum()) == 0
     assert torch.equal(flat[0, 4:1804], torch.as_tensor(game["rules"]).float().flatten())
+
+
+def test_bad_games_are_refused_with_the_field_named():
+    from structgen.errors import InputError
+
+    game = random_game(np.random.default_rng(0))
+    game["rules"][2, 1, 0, 0, 0, 0] = 1  # rule 2, rotation 1 reads the player
+    with pytest.raises(InputError, match=r"g.rules\[2\]\[1\]: rules may not read or write the player"):
+        check_game(game, "g")
+    game = random_game(np.random.default_rng(0))
+    game["map"][0] = 0
+    with pytest.raises(InputError, match="g.map: the player channel must hold exactly one cell, holds 0"):
+        check_game(game, "g")

@@ -150,6 +150,10 @@ def check_game(game: Any, where: str = "game") -> dict[str, np.ndarray]:
         raise InputError(f"{where}.map: the player channel must hold exactly one cell, holds {int(checked['map'][PLAYER].sum())}")
     if (checked["rules"][:, :, 0] < 0).any():
         raise InputError(f"{where}.rules: input patterns must be 0 or 1")
+    touching = np.argwhere((checked["rules"][:, :, :, PLAYER] != 0).any(axis=(2, 3, 4)))
+    if len(touching):
+        rule, rotation = touching[0]
+        raise InputError(f"{where}.rules[{rule}][{rotation}]: rules may not read or write the player channel (tile 0)")
     return checked
 
 
