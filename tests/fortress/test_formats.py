@@ -1,0 +1,91 @@
+"""The Amorphous Fortress's text formats: every shipped file reads, and writes back to an equivalent file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from structgen.domains.fortress.formats import (
+    format_entity,
+    format_fortress,
+    parse_entity,
+    parse_fortress,
+    read_entity_file,
+    read_fortress_file,
+)
+from structgen.errors import InputError
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "amorphous-fortress"
+ENTITY_FILES = sorted((DATA / "ENT").glob("*.txt"))
+FORTRESS_FILES = sorted((DATA / "FORTS").glob("*.txt")) + sorted((DATA / "QD_EXP" / "SAVED_FORTS").glob("*.txt"))
+
+
+def test_the_reference_files_are_there():
+    # the shared data sits beside the checkout; without it the round-trip tests below would test nothing
+    assert len(ENTITY_FILES) == 11 and len(FORTRESS_FILES) == 15, DATA
+
+
+@pytest.mark.parametrize("path", ENTITY_FILES, ids=lambda p: p.name)
+def test_entity_files_round_trip(path):
+    entity = read_entity_file(path)
+    again = parse_entity(format_entity(entity))
+    assert (again.char, again.nodes, list(again.edges.items())) == (entity.char, entity.nodes, list(entity.edges.items()))
+    assert entity.nodes[0] and entity.edges
+
+
+@pytest.mark.parametrize("path", FORTRESS_FILES, ids=lambda p: p.name)
+def test_fortress_files_round_trip(path, tmp_path):
+    fortress = read_fortress_file(path)
+    written = tmp_path / path.name
+    written.write_text(format_fortress(fortress))
+    again = read_fortress_file(written)
+    assert list(again.classes) == list(fortress.classes)
+    for char, entity in fortress.classes.items():
+        assert again.classes[char].nodes == entity.nodes
+        assert list(again.classes[char].edges.items()) == list(entity.edges.items())
+    assert again.initial == fortress.initial and again.placed_by == fortress.placed_by
+    assert again.blocks == fortress.blocks
+    assert fortress.initial, "every shipped fortress places entities"
+    if "SAVED_FORTS" in str(path):
+        assert len(fortress.classes) == 15 and fortress.placed_by == "pos"
+
+
+def test_lock_and_key_reads_as_the_original_reads_it():
+    fortress = read_fortress_file(DATA / "FORTS" / "LOCK_N_KEY.txt")
+    assert list(fortress.classes) == ["o", "O", "X", "?", ">"]
+    assert fortress.classes["o"].nodes == ["move_wall X", "chase ?", "transform O"]
+    assert fortress.classes["o"].edge_list() == [(0, 1, "within", ["?", "3"]), (1, 2, "touch", ["?"])]
+    # placed from the map, row by row, x the column
+    assert fortress.placed_by == "fort"
+    assert fortress.initial[:3] == [(">", 2, 1), ("X", 4, 1), ("X", 4, 2)]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("A\n-- NODES --\n0: fly\n-- EDGES --\n", "node 0: unknown action 'fly'"),
+        ("A\n-- NODES --\n0: take\n-- EDGES --\n", "take takes 1 class character"),
+        ("A\n-- NODES --\n0: idle\n-- EDGES --\n0-3: none\n", "edge '0-3': expected src-dst with node indices below 1"),
+        ("A\n-- NODES --\nzero: idle\n-- EDGES --\n", "node line 'zero: idle'"),
+        ("A\n-- NODES --\n0: idle\n-- EDGES --\n0-0: within B\n", "within takes 2 argument"),
+        ("A\n-- NODES --\n0: idle\n-- EDGES --\n0-0: step 0\n", "step needs a count of at least 1"),
+        ("A\n-- NODES --\n0: idle\n", "needs '-- NODES --' and '-- EDGES --'"),
+    ],
+)
+def test_bad_entities_are_refused_with_the_place_named(text, message):
+    with pytest.raises(InputError, match=message):
+        parse_entity(text, "my.txt")
+
+
+def test_positions_of_undefined_classes_are_refused():
+    text = "A\n-- NODES --\n0: idle\n-- EDGES --\n0-0: none\n\n-- INIT ENT POS --\nZ-[1, 1]\n"
+    with pytest.raises(InputError, match="undefined classes 'Z'"):
+        parse_fortress(text, "f.txt")
+
+
+def test_nodes_are_numbered_by_order_as_the_original_numbers_them():
+    # DRUNK_SOKOBAN_2's player writes its only node as "1: push *" and an edge 1-1 that can never fire
+    player = read_fortress_file(DATA / "FORTS" / "DRUNK_SOKOBAN_2.txt").classes["@"]
+    assert player.nodes == ["push *"] and player.edges == {"1-1": "none"}
+    assert format_entity(player).splitlines()[2] == "0: push *"
