@@ -129,8 +129,8 @@ def transitions(
     return torch.cat(views), torch.cat(flats), torch.cat(taken)
 
 
-def normalisation(engine: Engine, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """The original's per-game reward normalisation: ``(bias, scale, constant action)``. Its "random" baseline is
+def normalisation(engine: Engine, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor]:
+    """The original's per-game reward normalisation: ``(bias, scale)``. Its "random" baseline is
     one action, drawn once and repeated (it samples inside a traced loop); ``bias`` is minus
     that baseline's mean reward per step; ``scale`` is 1 / (max - min) of {the return of turning for one episode,
     the baseline's largest one-step reward}, 1 where they are equal. One difference: the turning return here is over
@@ -153,7 +153,7 @@ def normalisation(engine: Engine, seed: int = 0) -> tuple[torch.Tensor, torch.Te
     bias = -(totals / steps)
     spread = torch.maximum(turning, largest) - torch.minimum(turning, largest)
     scale = torch.where(spread == 0, torch.ones_like(spread), 1.0 / spread)
-    return bias, scale, constant
+    return bias, scale
 
 
 @torch.no_grad()
@@ -163,7 +163,7 @@ def evaluate_policy(
     """Sum of normalised reward over ``steps`` steps of each game (episodes restart where they end), actions sampled
     from the policy."""
     engine = Engine(entries, device=device, mechanics=Mechanics())
-    bias, scale, _ = normalisation(engine, seed)
+    bias, scale = normalisation(engine, seed)
     generator = torch.Generator(device=engine.device).manual_seed(seed)
     state, start = engine.reset(), engine.reset()
     total = torch.zeros(engine.n_games, device=engine.device)

@@ -81,7 +81,7 @@ def cmd_play(args: argparse.Namespace) -> int:
         actions = np.random.default_rng(args.seed).integers(0, 5, size=args.steps)
     else:
         actions = args.actions
-    maps, returns, _ = replay(game, actions, mechanics=_mechanics(args))
+    _, returns, _ = replay(game, actions, mechanics=_mechanics(args))
     _save(game, args.save)
     if args.gif is not None:
         playtrace_gif(game, actions, args.gif, mechanics=_mechanics(args))

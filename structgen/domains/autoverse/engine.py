@@ -205,8 +205,8 @@ class Engine:
         self.size = int(maps.shape[-1])
         if maps.shape[1] != N_TILES or maps.shape[-2] != self.size:
             raise ValueError(f"maps must be (G, {N_TILES}, N, N), got {tuple(maps.shape)}")
-        self.rules, self.rewards = rules.to(self.device), rewards.to(self.device)
         self.codes = codes(maps).to(self.device)
+        self._every_game = torch.arange(self.n_games, device=self.device)
         self._directions = torch.tensor(DIRECTIONS, device=self.device)
         self._turn = torch.tensor(_TURN, device=self.device)
         self._move = torch.tensor(_MOVE, device=self.device)
@@ -309,7 +309,7 @@ class Engine:
     def apply_rules(self, code: torch.Tensor, games: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """Every rule on every map at once: ``(next codes, rewards)``; row ``i`` uses game ``games[i]``'s rules."""
         count, n = len(code), self.size
-        identity = games is None or (len(games) == self.n_games and bool((games == self._arange()).all()))
+        identity = self._plays_every_game(games)
         padded = F.pad(code.unsqueeze(1).float(), (1, 1, 1, 1), mode="circular").squeeze(1).to(torch.int64)
         writes = torch.zeros(count, n + 2, n + 2, dtype=torch.int64, device=self.device)
         reward_table = self._reward_table if identity else self._reward_table[games]
@@ -340,10 +340,9 @@ class Engine:
             new |= ((((old >> tile) & 1) + change) >= 1).to(torch.int64) << tile
         return new.to(torch.uint8), reward.float()
 
-    def _arange(self) -> torch.Tensor:
-        if not hasattr(self, "_games_arange"):
-            self._games_arange = torch.arange(self.n_games, device=self.device)
-        return self._games_arange
+    def _plays_every_game(self, games: torch.Tensor | None) -> bool:
+        """Whether rows are the games in order (their tables are then used as they are, without a gather)."""
+        return games is None or (len(games) == self.n_games and bool((games == self._every_game).all()))
 
     def step(self, state: State, actions: torch.Tensor) -> tuple[State, torch.Tensor, torch.Tensor]:
         """``(next state, reward, done)`` for one action per row; rewards are the rules' raw rewards."""
@@ -397,8 +396,7 @@ class Engine:
                 mask = torch.zeros(VIEW, VIEW, dtype=torch.uint8, device=self.device)
                 mask[low:high, low:high] = 1
                 view = view * mask
-        identity = len(state) == self.n_games and bool((state.game == self._arange()).all())
-        rules = self._flat_rules if identity else self._flat_rules.index_select(0, state.game)
+        rules = self._flat_rules if self._plays_every_game(state.game) else self._flat_rules.index_select(0, state.game)
         if observation.hide_rules:
             rules = torch.zeros_like(rules)
         flat = torch.cat([F.one_hot(state.rot, 4).to(torch.int8), rules], dim=1)

@@ -54,6 +54,8 @@ class TorchGames:
         self.observation = observation or Observation()
         self.start = self.engine.reset()
         self.state = self.start
+        #: the states the last step reached, before games that ended were restarted
+        self.reached = self.start
 
     def reset(self) -> tuple[torch.Tensor, torch.Tensor]:
         self.state = self.start
@@ -61,8 +63,8 @@ class TorchGames:
 
     def step(self, actions: torch.Tensor) -> tuple[tuple[torch.Tensor, torch.Tensor], torch.Tensor, torch.Tensor]:
         """``(observation after the step or the restart, reward, done)``."""
-        stepped, reward, done = self.engine.step(self.state, actions)
-        self.state = stepped.where(done, self.start)
+        self.reached, reward, done = self.engine.step(self.state, actions)
+        self.state = self.reached.where(done, self.start)
         return self.engine.observe(self.state, self.observation), reward, done
 
 
@@ -156,14 +158,10 @@ class AutoverseVectorEnv(VectorEnv):
         return self._numpy(self.games.reset()), {}
 
     def step(self, actions: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, dict]:
-        before = self.games.state
         observation, reward, done = self.games.step(torch.as_tensor(np.asarray(actions), dtype=torch.int64))
         info: dict[str, Any] = {}
         if bool(done.any()):
-            final = self.games.engine.observe(
-                self.games.engine.step(before, torch.as_tensor(np.asarray(actions)))[0], self.games.observation
-            )
-            info["final_obs"] = self._numpy(final)
+            info["final_obs"] = self._numpy(self.games.engine.observe(self.games.reached, self.games.observation))
             info["_final_obs"] = done.cpu().numpy()
         done = done.cpu().numpy()
         return self._numpy(observation), reward.cpu().numpy(), np.zeros_like(done), done, info

@@ -58,7 +58,7 @@ def train_ppo(
     device = settings.device
     played = [games[i % len(games)] for i in range(settings.envs)]
     env = TorchGames(played, device=device, observation=observation)
-    bias, scale, _ = normalisation(env.engine, settings.seed)
+    bias, scale = normalisation(env.engine, settings.seed)
     policy = policy or Policy(hidden=settings.hidden)
     policy = policy.to(device)
     optimiser = torch.optim.Adam(policy.parameters(), lr=settings.learning_rate, eps=1e-5)

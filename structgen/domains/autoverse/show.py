@@ -25,12 +25,12 @@ def map_image(game_map: np.ndarray, scale: int = 16, rot: int | None = None) -> 
     mean = np.einsum("tij,tc->ijc", tiles, _COLOURS[1:]) / np.maximum(count, 1)[..., None]
     rgb = np.where(count[..., None] > 0, mean, _EMPTY)
     image = np.kron(rgb, np.ones((scale, scale, 1))).astype(np.uint8)
+    from structgen.domains.autoverse.engine import DIRECTIONS
+
     for r, c in np.argwhere(game_map[PLAYER] == 1):
         lo, hi = scale // 4, scale - scale // 4
         image[r * scale + lo : r * scale + hi, c * scale + lo : c * scale + hi] = 255
         if rot is not None:
-            from structgen.domains.autoverse.engine import DIRECTIONS
-
             dy, dx = DIRECTIONS[rot]
             cy, cx = r * scale + scale // 2 + dy * scale // 3, c * scale + scale // 2 + dx * scale // 3
             image[cy - 1 : cy + 2, cx - 1 : cx + 2] = 0
