@@ -5,8 +5,6 @@ the Gymnasium environments and PPO on what a run leaves."""
 from __future__ import annotations
 
 import json
-import signal
-import subprocess
 
 import gymnasium
 import numpy as np
@@ -17,7 +15,7 @@ from structgen.domains.autoverse.clone import CloneSettings, clone_run, collect_
 from structgen.domains.autoverse.engine import Observation
 from structgen.domains.autoverse.game import game_key, random_game
 from structgen.domains.autoverse.problem import AutoverseProblem, AutoverseSettings
-from tests.structgen.test_evolve_cli import cli, outcome, structgen_command, wait_for_lines
+from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
 
 TINY = """\
 [run]
@@ -74,12 +72,7 @@ def test_a_killed_autoverse_run_resumes_to_the_same_result(tmp_path, capsys):
     assert (whole / "best" / "game.png").read_bytes()[:4] == b"\x89PNG"
 
     run = tmp_path / "killed"
-    process = subprocess.Popen(
-        [*structgen_command(), "evolve", str(config), "--run-dir", str(run)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
-    )
-    wait_for_lines(run / "metrics.jsonl", 2, process, limit=300)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
+    kill_during_evolve(config, run, 2, limit=300)
     code, out, err = cli(capsys, "resume", run)
     assert code == 0, err
     assert outcome(run) == outcome(whole)

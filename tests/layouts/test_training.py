@@ -4,13 +4,11 @@ and a run killed with SIGKILL that resumes to the result of one never stopped.""
 from __future__ import annotations
 
 import json
-import signal
-import subprocess
 
 import pytest
 
 from structgen.grid import Grid
-from tests.structgen.test_evolve_cli import cli, outcome, structgen_command, wait_for_lines
+from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
 
 # configs/warehouse_cma_mae.toml in miniature: every optimiser setting of the paper's, a 6x8 floor, 4 robots.
 TINY_WAREHOUSE = """\
@@ -66,15 +64,7 @@ def test_a_killed_warehouse_run_resumes_to_the_same_result(tmp_path, capsys):
     assert [r["generation"] for r in rows] == [1, 2, 3, 4, 5] and rows[-1]["num_elites"] >= 1
 
     run = tmp_path / "killed"
-    process = subprocess.Popen(
-        [*structgen_command(), "evolve", str(config), "--run-dir", str(run)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    wait_for_lines(run / "metrics.jsonl", 2, process, limit=300)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    assert process.returncode == -signal.SIGKILL
+    kill_during_evolve(config, run, 2, limit=300)
     code, out, err = cli(capsys, "resume", run)
     assert code == 0, err
     assert outcome(run) == outcome(whole)

@@ -80,6 +80,20 @@ def wait_for_lines(path: Path, count: int, process: subprocess.Popen, limit: flo
     raise AssertionError(f"{path} never reached {count} lines")
 
 
+def kill_during_evolve(config: Path, run: Path, generations: int, *options: str, limit: float = 120.0) -> None:
+    """Start ``structgen evolve CONFIG --run-dir RUN``, let it finish ``generations`` generations, then SIGKILL it:
+    no chance to clean up, whatever it was writing is cut short."""
+    process = subprocess.Popen(
+        [*structgen_command(), "evolve", str(config), "--run-dir", str(run), *options],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    wait_for_lines(run / "metrics.jsonl", generations, process, limit=limit)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert process.returncode == -signal.SIGKILL
+
+
 # -- evolve ---------------------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("optimizer", list(OPTIMIZER_SETTINGS))
 def test_evolve_writes_a_complete_run_folder(tmp_path, capsys, optimizer):
@@ -175,15 +189,7 @@ def test_killed_run_resumes_to_the_same_result(tmp_path, capsys):
     config = tiny_config(tmp_path)
     cli(capsys, "evolve", config, "--run-dir", tmp_path / "whole", "--generations", 12)
     run = tmp_path / "killed"
-    process = subprocess.Popen(
-        [*structgen_command(), "evolve", str(config), "--run-dir", str(run), "--generations", "12"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    wait_for_lines(run / "metrics.jsonl", 3, process)
-    process.send_signal(signal.SIGKILL)  # no chance to clean up: whatever it was writing is cut short
-    process.wait()
-    assert process.returncode == -signal.SIGKILL
+    kill_during_evolve(config, run, 3, "--generations", "12")
     code, out, err = cli(capsys, "resume", run)
     assert code == 0, err
     assert outcome(run) == outcome(tmp_path / "whole")
