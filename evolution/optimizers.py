@@ -234,6 +234,8 @@ class MapElitesSettings:
         batch_size: genomes per emitter per generation.
         sigma: Gaussian mutation strength for flat genomes (pyribs' GaussianEmitter).
         variation: "gaussian" (flat genomes only) or "problem" (the problem's own mutation, for any genome).
+        immigrants: with the problem's mutation, how many of each emitter's batch are new random genomes instead of
+            mutated elites (the Amorphous Fortress's MAP-Elites: 1 of 10).
     """
 
     cells: tuple[int, ...] = (16, 16)
@@ -241,9 +243,14 @@ class MapElitesSettings:
     batch_size: int = 100
     sigma: float = 0.05
     variation: str = "gaussian"
+    immigrants: int = 0
 
     def __post_init__(self) -> None:
         _positive_int(self, "emitters", "batch_size")
+        if not isinstance(self.immigrants, int) or isinstance(self.immigrants, bool) or not 0 <= self.immigrants:
+            raise ValueError(f"optimizer immigrants must be a whole number >= 0, got {self.immigrants!r}")
+        if self.immigrants > self.batch_size:
+            raise ValueError(f"optimizer immigrants ({self.immigrants}) cannot exceed batch_size ({self.batch_size})")
         _in_range(self, "sigma", 0.0, math.inf, low_open=True)
         if self.variation not in ("gaussian", "problem"):
             raise ValueError(f"optimizer variation must be 'gaussian' or 'problem', got {self.variation!r}")

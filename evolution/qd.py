@@ -69,12 +69,12 @@ class RibsOptimizer(Optimizer):
 
 class ProblemMutationEmitter(EmitterBase):
     """A pyribs emitter whose variation is the problem's own mutation: random genomes while the archive is empty,
-    then mutated copies of elites sampled from it. This is how genomes that are not flat vectors take part in
-    MAP-Elites."""
+    then mutated copies of elites sampled from it (uniformly over filled cells, with replacement), followed by
+    ``immigrants`` fresh random genomes. This is how genomes that are not flat vectors take part in MAP-Elites."""
 
-    def __init__(self, archive: GridArchive, problem: Problem, batch_size: int, seed: int) -> None:
+    def __init__(self, archive: GridArchive, problem: Problem, batch_size: int, seed: int, immigrants: int = 0) -> None:
         super().__init__(archive, solution_dim=archive.solution_dim, bounds=None, lower_bounds=None, upper_bounds=None)
-        self.problem, self.batch_size = problem, batch_size
+        self.problem, self.batch_size, self.immigrants = problem, batch_size, immigrants
         self.rng = np.random.default_rng(seed)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -86,8 +86,13 @@ class ProblemMutationEmitter(EmitterBase):
         if self.archive.empty:
             genomes = list(self.problem.initial_genomes(self.batch_size, self.rng))
         else:
-            elites = self.archive.sample_elites(self.batch_size)["solution"]
-            genomes = [self.problem.mutate(copy.deepcopy(e), self.rng) for e in elites]
+            immigrants = min(getattr(self, "immigrants", 0), self.batch_size)
+            genomes = []
+            if immigrants < self.batch_size:
+                elites = self.archive.sample_elites(self.batch_size - immigrants)["solution"]
+                genomes = [self.problem.mutate(copy.deepcopy(e), self.rng) for e in elites]
+            if immigrants:
+                genomes += list(self.problem.initial_genomes(immigrants, self.rng))
         if self.problem.flat:
             return np.stack([np.asarray(g, dtype=np.float64) for g in genomes])
         batch = np.empty(len(genomes), dtype=object)
@@ -114,7 +119,7 @@ def map_elites(problem: Problem, settings: MapElitesSettings, seed: int) -> Opti
                 )
             )
         else:
-            emitters.append(ProblemMutationEmitter(archive, problem, settings.batch_size, own))
+            emitters.append(ProblemMutationEmitter(archive, problem, settings.batch_size, own, settings.immigrants))
     return RibsOptimizer(Scheduler(archive, emitters), problem)
 
 

@@ -55,6 +55,7 @@ BUILTIN = (
     "structgen.domains.warehouse:MANUFACTURING",
     "structgen.domains.warehouse:MAZE",
     "structgen.domains.autoverse:AUTOVERSE",
+    "structgen.domains.fortress:FORTRESS",
 )
 #: The domain of ``structgen evolve`` with no configuration, and of configurations that name none.
 DEFAULT_DOMAIN = "structures-v0"

@@ -1,0 +1,255 @@
+"""The verbs of the Amorphous Fortress: ``structgen fortress run|replay|show|robustness`` (``evolve`` comes with every
+domain).
+
+A world is named by a fortress file (the original's format: ``FORTS/*.txt``, saved elites, what ``--save`` or an
+export writes), by a run folder (its best world, or ``--elite index:I`` for an archive cell), or by ``--random SEED``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Collection
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, verbs_wanted, whole_number
+
+EXIT_OK = 0
+
+
+def _world_source(p: argparse.ArgumentParser) -> None:
+    p.add_argument("world", nargs="?", metavar="WORLD", help="fortress file, or a run folder (its best world)")
+    p.add_argument("--elite", default="best", metavar="best|index:I", help="which world of a run folder (default best)")
+    p.add_argument("--random", type=whole_number(0, MAX_SEED), metavar="SEED", help="a random world from this seed instead")
+    p.add_argument("--steps", type=whole_number(0, 10**6), default=100, metavar="N", help="ticks at most (default 100)")
+    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="simulation seed (default 0)")
+    p.add_argument(
+        "--paper-rules",
+        action="store_true",
+        help="the rules as the paper describes them where the code differs: nextTo is north/south/east/west, take "
+        "reaches neighbouring tiles only, move_wall is blocked by any entity of its class, and 20 ticks without "
+        "an event stop the simulation (default: the original code's rules)",
+    )
+
+
+def _rules(args: argparse.Namespace) -> Any:
+    from structgen.domains.fortress.engine import Rules
+
+    if args.paper_rules:
+        return Rules(next_to="orthogonal", take_reach=1, wall_blocks="any", inactivity_limit=20)
+    return Rules()
+
+
+def load_world(args: argparse.Namespace) -> tuple[Any, str]:
+    """The world the arguments name, and a label for it."""
+    from structgen.domains.fortress.formats import read_fortress_file
+    from structgen.domains.fortress.world import random_world
+
+    if (args.world is None) == (args.random is None):
+        raise InputError("give a WORLD file or run folder, or --random SEED (one of them)")
+    if args.random is not None:
+        return random_world(np.random.default_rng(args.random)), f"random world {args.random}"
+    path = Path(args.world)
+    if path.is_dir():
+        from structgen.domains.fortress.problem import FortressProblem
+        from structgen.runs import elite_genome, open_run
+
+        folder, _ = open_run(path)
+        return elite_genome(folder, FortressProblem(), args.elite), f"{path} ({args.elite})"
+    if not path.is_file():
+        raise InputError(f"{path}: no such fortress file or run folder")
+    return read_fortress_file(path), str(path)
+
+
+def _simulate(args: argparse.Namespace, world: Any, label: str, record: bool = False) -> Any:
+    from structgen.domains.fortress.engine import simulate
+
+    return simulate([world], [args.seed], args.steps, _rules(args), record=record, where=[label])
+
+
+def _populations(world: Any, entities: list) -> dict[str, int]:
+    counts = {c: 0 for c in world.classes}
+    for char, *_ in entities:
+        counts[char] += 1
+    return counts
+
+
+def _save(world: Any, path: Path | None) -> None:
+    if path is not None:
+        from evolution.files import atomic_write
+        from structgen.domains.fortress.formats import format_fortress
+
+        atomic_write(path, format_fortress(world))
+
+
+# -- run ------------------------------------------------------------------------------------------------------------------
+def cmd_run(args: argparse.Namespace) -> int:
+    from structgen.domains.fortress.engine import describe
+    from structgen.domains.fortress.show import map_text
+
+    world, label = load_world(args)
+    outcome = _simulate(args, world, label, record=True)
+    final = outcome.traces[0][0].entities[-1]
+    summary = describe(outcome, 0, 0) | {"populations": _populations(world, final), "map": map_text(final)}
+    _save(world, args.save)
+    if args.json:
+        print(json.dumps(summary))
+        return EXIT_OK
+    print(summary["map"])
+    print(
+        f"{label}, seed {args.seed}: stopped after {summary['ticks']} ticks ({summary['stopped']}); "
+        f"{summary['entities']} entities; visited {summary['visited_nodes']} nodes and {summary['visited_edges']} "
+        f"edges (fitness {summary['fitness']:.3f})"
+    )
+    print("population: " + ", ".join(f"{c} {n}" for c, n in summary["populations"].items()))
+    return EXIT_OK
+
+
+# -- replay ---------------------------------------------------------------------------------------------------------------
+def cmd_replay(args: argparse.Namespace) -> int:
+    from structgen.domains.fortress.show import map_text, trace_gif, trace_strip
+
+    world, label = load_world(args)
+    trace = _simulate(args, world, label, record=True).traces[0][0]
+    chars = list(world.classes)
+    if not args.quiet:
+        for t, entities in enumerate(trace.entities):
+            if t % args.every == 0 or t == len(trace.entities) - 1:
+                print(f"-- tick {t}: {len(entities)} entities --")
+                print(map_text(entities))
+    written = []
+    if args.gif is not None:
+        written.append(trace_gif(trace, chars, args.gif))
+    if args.strip is not None:
+        written.append(trace_strip(trace, chars, args.strip, frames=args.frames))
+    for path in written:
+        print(path)
+    return EXIT_OK
+
+
+# -- show -----------------------------------------------------------------------------------------------------------------
+def cmd_show(args: argparse.Namespace) -> int:
+    from evolution.files import atomic_write
+    from evolution.plots import figure_png
+    from structgen.domains.fortress.show import draw_world, population_figure
+
+    world, label = load_world(args)
+    if args.output.suffix.lower() != ".png":
+        raise InputError(f"{args.output}: show writes a .png")
+    draw_world(world, args.output)
+    print(f"{args.output}: initial map and machine sizes")
+    if args.populations is not None:
+        if args.populations.suffix.lower() != ".png":
+            raise InputError(f"{args.populations}: --populations writes a .png")
+        trace = _simulate(args, world, label, record=True).traces[0][0]
+        figure = population_figure(trace, list(world.classes), f"{Path(label).name}: population by class, seed {args.seed}")
+        atomic_write(args.populations, figure_png(figure))
+        print(f"{args.populations}: population of each class over {len(trace.entities) - 1} ticks")
+    return EXIT_OK
+
+
+# -- robustness -----------------------------------------------------------------------------------------------------------
+def cmd_robustness(args: argparse.Namespace) -> int:
+    from evolution.files import atomic_write
+    from structgen.domains.fortress.robustness import reevaluate
+    from structgen.runs import open_run
+
+    opened = [open_run(run_dir) for run_dir in args.run_dirs]
+    experiment = opened[0][1]
+    for folder, other in opened[1:]:
+        if other.problem_settings != experiment.problem_settings:
+            raise InputError(f"{folder.path}: its [problem] settings differ from {opened[0][0].path}'s; merge like runs only")
+    report = reevaluate([f for f, _ in opened], experiment, longer=args.longer, chunk=args.chunk, progress=not args.json)
+    if args.output is not None:
+        atomic_write(args.output, json.dumps(report, indent=1) + "\n")
+    if args.json:
+        print(json.dumps(report))
+    else:
+        print(f"{'archive':<34}{'QD score':>10}{'cells':>8}{'mean fitness':>14}{'best':>8}")
+        for row in report["rows"]:
+            print(f"{row['name']:<34}{row['qd_score']:>10.1f}{row['cells']:>8}{row['mean_fitness']:>14.3f}{row['best']:>8.3f}")
+    return EXIT_OK
+
+
+def _add_run(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "run",
+        help="simulate a world and print its final map and the population of each class",
+        description="Simulate WORLD for --steps ticks under --seed and print the final map (the original's text "
+        "form), why it stopped, the share of its machines visited, and how many entities of each class are left.",
+    )
+    _world_source(p)
+    p.add_argument("--save", type=output_path, metavar="OUT.txt", help="write the world as a fortress file")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_run)
+
+
+def _add_replay(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "replay",
+        help="print a simulation tick by tick, or write it as an animated GIF or a strip of frames",
+        description="Simulate WORLD and print its map after every --every ticks; --gif writes an animation (one "
+        "frame a tick), --strip a PNG of evenly spaced frames.",
+    )
+    _world_source(p)
+    p.add_argument("--every", type=whole_number(1, 10**6), default=1, metavar="K", help="print every K-th tick (default 1)")
+    p.add_argument("--quiet", action="store_true", help="print no maps, only the files written")
+    p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animated GIF")
+    p.add_argument("--strip", type=output_path, metavar="OUT.png", help="write a PNG strip of frames")
+    p.add_argument("--frames", type=whole_number(2, 50), default=6, metavar="N", help="frames in the strip (default 6)")
+    p.set_defaults(handler=cmd_replay)
+
+
+def _add_show(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "show",
+        help="draw a world's initial map and machine sizes, and the population of each class over a simulation",
+        description="Write OUT.png with WORLD's initial map and the nodes and edges of each class; --populations "
+        "also simulates it and plots how many entities of each class there are after each tick.",
+    )
+    _world_source(p)
+    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png", help="picture to write")
+    p.add_argument("--populations", type=output_path, metavar="OUT.png", help="also plot populations over time")
+    p.set_defaults(handler=cmd_show)
+
+
+def _add_robustness(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "robustness",
+        help="re-evaluate runs' archives on new seeds and on longer episodes (the paper's robustness table)",
+        description="Merge the archives of one or more fortress MAP-Elites runs (best elite per cell), re-simulate "
+        "every elite on new seeds (as many as the runs used, after them) and on new seeds with --longer times "
+        "longer episodes, average the new results with the stored ones and re-bin them into fresh archives (as the "
+        "original does), and print QD score, cells filled, mean and best fitness of each archive.",
+    )
+    p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="fortress run folders with archives (same settings)")
+    p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")
+    p.add_argument("--chunk", type=whole_number(1, 10**5), default=256, metavar="N", help="worlds per engine call (default 256)")
+    p.add_argument("-o", "--output", type=output_path, metavar="OUT.json", help="write the table as JSON")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_robustness)
+
+
+class FortressCommands(DomainCommands):
+    def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
+        adders = {"run": _add_run, "replay": _add_replay, "show": _add_show, "robustness": _add_robustness}
+        for name in verbs_wanted(adders, only):
+            adders[name](subparsers)
+
+    def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
+        suffix = output.suffix.lower()
+        if suffix == ".txt":
+            _save(genome, output)
+        elif suffix == ".png":
+            from structgen.domains.fortress.show import draw_world
+
+            draw_world(genome, output)
+        else:
+            raise InputError(f"{output}: a fortress world exports as .txt (the original's format) or .png")
+        return f"{output}: fortress world"
+
+
+FORTRESS_COMMANDS = FortressCommands()

@@ -1,0 +1,178 @@
+"""The Amorphous Fortress as a problem for the evolution engine: worlds whose machines are well explored, spread over
+how many entities they end with and how large (or how unevenly sized) their machines are.
+
+A genome is a world (:class:`.formats.FortressFile`). Evaluating a batch runs every world under the seeds
+``sim_seed, sim_seed + 1, ...`` (``sims`` of them; the original uses 0 to 4 for every evaluation) for ``steps`` ticks
+in one engine call. The objective is the share of FSM nodes and edges visited, summed over classes, the mean over
+the simulations; the measures are the entities at the end (capped at 156, mean over the simulations) and either the
+total FSM nodes or the entropy of the class sizes. Mutation is the original's (:func:`.world.mutate_world`).
+
+The original's MAP-Elites is the ``map_elites`` optimiser with ``cells = [100, 100]``, ``batch_size = 10``,
+``immigrants = 1``: 10 random worlds, then each generation 9 mutants of elites drawn uniformly from filled cells
+and 1 random world; a cell takes a newcomer that is strictly better. The measure ranges are stretched by 100/99 so
+that 100 cells bin a value as the original's ``int((v - low) / (high - low) * 99)`` does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evolution.files import atomic_write
+from evolution.problem import Evaluation, Problem
+from structgen.domains.fortress.engine import POPULATION_CAP, Rules, simulate
+from structgen.domains.fortress.formats import FortressFile, format_fortress, parse_fortress
+from structgen.domains.fortress.world import (
+    CHARACTERS,
+    Variation,
+    fsm_size_entropy,
+    mutate_world,
+    node_types,
+    random_world,
+    world_size,
+)
+
+__all__ = ["FortressProblem", "FortressSettings", "MEASURES"]
+
+#: The measure pairs of the two experiments: the first over total nodes (exp1), the second over entropy (exp2).
+MEASURES = ("entities_nodes", "entities_entropy")
+# The original's cells: 100 along each measure, a value binned by int(fraction * 99).
+_ORIGINAL_CELLS = 100
+
+
+def _stretched(low: float, high: float) -> tuple[float, float]:
+    return (low, low + (high - low) * _ORIGINAL_CELLS / (_ORIGINAL_CELLS - 1))
+
+
+@dataclass(frozen=True)
+class FortressSettings:
+    """Attributes:
+    measures: "entities_nodes" (entities at the end, total FSM nodes) or "entities_entropy" (entities, entropy of
+        the class sizes); a run over entropy also starts from worlds drawn evenly over entropy, as the original.
+    sims: simulations per evaluation (5); steps: ticks per simulation (100; the paper also ran 500).
+    sim_seed: the first simulation seed; every evaluation uses ``sim_seed .. sim_seed + sims - 1``.
+    next_to, take_reach, wall_blocks, inactivity_limit, visit_start_nodes: :class:`.engine.Rules` (defaults: the
+        original's code).
+    orphan_edges, edge_coin, node_coin, instance_coin: :class:`.world.Variation` (defaults: the original's).
+    """
+
+    measures: str = "entities_nodes"
+    sims: int = 5
+    steps: int = 100
+    sim_seed: int = 0
+    next_to: str = "chebyshev"
+    take_reach: int = -1
+    wall_blocks: str = "first"
+    inactivity_limit: int = 0
+    visit_start_nodes: bool = False
+    orphan_edges: str = "every_node"
+    edge_coin: float = 0.5
+    node_coin: float = 0.5
+    instance_coin: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.measures not in MEASURES:
+            raise ValueError(f"problem measures must be one of {', '.join(MEASURES)}, got {self.measures!r}")
+        for name, low in (("sims", 1), ("steps", 1), ("sim_seed", 0), ("take_reach", -1), ("inactivity_limit", 0)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < low:
+                raise ValueError(f"problem {name} must be a whole number >= {low}, got {value!r}")
+        self.rules()
+        self.variation()
+
+    def rules(self) -> Rules:
+        try:
+            return Rules(
+                next_to=self.next_to,
+                take_reach=None if self.take_reach < 0 else self.take_reach,
+                wall_blocks=self.wall_blocks,
+                inactivity_limit=self.inactivity_limit,
+                visit_start_nodes=self.visit_start_nodes,
+            )
+        except ValueError as error:
+            raise ValueError(f"problem {error}") from None
+
+    def variation(self) -> Variation:
+        try:
+            return Variation(
+                orphan_edges=self.orphan_edges,
+                edge_coin=self.edge_coin,
+                node_coin=self.node_coin,
+                instance_coin=self.instance_coin,
+            )
+        except ValueError as error:
+            raise ValueError(f"problem {error}") from None
+
+
+class FortressProblem(Problem):
+    name = "fortress"
+    n_params = None
+    field_names = ("nodes", "edges", "entities", "ticks", "visited_nodes", "visited_edges")
+    plot_fields = ("nodes", "entities")
+    objective_floor = 0.0
+
+    def __init__(self, settings: FortressSettings = FortressSettings()) -> None:
+        self.settings = settings
+        self.rules, self.variation = settings.rules(), settings.variation()
+        n_types = len(node_types(CHARACTERS))
+        if settings.measures == "entities_nodes":
+            self.measure_names = ("entities", "nodes")
+            self.measure_ranges = (
+                _stretched(0, POPULATION_CAP),
+                _stretched(len(CHARACTERS), len(CHARACTERS) * n_types),
+            )
+        else:
+            self.measure_names = ("entities", "entropy")
+            self.measure_ranges = (_stretched(0, POPULATION_CAP), _stretched(0.0, 1.0))
+
+    def initial_genomes(self, count: int, rng: np.random.Generator) -> list[FortressFile]:
+        start = "entropy" if self.settings.measures == "entities_entropy" else "n_nodes"
+        return [random_world(rng, CHARACTERS, self.variation, start=start) for _ in range(count)]
+
+    def mutate(self, genome: FortressFile, rng: np.random.Generator) -> FortressFile:
+        return mutate_world(genome, rng, self.variation)
+
+    def seeds(self) -> list[int]:
+        return list(range(self.settings.sim_seed, self.settings.sim_seed + self.settings.sims))
+
+    def evaluate(self, genomes: Any, seeds: np.ndarray) -> Evaluation:
+        # Every world runs under the same simulation seeds (as the original); the engine's seeds are not needed.
+        worlds = list(genomes)
+        outcome = simulate(worlds, self.seeds(), self.settings.steps, self.rules)
+        sizes = np.array([world_size(w) for w in worlds], dtype=np.float64).reshape(-1, 2)
+        entities = np.minimum(outcome.entities, POPULATION_CAP).mean(axis=1)
+        if self.settings.measures == "entities_nodes":
+            second = sizes[:, 0]
+        else:
+            second = np.array([fsm_size_entropy(w) for w in worlds])
+        return Evaluation(
+            objective=outcome.fitness.mean(axis=1),
+            measures=np.stack([entities, second], axis=1),
+            fields={
+                "nodes": sizes[:, 0],
+                "edges": sizes[:, 1],
+                "entities": entities,
+                "ticks": outcome.ticks.mean(axis=1),
+                "visited_nodes": outcome.visited_nodes.mean(axis=1),
+                "visited_edges": outcome.visited_edges.mean(axis=1),
+            },
+        )
+
+    def genome_to_json(self, genome: FortressFile) -> str:
+        return format_fortress(genome)
+
+    def genome_from_json(self, data: Any) -> FortressFile:
+        return parse_fortress(data, "genome")
+
+    def write_artifacts(self, genome: FortressFile, folder: Path) -> list[Path]:
+        from structgen.domains.fortress.show import draw_world
+
+        folder = Path(folder)
+        text = folder / "world.txt"
+        atomic_write(text, format_fortress(genome).encode())
+        picture = folder / "world.png"
+        draw_world(genome, picture)
+        return [text, picture]

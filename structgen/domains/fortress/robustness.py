@@ -1,0 +1,147 @@
+"""The paper's robustness table: a MAP-Elites archive of worlds, merged over runs, re-simulated on new seeds and on
+longer episodes and re-binned into fresh archives.
+
+As the original's re-evaluation does, an elite's new simulations are averaged with the ones it was stored with (5 +
+5 = 10 simulations) before it is placed again, and a cell keeps the best newcomer. Runs are merged first (the best
+elite of each cell over all of them), which is how the paper reports its QD numbers over 10 seeds.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from evolution.files import parse_json, read_text
+from evolution.runfolder import RunFolder, RunFolderError
+from structgen.domains.fortress.engine import POPULATION_CAP, simulate
+from structgen.domains.fortress.problem import FortressProblem
+from structgen.errors import InputError
+
+__all__ = ["Elites", "load_elites", "merge", "rebin", "reevaluate"]
+
+_LIMIT = 16 << 30
+
+
+class Elites:
+    """Elites of an archive: worlds, objectives, measures (n, 2), and how many simulations each mean is over."""
+
+    def __init__(self, worlds: list, objective: np.ndarray, measures: np.ndarray, sims: int) -> None:
+        self.worlds, self.objective, self.measures, self.sims = worlds, objective, measures, sims
+
+    def __len__(self) -> int:
+        return len(self.worlds)
+
+
+def load_elites(folder: RunFolder, problem: FortressProblem) -> Elites:
+    """A fortress run's archive (``archive.csv`` and ``archive_genomes.jsonl``)."""
+    table = folder / RunFolder.ARCHIVE
+    if not table.is_file():
+        raise RunFolderError(f"{folder.path}: this run has no archive (run it with the map_elites optimiser)")
+    rows = list(csv.DictReader(io.StringIO(read_text(table, _LIMIT, what="CSV"), newline="")))
+    lines = read_text(folder / RunFolder.GENOMES, _LIMIT, what="JSON lines").splitlines()
+    if len(lines) != len(rows):
+        raise RunFolderError(f"{folder.path}: {len(lines)} genomes for {len(rows)} archive rows; resume the run to rewrite both")
+    names = problem.measure_names
+    missing = [name for name in ("objective", *names) if rows and name not in rows[0]]
+    if missing:
+        raise InputError(f"{table}: no column {', '.join(missing)} (not a fortress archive with these measures)")
+    worlds = [
+        problem.genome_from_json(parse_json(line, f"{folder / RunFolder.GENOMES}, line {i + 1}")) for i, line in enumerate(lines)
+    ]
+    objective = np.array([float(r["objective"]) for r in rows])
+    measures = np.array([[float(r[name]) for name in names] for r in rows]).reshape(len(rows), len(names))
+    return Elites(worlds, objective, measures, problem.settings.sims)
+
+
+def _cells(problem: FortressProblem, measures: np.ndarray, cells: Sequence[int]) -> np.ndarray:
+    """Cell coordinates as pyribs' grid (and, with the stretched ranges, as the original) bins them."""
+    coords = []
+    for k, (low, high) in enumerate(problem.measure_ranges):
+        fraction = (measures[:, k] - low) / (high - low)
+        coords.append(np.clip(np.floor(fraction * cells[k] + 1e-9).astype(np.int64), 0, cells[k] - 1))
+    return np.ravel_multi_index(coords, tuple(cells))
+
+
+def rebin(problem: FortressProblem, elites: Elites, cells: Sequence[int]) -> Elites:
+    """A fresh archive: each elite placed by its measures, a cell keeping the best (the first of equals)."""
+    where = _cells(problem, elites.measures, cells)
+    best: dict[int, int] = {}
+    for i, cell in enumerate(where):
+        if cell not in best or elites.objective[i] > elites.objective[best[cell]]:
+            best[int(cell)] = i
+    keep = sorted(best.values())
+    return Elites([elites.worlds[i] for i in keep], elites.objective[keep], elites.measures[keep], elites.sims)
+
+
+def merge(problem: FortressProblem, archives: Sequence[Elites], cells: Sequence[int]) -> Elites:
+    """The best elite of each cell over several archives."""
+    worlds = [w for a in archives for w in a.worlds]
+    objective = np.concatenate([a.objective for a in archives])
+    measures = np.concatenate([a.measures for a in archives])
+    return rebin(problem, Elites(worlds, objective, measures, archives[0].sims), cells)
+
+
+def resimulate(
+    problem: FortressProblem, elites: Elites, seeds: Sequence[int], steps: int, chunk: int,
+    progress: Callable[[int], None] = lambda n: None,
+) -> Elites:  # fmt: skip
+    """The elites re-simulated under ``seeds`` for ``steps`` ticks, the results averaged with their stored ones."""
+    fitness = np.zeros(len(elites))
+    entities = np.zeros(len(elites))
+    for start in range(0, len(elites), chunk):
+        part = elites.worlds[start : start + chunk]
+        outcome = simulate(part, seeds, steps, problem.rules)
+        fitness[start : start + len(part)] = outcome.fitness.mean(axis=1)
+        entities[start : start + len(part)] = np.minimum(outcome.entities, POPULATION_CAP).mean(axis=1)
+        progress(len(part))
+    old, new = elites.sims, len(seeds)
+    measures = elites.measures.copy()
+    measures[:, 0] = (measures[:, 0] * old + entities * new) / (old + new)
+    objective = (elites.objective * old + fitness * new) / (old + new)
+    return Elites(elites.worlds, objective, measures, old + new)
+
+
+def _row(name: str, elites: Elites) -> dict[str, Any]:
+    return {
+        "name": name,
+        "qd_score": float(elites.objective.sum()),
+        "cells": len(elites),
+        "mean_fitness": float(elites.objective.mean()) if len(elites) else 0.0,
+        "best": float(elites.objective.max()) if len(elites) else 0.0,
+    }
+
+
+def reevaluate(
+    folders: Sequence[RunFolder], experiment: Any, *, longer: int = 5, chunk: int = 256, progress: bool = True
+) -> dict[str, Any]:
+    """The table: each run's archive, their merge, and the merge re-evaluated on new seeds and on new seeds with
+    ``longer`` times longer episodes."""
+    problem = experiment.make_problem()
+    if not isinstance(problem, FortressProblem):
+        raise InputError(f"{folders[0].path}: not a fortress run (its domain is {experiment.domain})")
+    cells = tuple(getattr(experiment.optimizer_settings, "cells", (100, 100)))
+    archives = [load_elites(folder, problem) for folder in folders]
+    rows = [_row(f"run {folder.path.name}", a) for folder, a in zip(folders, archives)]
+    merged = merge(problem, archives, cells) if len(archives) > 1 else archives[0]
+    if len(archives) > 1:
+        rows.append(_row(f"merged ({len(archives)} runs)", merged))
+    settings = problem.settings
+    new_seeds = list(range(settings.sim_seed + settings.sims, settings.sim_seed + 2 * settings.sims))
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=2 * len(merged), desc="re-simulating elites", unit="world")
+    step = (lambda n: bar.update(n)) if bar is not None else (lambda n: None)
+    try:
+        for name, steps in (("new seeds", settings.steps), (f"new seeds, {longer}x longer", settings.steps * longer)):
+            again = resimulate(problem, merged, new_seeds, steps, chunk, step)
+            rows.append(_row(f"{name} ({steps} ticks)", rebin(problem, again, cells)))
+    finally:
+        if bar is not None:
+            bar.close()
+    return {"rows": rows, "cells": list(cells), "seeds": new_seeds, "steps": settings.steps}
