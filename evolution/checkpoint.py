@@ -6,7 +6,9 @@ could run any command. :func:`loads` reads only what checkpoints are made of:
 
 - **Objects** are made without calling their constructors: a class is admitted only if it belongs to the engine or
   to the optimiser libraries (``evolution``, ``ribs``, ``cma``) and creates its instances with the plain
-  ``object.__new__`` (or ``dict.__new__``/``list.__new__``), or if it is one of a few named numpy and built-in types.
+  ``object.__new__`` (or ``dict.__new__``/``list.__new__``), or if it is one of a few named numpy and built-in types,
+  or if it is a plain dataclass of a built-in domain (``structgen.domains``: genomes such as a fortress world) with
+  no ``__setstate__`` of its own, so that restoring it only sets its fields.
 - **Calls** (the pickle REDUCE instruction) are allowed for six numpy functions only, those that rebuild arrays,
   scalars, dtypes and random generators.
 - The instructions of old pickle protocols that call constructors, and the extension registry, are refused; so are
@@ -88,6 +90,15 @@ _REFERENCES = {("cma.evolution_strategy", "_pass"), ("cma.options_parameters", "
 _ARRAY_MODULES = frozenset({"numpy", "array_api_compat.numpy"})
 
 
+def _domain_dataclass(module: str, found: type) -> bool:
+    return (
+        module.startswith("structgen.domains.")
+        and hasattr(found, "__dataclass_fields__")
+        and found.__new__ is object.__new__
+        and not hasattr(found, "__setstate__")
+    )
+
+
 class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions can be checked one by one
     dispatch = pickle._Unpickler.dispatch.copy()
 
@@ -102,6 +113,8 @@ class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions
             if issubclass(found, np.generic):  # numpy scalar types (int32, float64, ...)
                 return found
             if module.split(".")[0] in _PACKAGES and found.__new__ in _PLAIN_NEW:
+                return found
+            if _domain_dataclass(module, found):
                 return found
         raise UnsafeCheckpointError(f"it names {module}.{name}, which a checkpoint never holds")
 

@@ -99,3 +99,12 @@ def test_checkpoints_of_structgen_0_1_load(run):
     # Every instruction that names something is one the loader had to admit: none of them is a call it refused.
     assert any(op.name in ("GLOBAL", "STACK_GLOBAL") for op, _, _ in pickletools.genops(data))
     assert np.isfinite(checkpoint.loads(data)["state"].best.objective)
+
+
+def test_a_domain_genome_dataclass_loads_but_cannot_be_called():
+    from structgen.domains.fortress.formats import EntityClass, FortressFile
+
+    world = FortressFile({"A": EntityClass("A", ["idle", "move"], {"0-1": "none"})}, [("A", 2, 3)], "pos")
+    assert checkpoint.loads(pickle.dumps(world)) == world
+    with pytest.raises(checkpoint.UnsafeCheckpointError, match="it asks to call"):
+        checkpoint.loads(global_call("structgen.domains.fortress.formats", "EntityClass", "A", [], {}))

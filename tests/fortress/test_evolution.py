@@ -1,0 +1,185 @@
+"""The fortress through the generic run machinery: the original's MAP-Elites in miniature (its binning, 9 mutants and
+1 random world a generation), a QD run killed with SIGKILL that resumes to the same archive, the robustness table,
+and the domain's commands."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from ribs.archives import GridArchive
+
+from evolution.optimizers import MapElitesSettings
+from evolution.qd import map_elites
+from structgen.domains.fortress.engine import simulate
+from structgen.domains.fortress.formats import read_fortress_file
+from structgen.domains.fortress.problem import FortressProblem, FortressSettings
+from structgen.domains.fortress.world import random_world
+from tests.fortress.test_engine import DATA, needs_data
+from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
+
+TINY = """\
+[run]
+generations = 6
+seed = 3
+workers = 0
+
+[problem]
+name = "fortress-v0"
+steps = 15
+sims = 2
+
+[optimizer]
+name = "map_elites"
+cells = [100, 100]
+batch_size = 5
+immigrants = 1
+variation = "problem"
+"""
+
+
+def test_cells_bin_measures_as_the_original_does():
+    problem = FortressProblem()
+    archive = GridArchive(solution_dim=1, dims=(100, 100), ranges=problem.measure_ranges)
+    rng = np.random.default_rng(0)
+    entities = np.concatenate([rng.uniform(0, 156, 300), [0, 156, 78, 1.56]])
+    nodes = np.concatenate([rng.integers(15, 1411, 300), [15, 1410, 700, 29]]).astype(float)
+    got = archive.int_to_grid_index(archive.index_of(np.stack([entities, nodes], axis=1)))
+    original_x = [int(v / 156 * 99) for v in entities]
+    original_y = [int((v - 15) / 1395 * 99) for v in nodes]
+    assert got[:, 0].tolist() == original_x and got[:, 1].tolist() == original_y
+
+
+def test_evaluation_is_the_mean_over_the_simulations():
+    rng = np.random.default_rng(2)
+    worlds = [random_world(rng) for _ in range(3)]
+    problem = FortressProblem(FortressSettings(steps=30, sims=3, sim_seed=4))
+    evaluation = problem.evaluate(worlds, np.zeros(3, dtype=np.int64))
+    outcome_ = simulate(worlds, [4, 5, 6], 30)
+    assert np.allclose(evaluation.objective, outcome_.fitness.mean(axis=1))
+    assert np.allclose(evaluation.measures[:, 0], np.minimum(outcome_.entities, 156).mean(axis=1))
+    assert evaluation.measures[:, 1].tolist() == [sum(len(e.nodes) for e in w.classes.values()) for w in worlds]
+    again = problem.evaluate(worlds, np.ones(3, dtype=np.int64))  # the engine's seeds do not matter
+    assert np.array_equal(again.objective, evaluation.objective)
+
+
+def test_a_generation_is_mutants_then_immigrants():
+    class Counting(FortressProblem):
+        made = 0
+
+        def initial_genomes(self, count, rng):
+            self.made += count
+            return super().initial_genomes(count, rng)
+
+    problem = Counting(FortressSettings(steps=5, sims=1))
+    optimizer = map_elites(problem, MapElitesSettings(cells=(100, 100), batch_size=10, immigrants=1, variation="problem"), 0)
+    first = optimizer.ask()
+    assert len(first) == 10 and problem.made == 10
+    evaluation = problem.evaluate(first, np.zeros(10, dtype=np.int64))
+    optimizer.tell(evaluation.objective, evaluation.measures, **evaluation.fields)
+    second = optimizer.ask()
+    assert len(second) == 10 and problem.made == 11
+
+
+def test_genomes_round_trip_through_json():
+    problem = FortressProblem()
+    world = random_world(np.random.default_rng(9))
+    again = problem.genome_from_json(json.loads(json.dumps(problem.genome_to_json(world))))
+    assert again.classes == world.classes and again.initial == world.initial
+
+
+def test_bad_settings_name_the_setting():
+    with pytest.raises(ValueError, match="problem measures"):
+        FortressSettings(measures="entities_edges")
+    with pytest.raises(ValueError, match="problem next_to"):
+        FortressSettings(next_to="hex")
+    with pytest.raises(ValueError, match="problem steps"):
+        FortressSettings(steps=0)
+    with pytest.raises(ValueError, match="immigrants"):
+        MapElitesSettings(batch_size=3, immigrants=4)
+
+
+@pytest.mark.slow
+def test_a_killed_fortress_run_resumes_to_the_same_archive(tmp_path, capsys):
+    config = tmp_path / "fortress.toml"
+    config.write_text(TINY)
+    whole = tmp_path / "whole"
+    code, out, err = cli(capsys, "evolve", config, "--run-dir", whole)
+    assert code == 0, err
+    rows = [json.loads(line) for line in (whole / "metrics.jsonl").read_text().splitlines()]
+    assert [r["evaluations"] for r in rows] == [5, 10, 15, 20, 25, 30]
+    assert rows[-1]["num_elites"] >= 5 and rows[-1]["qd_score"] > 0
+    assert (whole / "best" / "world.txt").is_file() and (whole / "best" / "world.png").read_bytes()[:4] == b"\x89PNG"
+    genomes = (whole / "archive_genomes.jsonl").read_text().splitlines()
+    assert len(genomes) == rows[-1]["num_elites"]
+
+    run = tmp_path / "killed"
+    kill_during_evolve(config, run, 3, limit=300)
+    code, out, err = cli(capsys, "resume", run)
+    assert code == 0, err
+    assert outcome(run) == outcome(whole)
+    assert (run / "archive_genomes.jsonl").read_text() == (whole / "archive_genomes.jsonl").read_text()
+
+    # The robustness table: the archive as evolved, merged with itself, and re-evaluated.
+    code, out, err = cli(capsys, "fortress", "robustness", whole, run, "--json", "-o", tmp_path / "table.json")
+    assert code == 0, err
+    table = json.loads(out)
+    names = [row["name"] for row in table["rows"]]
+    assert names[2].startswith("merged (2 runs)") and names[3].startswith("new seeds") and "5x longer" in names[4]
+    assert table["rows"][0]["qd_score"] == pytest.approx(rows[-1]["qd_score"])
+    assert table["rows"][2]["cells"] == table["rows"][0]["cells"]  # the same archive twice
+    assert json.loads((tmp_path / "table.json").read_text()) == table
+
+    # Worlds of a run: by folder (best) or by cell.
+    code, out, err = cli(capsys, "fortress", "run", whole, "--steps", "15", "--json")
+    assert code == 0, err
+    index = (whole / "archive.csv").read_text().splitlines()[1].split(",")[0]
+    code, out, err = cli(capsys, "export", whole, "--elite", f"index:{index}", "-o", tmp_path / "elite.txt")
+    assert code == 0, err
+    assert read_fortress_file(tmp_path / "elite.txt").classes
+
+
+@needs_data
+def test_run_prints_the_final_map_and_the_population_of_each_class(capsys):
+    path = DATA / "FORTS" / "LOCK_N_KEY.txt"
+    code, out, err = cli(capsys, "fortress", "run", path, "--steps", "30", "--seed", "2")
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0] == "#" * 15 and lines[7] == "#" * 15
+    assert "stopped after" in lines[8] and lines[9].startswith("population: ")
+    code, out, err = cli(capsys, "fortress", "run", path, "--steps", "30", "--seed", "2", "--json")
+    summary = json.loads(out)
+    world = read_fortress_file(path)
+    final = simulate([world], [2], 30, record=True).traces[0][0].entities[-1]
+    assert sum(summary["populations"].values()) == len(final) == summary["entities"]
+
+
+@needs_data
+def test_replay_and_show_write_their_pictures(tmp_path, capsys):
+    path = DATA / "FORTS" / "HYRULE.txt"
+    gif, strip = tmp_path / "h.gif", tmp_path / "h.png"
+    code, out, err = cli(capsys, "fortress", "replay", path, "--steps", "12", "--every", "4", "--gif", gif, "--strip", strip)
+    assert code == 0, err
+    assert out.count("-- tick") == 4  # 0, 4, 8, 12
+    assert gif.read_bytes()[:6] == b"GIF89a" and strip.read_bytes()[:4] == b"\x89PNG"
+    from PIL import Image
+
+    assert 2 <= Image.open(gif).n_frames <= 13  # Pillow merges ticks where nothing moved into one longer frame
+    picture, populations = tmp_path / "w.png", tmp_path / "p.png"
+    code, out, err = cli(capsys, "fortress", "show", path, "-o", picture, "--populations", populations)
+    assert code == 0, err
+    assert picture.read_bytes()[:4] == b"\x89PNG" and populations.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_bad_worlds_are_refused_with_their_place(tmp_path, capsys):
+    code, out, err = cli(capsys, "fortress", "run", tmp_path / "missing.txt")
+    assert code != 0 and "missing.txt" in err
+    bad = tmp_path / "bad.txt"
+    bad.write_text("A\n-- NODES --\n0: add Q\n-- EDGES --\n\n-- INIT ENT POS --\nA-[2, 2]\n")
+    code, out, err = cli(capsys, "fortress", "run", bad)
+    assert code != 0 and "bad.txt" in err and "add Q" in err
+    code, out, err = cli(capsys, "fortress", "run")
+    assert code != 0 and "--random" in err
+    code, out, err = cli(capsys, "fortress", "run", "--random", "3", "--steps", "5")
+    assert code == 0, err
