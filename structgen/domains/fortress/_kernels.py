@@ -112,6 +112,7 @@ def run(
     cause,  # (B,) RUNNING or why the simulation stopped
     last_event,  # (B,) tick of the last logged event (for the inactivity stop)
     visited,  # (B, V) visit flags of nodes and edges
+    updates,  # (B,) entity updates made
     width,
     height,
     cap,  # the population cap (stop when above it)
@@ -146,6 +147,7 @@ def run(
                 if not alive[b, i]:
                     continue
                 k = cls[b, i]
+                updates[b] += 1
                 age[b, i] += 1
                 here = node[b, i]
                 act = node_act[w, k, here]

@@ -121,27 +121,58 @@ class Tables:
     initial: list[list[tuple[int, int, int]]]
 
 
-def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> tuple[list, list]:
-    nodes = []
+@dataclass(frozen=True)
+class _CompiledClass:
+    """One class as arrays: its nodes' actions and arguments, and its live edges in the order they are tried
+    (grouped by source node: ``starts[n]:starts[n + 1]``), with their index in the class's file order."""
+
+    act: np.ndarray
+    arg: np.ndarray
+    starts: np.ndarray
+    edges: np.ndarray  # (live edges, 5): condition, argument, number, destination, file index
+    n_edges: int
+
+
+# Worlds in a QD run share most classes with their parents: compiled classes are kept, keyed by their content and
+# the world's class order (arguments are class indices).
+_CACHE: dict[tuple, _CompiledClass] = {}
+_CACHE_SIZE = 8192
+
+
+def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> _CompiledClass:
+    key = (tuple(index), entity.char, tuple(entity.nodes), tuple(entity.edges.items()))
+    found = _CACHE.get(key)
+    if found is not None:
+        return found
+    act = np.zeros(len(entity.nodes), dtype=np.int8)
+    arg = np.full(len(entity.nodes), -1, dtype=np.int16)
     for n, text in enumerate(entity.nodes):
         name, _, argument = text.partition(" ")
         target = index.get(argument, -1) if argument else -1
         if name in ("add", "transform") and target < 0:
             # The original fails with a KeyError the first time such a node acts.
             raise InputError(f"{where}: class {entity.char!r} node {n} ({text!r}) makes a class the world does not define")
-        nodes.append((_ACTION_CODES[name], target))
-    edges = []
+        act[n], arg[n] = _ACTION_CODES[name], target
+    rows = []
     for q, (src, dst, name, arguments) in enumerate(entity.edge_list()):
-        target, number = -1, 0
+        if src >= len(entity.nodes):  # never taken, but counted in the class's total
+            continue
+        target, number = -1, 1 if name == "nextTo" else 0
         for argument in arguments:
             if argument.isdigit():
                 number = int(argument)
             else:
                 target = index.get(argument, -1)
-        if name == "nextTo":
-            number = 1
-        edges.append((src, dst, _CONDITION_CODES[name], target, number, q))
-    return nodes, edges
+        rows.append((src, -_CONDITION_CODES[name], q, _CONDITION_CODES[name], target, number, dst))
+    table = np.array(rows, dtype=np.int64).reshape(-1, 7)
+    # Out of each node: highest priority first, file order within a priority.
+    table = table[np.lexsort((table[:, 2], table[:, 1], table[:, 0]))]
+    starts = np.searchsorted(table[:, 0], np.arange(len(entity.nodes) + 1))
+    compiled = _CompiledClass(act, arg, starts, table[:, [3, 4, 5, 6, 2]], len(entity.edges))
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[key] = compiled
+    return compiled
 
 
 def compile_worlds(worlds: Sequence[FortressFile], where: Sequence[str] | None = None) -> Tables:
@@ -154,41 +185,32 @@ def compile_worlds(worlds: Sequence[FortressFile], where: Sequence[str] | None =
         compiled.append([_compile_class(entity, index, label) for entity in world.classes.values()])
     n_worlds = len(worlds)
     k_max = max((len(c) for c in compiled), default=1) or 1
-    n_max = max((len(nodes) for c in compiled for nodes, _ in c), default=1) or 1
-    e_total = sum(len(edges) for c in compiled for _, edges in c)
+    n_max = max((len(c.act) for classes in compiled for c in classes), default=1) or 1
+    e_total = sum(len(c.edges) for classes in compiled for c in classes)
     node_act = np.zeros((n_worlds, k_max, n_max), dtype=np.int8)
     node_arg = np.full((n_worlds, k_max, n_max), -1, dtype=np.int16)
     node_vid = np.zeros((n_worlds, k_max), dtype=np.int32)
     edge_start = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
     edge_stop = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
-    edge_cond = np.zeros(max(e_total, 1), dtype=np.int8)
-    edge_arg = np.full(max(e_total, 1), -1, dtype=np.int16)
-    edge_int = np.ones(max(e_total, 1), dtype=np.int32)
-    edge_dst = np.zeros(max(e_total, 1), dtype=np.int16)
+    edges = np.zeros((max(e_total, 1), 5), dtype=np.int64)
     edge_vid = np.zeros(max(e_total, 1), dtype=np.int32)
     n_nodes = np.zeros(n_worlds, dtype=np.int64)
     n_edges = np.zeros(n_worlds, dtype=np.int64)
     at = 0
     for w, classes in enumerate(compiled):
-        total_nodes = sum(len(nodes) for nodes, _ in classes)
+        total_nodes = sum(len(c.act) for c in classes)
         node_offset, edge_offset = 0, total_nodes
-        for k, (nodes, edges) in enumerate(classes):
+        for k, c in enumerate(classes):
+            size, live = len(c.act), len(c.edges)
             node_vid[w, k] = node_offset
-            for n, (act, target) in enumerate(nodes):
-                node_act[w, k, n], node_arg[w, k, n] = act, target
-            # Edges out of each node, highest priority first, file order within a priority; edges from a node the
-            # class does not have can never be taken but still count in the class's total.
-            live = sorted((e for e in edges if e[0] < len(nodes)), key=lambda e: (e[0], -e[2], e[5]))
-            for n in range(len(nodes)):
-                edge_start[w, k, n] = at
-                while live and live[0][0] == n:
-                    src, dst, cond, target, number, q = live.pop(0)
-                    edge_cond[at], edge_arg[at], edge_int[at] = cond, target, number
-                    edge_dst[at], edge_vid[at] = dst, edge_offset + q
-                    at += 1
-                edge_stop[w, k, n] = at
-            node_offset += len(nodes)
-            edge_offset += len(edges)
+            node_act[w, k, :size], node_arg[w, k, :size] = c.act, c.arg
+            edge_start[w, k, :size] = at + c.starts[:-1]
+            edge_stop[w, k, :size] = at + c.starts[1:]
+            edges[at : at + live] = c.edges
+            edge_vid[at : at + live] = edge_offset + c.edges[:, 4]
+            at += live
+            node_offset += size
+            edge_offset += c.n_edges
         n_nodes[w] = total_nodes
         n_edges[w] = edge_offset - total_nodes
     initial = []
@@ -202,10 +224,10 @@ def compile_worlds(worlds: Sequence[FortressFile], where: Sequence[str] | None =
         node_vid=node_vid,
         edge_start=edge_start,
         edge_stop=edge_stop,
-        edge_cond=edge_cond,
-        edge_arg=edge_arg,
-        edge_int=edge_int,
-        edge_dst=edge_dst,
+        edge_cond=edges[:, 0].astype(np.int8),
+        edge_arg=edges[:, 1].astype(np.int16),
+        edge_int=edges[:, 2].astype(np.int32),
+        edge_dst=edges[:, 3].astype(np.int16),
         edge_vid=edge_vid,
         n_nodes=n_nodes,
         n_edges=n_edges,
@@ -237,7 +259,7 @@ class Outcome:
     """Results of every world under every seed; arrays are ``(worlds, seeds)``.
 
     Attributes:
-        ticks: ticks run. cause: why each stopped (an index into :data:`CAUSES`).
+        ticks: ticks run. updates: entity updates made. cause: why each stopped (an index into :data:`CAUSES`).
         entities: live entities at the end. visited_nodes / visited_edges: distinct nodes and edges visited, summed
             over classes. size: the world's total nodes + edges. fitness: (visited nodes + edges) / size.
         visits: ``(worlds, seeds, V)`` visit flags (nodes of each class in order, then edges of each class in order).
@@ -245,6 +267,7 @@ class Outcome:
     """
 
     ticks: np.ndarray
+    updates: np.ndarray
     cause: np.ndarray
     entities: np.ndarray
     visited_nodes: np.ndarray
@@ -291,6 +314,7 @@ def _state(tables: Tables, worlds_of: np.ndarray, rules: Rules) -> dict[str, np.
         "cause": np.zeros(count, dtype=np.int64),
         "last_event": np.zeros(count, dtype=np.int64),
         "used": np.zeros(count, dtype=np.int64),
+        "updates": np.zeros(count, dtype=np.int64),
         "visited": np.zeros((count, max(int((tables.n_nodes + tables.n_edges).max(initial=0)), 1)), dtype=np.uint8),
     }
     for b, w in enumerate(worlds_of):
@@ -318,7 +342,8 @@ def _run(
         until, worlds_of, tables.node_act, tables.node_arg, tables.node_vid, tables.edge_start, tables.edge_stop,
         tables.edge_cond, tables.edge_arg, tables.edge_int, tables.edge_dst, tables.edge_vid, draws, stream,
         state["used"], state["cls"], state["ex"], state["ey"], state["node"], state["age"], state["alive"],
-        state["slots"], state["tick"], state["cause"], state["last_event"], state["visited"], WIDTH, HEIGHT,
+        state["slots"], state["tick"], state["cause"], state["last_event"], state["visited"], state["updates"],
+        WIDTH, HEIGHT,
         POPULATION_CAP, rules.inactivity_limit, rules.next_to == "orthogonal",
         -1 if rules.take_reach is None else rules.take_reach, rules.wall_blocks == "any",
     )  # fmt: skip
@@ -357,6 +382,7 @@ def simulate(
     draws = random_streams(seeds, max(steps * POPULATION_CAP, 1))
     count = n_worlds * n_seeds
     ticks = np.zeros(count, dtype=np.int64)
+    updates = np.zeros(count, dtype=np.int64)
     cause = np.zeros(count, dtype=np.int64)
     entities = np.zeros(count, dtype=np.int64)
     visits = np.zeros((count, max(int((tables.n_nodes + tables.n_edges).max(initial=0)), 1)), dtype=np.uint8)
@@ -378,6 +404,7 @@ def simulate(
         else:
             _run(tables, state, worlds_of, draws, stream, steps, rules)
         ticks[rows] = state["tick"]
+        updates[rows] = state["updates"]
         cause[rows] = np.where(state["cause"] == 0, 1, state["cause"])
         entities[rows] = state["alive"].sum(axis=1)
         visits[rows, : state["visited"].shape[1]] = state["visited"]
@@ -391,6 +418,7 @@ def simulate(
     shape = (n_worlds, n_seeds)
     return Outcome(
         ticks=ticks.reshape(shape),
+        updates=updates.reshape(shape),
         cause=cause.reshape(shape),
         entities=entities.reshape(shape),
         visited_nodes=visited_nodes.reshape(shape),

@@ -1,0 +1,109 @@
+"""Amorphous Fortress engine speed, beside the original's measured speed (research notes B8).
+
+Prints a Markdown table:
+
+- fortress-steps/s (one tick of one simulation) and entity updates/s on random QD worlds (the original's random
+  start, as its QD runs draw them), for the note's workload (30 worlds x 5 simulations x 100 ticks) and larger
+  batches, on 1 and 2 numba threads;
+- one MAP-Elites generation of the original's shape (9 mutants + 1 random world, 5 x 100 ticks each, archive of
+  100 x 100), measured over a short run from a random start and from worlds evolved for a while.
+
+The original runs ~103 fortress-steps/s and ~2,500 entity updates/s in one process here, ~50 s per generation.
+
+    python benchmarks/fortress.py [--worlds 30 200] [--threads 1 2] [--generations 200]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import numba
+import numpy as np
+
+from structgen.domains.fortress.engine import simulate
+from structgen.domains.fortress.world import random_world
+
+ORIGINAL = {"steps_per_s": 103, "updates_per_s": 2500, "generation_s": 50}
+
+
+def engine_rows(worlds_counts: list[int], threads: list[int], repeats: int) -> list[str]:
+    rows = []
+    rng = np.random.default_rng(0)
+    pool = [random_world(rng) for _ in range(max(worlds_counts))]
+    simulate(pool[:2], [0], 5)  # compile
+    for count in worlds_counts:
+        for n in threads:
+            numba.set_num_threads(n)
+            best = None
+            for _ in range(repeats):
+                start = time.perf_counter()
+                outcome = simulate(pool[:count], range(5), 100)
+                seconds = time.perf_counter() - start
+                best = seconds if best is None or seconds < best else best
+            steps, updates = int(outcome.ticks.sum()), int(outcome.updates.sum())
+            rows.append(
+                f"| {count} worlds x 5 sims x 100 ticks | {n} | {steps:,} | {best:.3f} | {steps / best:,.0f} | "
+                f"{updates / best:,.0f} | {steps / best / ORIGINAL['steps_per_s']:,.0f}x |"
+            )
+    return rows
+
+
+def generation_rows(generations: int, threads: int) -> list[str]:
+    """Seconds per generation of the original's MAP-Elites, from the engine's own run loop (no files)."""
+    from evolution.optimizers import MapElitesSettings
+    from evolution.qd import map_elites
+    from structgen.domains.fortress.problem import FortressProblem
+
+    numba.set_num_threads(threads)
+    problem = FortressProblem()
+    optimizer = map_elites(problem, MapElitesSettings(cells=(100, 100), batch_size=10, immigrants=1, variation="problem"), 0)
+    rows = []
+    timings: list[float] = []
+    marks = {1, generations // 2, generations}
+    for generation in range(1, generations + 1):
+        start = time.perf_counter()
+        genomes = optimizer.ask()
+        evaluation = problem.evaluate(genomes, np.zeros(len(genomes), dtype=np.int64))
+        optimizer.tell(evaluation.objective, evaluation.measures, **evaluation.fields)
+        timings.append(time.perf_counter() - start)
+        if generation in marks and generation > 1:
+            recent = timings[-min(50, len(timings)) :]
+            mean = float(np.mean(recent))
+            cells = len(optimizer.archive)
+            rows.append(
+                f"| generations {generation - len(recent) + 1}-{generation} ({cells} cells filled) | {threads} | "
+                f"{mean:.3f} s | {mean * 10_000 / 3600:.2f} h | {ORIGINAL['generation_s'] / mean:,.0f}x |"
+            )
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--worlds", type=int, nargs="+", default=[30, 200], help="worlds per batch (default 30 200)")
+    parser.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="numba threads (default 1 2)")
+    parser.add_argument("--repeats", type=int, default=3, help="best of this many runs (default 3)")
+    parser.add_argument("--generations", type=int, default=400, help="MAP-Elites generations to time (default 400)")
+    args = parser.parse_args()
+    print(
+        f"machine: {platform.processor() or platform.machine()}, numba {numba.__version__}, {numba.config.NUMBA_NUM_THREADS} threads"
+    )
+    print()
+    print("| workload | threads | fortress-steps | seconds | fortress-steps/s | entity updates/s | vs original |")
+    print("|---|---|---|---|---|---|---|")
+    print(
+        f"| original (notes B8), 30 worlds x 5 x 100 | 1 | | | {ORIGINAL['steps_per_s']} | {ORIGINAL['updates_per_s']:,} | 1x |"
+    )
+    for row in engine_rows(args.worlds, args.threads, args.repeats):
+        print(row)
+    print()
+    print("| MAP-Elites (9 mutants + 1 random, 5 x 100 ticks) | threads | s per generation | 10,000 generations | vs original |")
+    print("|---|---|---|---|---|")
+    print(f"| original (notes B8) | 1 | {ORIGINAL['generation_s']} s | 139 h | 1x |")
+    for row in generation_rows(args.generations, max(args.threads)):
+        print(row)
+
+
+if __name__ == "__main__":
+    main()
