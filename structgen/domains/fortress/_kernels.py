@@ -162,12 +162,14 @@ def run(
                 elif act == DIE:
                     alive[b, i] = False
                     last_event[b] = t
-                elif act == CLONE:
+                elif act == CLONE or act == ADD:
                     d = _draw(draws, stream, b, used, 4)
                     nx, ny = x + _DX[d], y + _DY[d]
-                    if _valid(nx, ny, width, height) and _first_at(b, nx, ny, ex, ey, alive, slots[b]) < 0:
-                        _spawn(b, k, nx, ny, cls, ex, ey, node, age, alive, slots)
-                    last_event[b] = t  # success and failure are both logged
+                    placed = _valid(nx, ny, width, height) and _first_at(b, nx, ny, ex, ey, alive, slots[b]) < 0
+                    if placed:
+                        _spawn(b, k if act == CLONE else arg, nx, ny, cls, ex, ey, node, age, alive, slots)
+                    if placed or act == CLONE:  # the original logs a failed clone, not a failed add
+                        last_event[b] = t
                 elif act == TAKE:
                     j = _closest(b, i, arg, cls, ex, ey, alive, slots[b])
                     if j >= 0 and (take_reach < 0 or max(abs(ex[b, j] - x), abs(ey[b, j] - y)) <= take_reach):
@@ -203,12 +205,6 @@ def run(
                         elif _valid(nx, ny, width, height):
                             ex[b, i], ey[b, i] = nx, ny
                             last_event[b] = t
-                elif act == ADD:
-                    d = _draw(draws, stream, b, used, 4)
-                    nx, ny = x + _DX[d], y + _DY[d]
-                    if _valid(nx, ny, width, height) and _first_at(b, nx, ny, ex, ey, alive, slots[b]) < 0:
-                        _spawn(b, arg, nx, ny, cls, ex, ey, node, age, alive, slots)
-                        last_event[b] = t
                 elif act == TRANSFORM:
                     _spawn(b, arg, x, y, cls, ex, ey, node, age, alive, slots)
                     alive[b, i] = False
