@@ -166,6 +166,15 @@ def test_replay_and_show_write_their_pictures(tmp_path, capsys):
     from PIL import Image
 
     assert 2 <= Image.open(gif).n_frames <= 13  # Pillow merges ticks where nothing moved into one longer frame
+    code, out, err = cli(capsys, "fortress", "replay", path, "--steps", "12", "--seed", "3", "--json")
+    assert code == 0, err
+    replayed = json.loads(out)
+    world = read_fortress_file(path)
+    outcome_ = simulate([world], [3], 12, record=True)
+    assert replayed["entities"] == [[list(e) for e in tick] for tick in outcome_.traces[0][0].entities]
+    assert {c: set(v["edges"]) for c, v in replayed["visits"].items()} == {
+        c: v["edges"] for c, v in outcome_.visit_sets(0, 0, [world]).items()
+    }
     picture, populations = tmp_path / "w.png", tmp_path / "p.png"
     code, out, err = cli(capsys, "fortress", "show", path, "-o", picture, "--populations", populations)
     assert code == 0, err

@@ -113,9 +113,20 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from structgen.domains.fortress.show import map_text, trace_gif, trace_strip
 
     world, label = load_world(args)
-    trace = _simulate(args, world, label, record=True).traces[0][0]
+    outcome = _simulate(args, world, label, record=True)
+    trace = outcome.traces[0][0]
     chars = list(world.classes)
-    if not args.quiet:
+    if args.json:
+        visits = outcome.visit_sets(0, 0, [world])
+        print(
+            json.dumps(
+                {
+                    "entities": [[list(e) for e in entities] for entities in trace.entities],
+                    "visits": {c: {"nodes": sorted(v["nodes"]), "edges": sorted(v["edges"])} for c, v in visits.items()},
+                }
+            )
+        )
+    elif not args.quiet:
         for t, entities in enumerate(trace.entities):
             if t % args.every == 0 or t == len(trace.entities) - 1:
                 print(f"-- tick {t}: {len(entities)} entities --")
@@ -191,12 +202,19 @@ def _add_replay(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "replay",
         help="print a simulation tick by tick, or write it as an animated GIF or a strip of frames",
-        description="Simulate WORLD and print its map after every --every ticks; --gif writes an animation (one "
-        "frame a tick), --strip a PNG of evenly spaced frames.",
+        description="Simulate WORLD and print its map after every --every ticks (or, with --json, every entity "
+        "of every tick and the nodes and edges visited); --gif writes an animation (one frame a tick), --strip a "
+        "PNG of evenly spaced frames.",
     )
     _world_source(p)
     p.add_argument("--every", type=whole_number(1, 10**6), default=1, metavar="K", help="print every K-th tick (default 1)")
     p.add_argument("--quiet", action="store_true", help="print no maps, only the files written")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object instead of maps: 'entities', per tick (0 = the start) the live entities as "
+        "[class, x, y, node] in creation order, and 'visits', per class the nodes and edges visited",
+    )
     p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animated GIF")
     p.add_argument("--strip", type=output_path, metavar="OUT.png", help="write a PNG strip of frames")
     p.add_argument("--frames", type=whole_number(2, 50), default=6, metavar="N", help="frames in the strip (default 6)")

@@ -58,12 +58,12 @@ def load_elites(folder: RunFolder, problem: FortressProblem) -> Elites:
 
 
 def _cells(problem: FortressProblem, measures: np.ndarray, cells: Sequence[int]) -> np.ndarray:
-    """Cell coordinates as pyribs' grid (and, with the stretched ranges, as the original) bins them."""
-    coords = []
-    for k, (low, high) in enumerate(problem.measure_ranges):
-        fraction = (measures[:, k] - low) / (high - low)
-        coords.append(np.clip(np.floor(fraction * cells[k] + 1e-9).astype(np.int64), 0, cells[k] - 1))
-    return np.ravel_multi_index(coords, tuple(cells))
+    """The cell each elite falls in, as the run's archive bins it."""
+    from ribs.archives import GridArchive
+
+    if len(measures) == 0:
+        return np.zeros(0, dtype=np.int64)
+    return GridArchive(solution_dim=1, dims=tuple(cells), ranges=problem.measure_ranges).index_of(measures)
 
 
 def rebin(problem: FortressProblem, elites: Elites, cells: Sequence[int]) -> Elites:
