@@ -40,6 +40,20 @@ def test_every_shipped_fortress_runs_as_the_reference_does(path):
     assert_matches_reference([read_fortress_file(path)], [0, 7], 100)
 
 
+@needs_data
+def test_the_shipped_entity_files_run_together_as_the_reference_does():
+    # Every class of ENT/ in one world (duck and poke_trainer are both '@': one world each), two of each placed.
+    from structgen.domains.fortress.formats import FortressFile, read_entity_file
+
+    files = sorted((DATA / "ENT").glob("*.txt"))
+    worlds = []
+    for left_out in ("duck.txt", "poke_trainer.txt"):
+        classes = {e.char: e for e in (read_entity_file(f) for f in files if f.name != left_out)}
+        initial = [(c, 1 + (2 * k + j) % 13, 1 + (2 * k + j) // 13) for k, c in enumerate(classes) for j in range(2)]
+        worlds.append(FortressFile(classes=classes, initial=initial, placed_by="pos"))
+    assert_matches_reference(worlds, [0, 1, 2], 100)
+
+
 def test_random_and_mutated_worlds_run_as_the_reference_does():
     rng = np.random.default_rng(11)
     worlds = [random_world(rng) for _ in range(4)]
