@@ -126,9 +126,11 @@ def test_a_killed_fortress_run_resumes_to_the_same_archive(tmp_path, capsys):
     assert code == 0, err
     table = json.loads(out)
     names = [row["name"] for row in table["rows"]]
-    assert names[2].startswith("merged (2 runs)") and names[3].startswith("new seeds") and "5x longer" in names[4]
+    assert names[2] == "merged (2 runs)" and names[5].startswith("merged (2 runs), new seeds (15 ticks)")
+    assert "5x longer (75 ticks)" in names[8] and len(names) == 9
     assert table["rows"][0]["qd_score"] == pytest.approx(rows[-1]["qd_score"])
     assert table["rows"][2]["cells"] == table["rows"][0]["cells"]  # the same archive twice
+    assert table["rows"][3] == {**table["rows"][4], "name": table["rows"][3]["name"]}  # re-evaluation is deterministic
     assert json.loads((tmp_path / "table.json").read_text()) == table
 
     # Worlds of a run: by folder (best) or by cell.
@@ -192,3 +194,16 @@ def test_bad_worlds_are_refused_with_their_place(tmp_path, capsys):
     assert code != 0 and "--random" in err
     code, out, err = cli(capsys, "fortress", "run", "--random", "3", "--steps", "5")
     assert code == 0, err
+
+
+def test_rebinning_keeps_the_best_of_a_cell_and_merging_the_best_of_the_runs():
+    from structgen.domains.fortress.robustness import Elites, merge, rebin
+
+    problem = FortressProblem()
+    measures = np.array([[10.0, 100.0], [10.2, 100.0], [150.0, 1400.0], [10.1, 100.0]])
+    elites = Elites(["a", "b", "c", "d"], np.array([0.2, 0.5, 0.1, 0.5]), measures, 5)
+    fresh = rebin(problem, elites, (100, 100))
+    assert fresh.worlds == ["b", "c"] and fresh.objective.tolist() == [0.5, 0.1]  # d ties b and came later
+    other = Elites(["e"], np.array([0.3]), np.array([[150.0, 1400.0]]), 5)
+    merged = merge(problem, [fresh, other], (100, 100))
+    assert sorted(merged.worlds) == ["b", "e"] and merged.objective.sum() == pytest.approx(0.8)

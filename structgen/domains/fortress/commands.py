@@ -179,9 +179,12 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(report))
     else:
-        print(f"{'archive':<34}{'QD score':>10}{'cells':>8}{'mean fitness':>14}{'best':>8}")
+        width = max(len(row["name"]) for row in report["rows"]) + 2
+        print(f"{'archive':<{width}}{'QD score':>10}{'cells':>8}{'mean fitness':>14}{'best':>8}")
         for row in report["rows"]:
-            print(f"{row['name']:<34}{row['qd_score']:>10.1f}{row['cells']:>8}{row['mean_fitness']:>14.3f}{row['best']:>8.3f}")
+            print(
+                f"{row['name']:<{width}}{row['qd_score']:>10.1f}{row['cells']:>8}{row['mean_fitness']:>14.3f}{row['best']:>8.3f}"
+            )
     return EXIT_OK
 
 
@@ -238,10 +241,11 @@ def _add_robustness(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "robustness",
         help="re-evaluate runs' archives on new seeds and on longer episodes (the paper's robustness table)",
-        description="Merge the archives of one or more fortress MAP-Elites runs (best elite per cell), re-simulate "
-        "every elite on new seeds (as many as the runs used, after them) and on new seeds with --longer times "
-        "longer episodes, average the new results with the stored ones and re-bin them into fresh archives (as the "
-        "original does), and print QD score, cells filled, mean and best fitness of each archive.",
+        description="For one or more fortress MAP-Elites runs: re-simulate every elite of each run on new seeds (as "
+        "many as the run used, after them) and on new seeds with --longer times longer episodes, average the new "
+        "results with the stored ones and re-bin them into a fresh archive per run (as the original does); merge "
+        "the runs' archives (best elite per cell), and print QD score, cells filled, mean and best fitness of "
+        "every archive.",
     )
     p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="fortress run folders with archives (same settings)")
     p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")

@@ -118,29 +118,35 @@ def _row(name: str, elites: Elites) -> dict[str, Any]:
 def reevaluate(
     folders: Sequence[RunFolder], experiment: Any, *, longer: int = 5, chunk: int = 256, progress: bool = True
 ) -> dict[str, Any]:
-    """The table: each run's archive, their merge, and the merge re-evaluated on new seeds and on new seeds with
-    ``longer`` times longer episodes."""
+    """The table: each run's archive and their merge, then the same after each run's elites are re-simulated on new
+    seeds (and on new seeds with ``longer`` times longer episodes) and re-binned into a fresh archive per run, the
+    fresh archives merged: the order the original's cross-evaluation takes for the paper's table."""
     problem = experiment.make_problem()
     if not isinstance(problem, FortressProblem):
         raise InputError(f"{folders[0].path}: not a fortress run (its domain is {experiment.domain})")
     cells = tuple(getattr(experiment.optimizer_settings, "cells", (100, 100)))
     archives = [load_elites(folder, problem) for folder in folders]
-    rows = [_row(f"run {folder.path.name}", a) for folder, a in zip(folders, archives)]
-    merged = merge(problem, archives, cells) if len(archives) > 1 else archives[0]
-    if len(archives) > 1:
-        rows.append(_row(f"merged ({len(archives)} runs)", merged))
+    names = [f"run {folder.path.name}" for folder in folders]
+
+    def summarise(label: str, parts: list[Elites]) -> list[dict[str, Any]]:
+        found = [_row(f"{name}{label}", part) for name, part in zip(names, parts)]
+        if len(parts) > 1:
+            found.append(_row(f"merged ({len(parts)} runs){label}", merge(problem, parts, cells)))
+        return found
+
+    rows = summarise("", archives)
     settings = problem.settings
     new_seeds = list(range(settings.sim_seed + settings.sims, settings.sim_seed + 2 * settings.sims))
     bar = None
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=2 * len(merged), desc="re-simulating elites", unit="world")
+        bar = tqdm(total=2 * sum(len(a) for a in archives), desc="re-simulating elites", unit="world")
     step = (lambda n: bar.update(n)) if bar is not None else (lambda n: None)
     try:
-        for name, steps in (("new seeds", settings.steps), (f"new seeds, {longer}x longer", settings.steps * longer)):
-            again = resimulate(problem, merged, new_seeds, steps, chunk, step)
-            rows.append(_row(f"{name} ({steps} ticks)", rebin(problem, again, cells)))
+        for label, steps in ((", new seeds", settings.steps), (f", new seeds, {longer}x longer", settings.steps * longer)):
+            again = [rebin(problem, resimulate(problem, a, new_seeds, steps, chunk, step), cells) for a in archives]
+            rows += summarise(f"{label} ({steps} ticks)", again)
     finally:
         if bar is not None:
             bar.close()
