@@ -125,8 +125,34 @@ def reevaluate(
     if not isinstance(problem, FortressProblem):
         raise InputError(f"{folders[0].path}: not a fortress run (its domain is {experiment.domain})")
     cells = tuple(getattr(experiment.optimizer_settings, "cells", (100, 100)))
-    archives = [load_elites(folder, problem) for folder in folders]
     names = [f"run {folder.path.name}" for folder in folders]
+    settings = problem.settings
+    new_seeds = list(range(settings.sim_seed + settings.sims, settings.sim_seed + 2 * settings.sims))
+    passes = ((", new seeds", settings.steps), (f", new seeds, {longer}x longer", settings.steps * longer))
+    # One run's worlds in memory at a time (a paper run's archive is ~9,800 worlds, several GB as objects); the
+    # archives are kept as numbers, each elite named by (run, row).
+    evolved: list[Elites] = []
+    again: list[list[Elites]] = [[] for _ in passes]
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        rows = sum(max(len(read_text(f / RunFolder.ARCHIVE, _LIMIT, what="CSV").splitlines()) - 1, 0) for f in folders)
+        bar = tqdm(total=2 * rows, desc="re-simulating elites", unit="world")
+    step = (lambda n: bar.update(n)) if bar is not None else (lambda n: None)
+    try:
+        for r, folder in enumerate(folders):
+            elites = load_elites(folder, problem)
+            for p, (_, steps) in enumerate(passes):
+                found = resimulate(problem, elites, new_seeds, steps, chunk, step)
+                labelled = Elites([(r, i) for i in range(len(found))], found.objective, found.measures, found.sims)
+                again[p].append(rebin(problem, labelled, cells))
+            labels = [(r, i) for i in range(len(elites))]
+            evolved.append(Elites(labels, elites.objective, elites.measures, elites.sims))
+            del elites
+    finally:
+        if bar is not None:
+            bar.close()
 
     def summarise(label: str, parts: list[Elites]) -> list[dict[str, Any]]:
         found = [_row(f"{name}{label}", part) for name, part in zip(names, parts)]
@@ -134,20 +160,7 @@ def reevaluate(
             found.append(_row(f"merged ({len(parts)} runs){label}", merge(problem, parts, cells)))
         return found
 
-    rows = summarise("", archives)
-    settings = problem.settings
-    new_seeds = list(range(settings.sim_seed + settings.sims, settings.sim_seed + 2 * settings.sims))
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=2 * sum(len(a) for a in archives), desc="re-simulating elites", unit="world")
-    step = (lambda n: bar.update(n)) if bar is not None else (lambda n: None)
-    try:
-        for label, steps in ((", new seeds", settings.steps), (f", new seeds, {longer}x longer", settings.steps * longer)):
-            again = [rebin(problem, resimulate(problem, a, new_seeds, steps, chunk, step), cells) for a in archives]
-            rows += summarise(f"{label} ({steps} ticks)", again)
-    finally:
-        if bar is not None:
-            bar.close()
+    rows = summarise("", evolved)
+    for (label, steps), parts in zip(passes, again):
+        rows += summarise(f"{label} ({steps} ticks)", parts)
     return {"rows": rows, "cells": list(cells), "seeds": new_seeds, "steps": settings.steps}
