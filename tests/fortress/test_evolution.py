@@ -207,3 +207,14 @@ def test_rebinning_keeps_the_best_of_a_cell_and_merging_the_best_of_the_runs():
     other = Elites(["e"], np.array([0.3]), np.array([[150.0, 1400.0]]), 5)
     merged = merge(problem, [fresh, other], (100, 100))
     assert sorted(merged.worlds) == ["b", "e"] and merged.objective.sum() == pytest.approx(0.8)
+
+
+def test_the_entropy_measures_start_from_worlds_spread_over_entropy():
+    problem = FortressProblem(FortressSettings(measures="entities_entropy", steps=10, sims=1))
+    assert problem.measure_names == ("entities", "entropy")
+    worlds = problem.initial_genomes(12, np.random.default_rng(0))
+    evaluation = problem.evaluate(worlds, np.zeros(12, dtype=np.int64))
+    entropy = evaluation.measures[:, 1]
+    assert ((0 <= entropy) & (entropy <= 1)).all() and len(set(np.round(entropy, 6))) > 3
+    low, high = problem.measure_ranges[1]
+    assert low == 0 and high == pytest.approx(100 / 99)
