@@ -15,7 +15,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from structgen.domains.fortress.engine import HEIGHT, POPULATION_CAP, WIDTH
+from structgen.domains.fortress.engine import HEIGHT, WIDTH
 from structgen.domains.fortress.formats import EntityClass, FortressFile
 
 __all__ = [
@@ -323,7 +323,3 @@ def fsm_size_entropy(world: FortressFile) -> float:
     _, counts = np.unique(bins, return_counts=True)
     share = counts / counts.sum()
     return float(-(share * np.log(share)).sum() / np.log(n_classes))
-
-
-#: The most entities a simulation ends with that the measure counts (the original's cap).
-ENTITY_RANGE = (0, POPULATION_CAP)
