@@ -338,21 +338,30 @@ class RunFolder:
 
     # -- the quality-diversity archive ----------------------------------------------------------------------------------
     def write_archive(self, archive: Any, problem: Problem) -> None:
-        """``archive.csv`` (index, objective, measures, threshold, fields; sorted by cell index) and the genome of
-        each row in the same order: ``archive_solutions.npy`` for flat genomes, ``archive_genomes.jsonl`` otherwise.
+        """``archive.csv`` (index, objective, measures, the cell's coordinate along each measure as ``cell_<measure>``,
+        threshold, the fields that are not also measures; sorted by cell index) and the genome of each row in the
+        same order: ``archive_solutions.npy`` for flat genomes, ``archive_genomes.jsonl`` otherwise.
 
         The two files are replaced one after the other; a kill in between leaves them from different generations,
         which :meth:`archive_genome` detects (the next checkpoint of a resumed run rewrites both).
         """
         data = archive.data()
         order = np.argsort(data["index"], kind="stable")
-        header = ["index", "objective", *problem.measure_names, "threshold", *problem.field_names]
+        # A field that is also a measure (the structures' height) is written once, as the measure.
+        fields = [name for name in problem.field_names if name not in problem.measure_names]
+        cells = np.asarray(archive.int_to_grid_index(data["index"][order])).reshape(len(order), -1)
+        header = ["index", "objective", *problem.measure_names, *(f"cell_{m}" for m in problem.measure_names)]
+        header += ["threshold", *fields]
         columns = [data["index"][order], data["objective"][order]]
         columns += [data["measures"][order, k] for k in range(len(problem.measure_names))]
-        columns += [data["threshold"][order], *[data[name][order] for name in problem.field_names]]
+        whole = [cells[:, k] for k in range(len(problem.measure_names))]
+        columns += [data["threshold"][order], *[data[name][order] for name in fields]]
         lines = [",".join(header)]
         for r in range(len(order)):
-            lines.append(",".join([repr(int(columns[0][r]))] + [repr(float(c[r])) for c in columns[1:]]))
+            numbers = [repr(float(c[r])) for c in columns[1:]]
+            cell = [repr(int(c[r])) for c in whole]
+            m = len(problem.measure_names)
+            lines.append(",".join([repr(int(columns[0][r])), *numbers[: 1 + m], *cell, *numbers[1 + m :]]))
         solutions = data["solution"][order]
         if problem.flat:
             atomic_write(self / self.SOLUTIONS, _npy_bytes(np.asarray(solutions, dtype=np.float64)))

@@ -119,7 +119,7 @@ def test_run_folder_contents(tmp_path):
     ):
         assert key in row
     lines = (folder / "archive.csv").read_text().splitlines()
-    assert lines[0] == "index,objective,x0,x1,threshold,distance"
+    assert lines[0] == "index,objective,x0,x1,cell_x0,cell_x1,threshold,distance"
     solutions = np.load(folder / "archive_solutions.npy")
     assert len(solutions) == len(lines) - 1 == row["num_elites"]
     first = [float(x) for x in lines[1].split(",")]
@@ -138,8 +138,13 @@ def test_object_genomes_are_written_as_json_beside_a_numbers_only_csv(tmp_path):
     assert set(genome) <= {0, 1} and len(genome) == 16
     assert folder.best_genome(problem) == tuple(genome)  # the problem's own type back, not JSON's list
     table = pandas.read_csv(folder / "archive.csv")
-    assert list(table.columns) == ["index", "objective", "ones_left", "ones_right", "threshold", "ones"]
+    assert list(table.columns) == [
+        "index", "objective", "ones_left", "ones_right", "cell_ones_left", "cell_ones_right", "threshold", "ones",
+    ]  # fmt: skip
     assert all(dtype.kind in "if" for dtype in table.dtypes)
+    # the cell coordinates are the flat index's
+    cells = np.ravel_multi_index((table["cell_ones_left"], table["cell_ones_right"]), (5, 5))
+    assert cells.tolist() == table["index"].tolist()
     genomes = [json.loads(line) for line in (folder / "archive_genomes.jsonl").read_text().splitlines()]
     assert len(genomes) == len(table) and not (folder / "archive_solutions.npy").exists()
     for index, genome, ones in zip(table["index"], genomes, table["ones"]):

@@ -105,6 +105,9 @@ def test_evolve_writes_a_complete_run_folder(tmp_path, capsys, optimizer):
     assert {"config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl", "objective.png", "best"} <= names
     quality_diversity = optimizer in ("map_elites", "cma_mae")
     assert ({"archive.csv", "archive_solutions.npy", "archive.png", "qd.png"} <= names) is quality_diversity
+    if quality_diversity:  # one column per name: height is a measure and a field, written once
+        header = (run / "archive.csv").read_text().splitlines()[0].split(",")
+        assert len(header) == len(set(header)) and header.count("height") == 1 and "cell_height" in header
     rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
     assert [r["generation"] for r in rows] == [1, 2, 3, 4]
     for key in ("evaluations", "best_objective", "mean_objective", "best_integrity", "best_height", "best_complexity", "wall_s"):
