@@ -124,10 +124,9 @@ def run(
     for b in nb.prange(world.shape[0]):
         w = world[b]
         while cause[b] == RUNNING:
-            # The original checks these before each tick, in this order.
-            live = 0
-            for j in range(slots[b]):
-                live += alive[b, j]
+            # The original checks these before each tick, in this order. Between ticks the slots hold only the
+            # living (the dead are dropped at the end of each tick, and placement makes no gaps).
+            live = slots[b]
             if live == 0:
                 cause[b] = EXTINCT
                 break

@@ -70,13 +70,6 @@ def _simulate(args: argparse.Namespace, world: Any, label: str, record: bool = F
     return simulate([world], [args.seed], args.steps, _rules(args), record=record, where=[label])
 
 
-def _populations(world: Any, entities: list) -> dict[str, int]:
-    counts = {c: 0 for c in world.classes}
-    for char, *_ in entities:
-        counts[char] += 1
-    return counts
-
-
 def _save(world: Any, path: Path | None) -> None:
     if path is not None:
         from evolution.files import atomic_write
@@ -92,8 +85,10 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     world, label = load_world(args)
     outcome = _simulate(args, world, label, record=True)
-    final = outcome.traces[0][0].entities[-1]
-    summary = describe(outcome, 0, 0) | {"populations": _populations(world, final), "map": map_text(final)}
+    trace = outcome.traces[0][0]
+    chars = list(world.classes)
+    populations = dict(zip(chars, trace.populations(chars)[-1].tolist()))
+    summary = describe(outcome, 0, 0) | {"populations": populations, "map": map_text(trace.entities[-1])}
     _save(world, args.save)
     if args.json:
         print(json.dumps(summary))

@@ -50,6 +50,7 @@ __all__ = [
     "Rules",
     "Trace",
     "compile_worlds",
+    "placements",
     "simulate",
 ]
 
@@ -119,6 +120,11 @@ class Tables:
     n_nodes: np.ndarray
     n_edges: np.ndarray
     initial: list[list[tuple[int, int, int]]]
+
+    @property
+    def visit_width(self) -> int:
+        """Visit flags a simulation needs: the largest world's nodes + edges (at least 1)."""
+        return max(int((self.n_nodes + self.n_edges).max(initial=0)), 1)
 
 
 @dataclass(frozen=True)
@@ -300,6 +306,18 @@ def random_streams(seeds: Sequence[int], draws: int) -> np.ndarray:
     return np.stack([np.random.default_rng(int(s)).integers(0, 1 << 32, size=draws, dtype=np.uint32) for s in seeds])
 
 
+def placements(initial: Sequence[tuple]) -> list[tuple]:
+    """The initial entities ``(class, x, y)`` that are placed: in order, each unless its tile is already taken (the
+    original places them with its clone, which refuses an occupied tile)."""
+    taken: set[tuple[int, int]] = set()
+    placed = []
+    for entity in initial:
+        if (entity[1], entity[2]) not in taken:
+            taken.add((entity[1], entity[2]))
+            placed.append(entity)
+    return placed
+
+
 def _state(tables: Tables, worlds_of: np.ndarray, rules: Rules) -> dict[str, np.ndarray]:
     count = len(worlds_of)
     state = {
@@ -315,21 +333,16 @@ def _state(tables: Tables, worlds_of: np.ndarray, rules: Rules) -> dict[str, np.
         "last_event": np.zeros(count, dtype=np.int64),
         "used": np.zeros(count, dtype=np.int64),
         "updates": np.zeros(count, dtype=np.int64),
-        "visited": np.zeros((count, max(int((tables.n_nodes + tables.n_edges).max(initial=0)), 1)), dtype=np.uint8),
+        "visited": np.zeros((count, tables.visit_width), dtype=np.uint8),
     }
     for b, w in enumerate(worlds_of):
-        taken = set()
-        k = 0
-        for c, x, y in tables.initial[w]:
-            if (x, y) in taken:  # the original's clone refuses an occupied tile
-                continue
-            taken.add((x, y))
+        placed = placements(tables.initial[w])
+        for k, (c, x, y) in enumerate(placed):
             state["cls"][b, k], state["ex"][b, k], state["ey"][b, k] = c, x, y
             state["alive"][b, k] = True
             if rules.visit_start_nodes:
                 state["visited"][b, tables.node_vid[w, c]] = 1
-            k += 1
-        state["slots"][b] = k
+        state["slots"][b] = len(placed)
     return state
 
 
@@ -385,7 +398,7 @@ def simulate(
     updates = np.zeros(count, dtype=np.int64)
     cause = np.zeros(count, dtype=np.int64)
     entities = np.zeros(count, dtype=np.int64)
-    visits = np.zeros((count, max(int((tables.n_nodes + tables.n_edges).max(initial=0)), 1)), dtype=np.uint8)
+    visits = np.zeros((count, tables.visit_width), dtype=np.uint8)
     traces: list[Trace] = []
     for start in range(0, count, chunk):
         rows = np.arange(start, min(start + chunk, count))
@@ -405,9 +418,10 @@ def simulate(
             _run(tables, state, worlds_of, draws, stream, steps, rules)
         ticks[rows] = state["tick"]
         updates[rows] = state["updates"]
-        cause[rows] = np.where(state["cause"] == 0, 1, state["cause"])
+        # Still running after its last tick: it stopped at the step cap.
+        cause[rows] = np.where(state["cause"] == CAUSES.index("running"), CAUSES.index("steps"), state["cause"])
         entities[rows] = state["alive"].sum(axis=1)
-        visits[rows, : state["visited"].shape[1]] = state["visited"]
+        visits[rows] = state["visited"]
     n_nodes = np.repeat(tables.n_nodes, n_seeds)
     n_edges = np.repeat(tables.n_edges, n_seeds)
     column = np.arange(visits.shape[1])

@@ -10,7 +10,7 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
-from structgen.domains.fortress.engine import HEIGHT, WIDTH, Trace
+from structgen.domains.fortress.engine import HEIGHT, WIDTH, Trace, placements
 from structgen.domains.fortress.formats import FortressFile
 
 __all__ = ["draw_world", "map_image", "map_text", "population_figure", "trace_gif", "trace_strip"]
@@ -104,12 +104,7 @@ def population_figure(trace: Trace, chars: Sequence[str], title: str = "") -> ob
 
 def draw_world(world: FortressFile, path: str | Path) -> Path:
     """A PNG of a world's initial map and the size of each class's machine."""
-    entities = []
-    taken = set()
-    for c, x, y in world.initial:
-        if (x, y) not in taken:
-            taken.add((x, y))
-            entities.append((c, x, y))
+    entities = placements(world.initial)
     chars = list(world.classes)
     figure = new_figure(figsize=(9, 3.2))
     axes = figure.add_subplot(1, 2, 1)

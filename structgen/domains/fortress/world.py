@@ -15,7 +15,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from structgen.domains.fortress.engine import HEIGHT, WIDTH
+from structgen.domains.fortress.engine import HEIGHT, WIDTH, placements
 from structgen.domains.fortress.formats import EntityClass, FortressFile
 
 __all__ = [
@@ -210,15 +210,12 @@ def random_world(
     rng.shuffle(order)
     classes = {c: random_class(c, sizes[i], rng, chars, variation) for i, c in enumerate(order)}
     count = int(rng.integers(1, variation.max_initial + 1))
-    initial: list[tuple[str, int, int]] = []
-    taken = set()
+    drawn = []
     for _ in range(count):
         x, y = int(rng.integers(1, WIDTH - 1)), int(rng.integers(1, HEIGHT - 1))
-        c = _pick(rng, order)
-        if (x, y) not in taken:
-            taken.add((x, y))
-            initial.append((c, x, y))
-    return FortressFile(classes=classes, initial=initial, placed_by="pos")
+        drawn.append((_pick(rng, order), x, y))
+    # Only the placements that succeed are kept, as the original records its initial entities after placing them.
+    return FortressFile(classes=classes, initial=placements(drawn), placed_by="pos")
 
 
 def _harmonic(rng, top: int) -> int:
