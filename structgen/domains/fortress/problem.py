@@ -23,7 +23,7 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.problem import Evaluation, Problem
-from structgen.domains.fortress.engine import POPULATION_CAP, Rules, simulate
+from structgen.domains.fortress.engine import POPULATION_CAP, Outcome, Rules, simulate
 from structgen.domains.fortress.formats import FortressFile, format_fortress, parse_fortress
 from structgen.domains.fortress.world import (
     CHARACTERS,
@@ -138,18 +138,23 @@ class FortressProblem(Problem):
     def seeds(self) -> list[int]:
         return list(range(self.settings.sim_seed, self.settings.sim_seed + self.settings.sims))
 
+    def scores(self, worlds: list[FortressFile], seeds: list[int], steps: int) -> tuple[Outcome, np.ndarray, np.ndarray]:
+        """Simulate the worlds under ``seeds``: the outcome, each world's objective (mean share of its machines
+        visited) and its entities measure (mean of the ends, each capped at 156)."""
+        outcome = simulate(worlds, seeds, steps, self.rules)
+        return outcome, outcome.fitness.mean(axis=1), np.minimum(outcome.entities, POPULATION_CAP).mean(axis=1)
+
     def evaluate(self, genomes: Any, seeds: np.ndarray) -> Evaluation:
         # Every world runs under the same simulation seeds (as the original); the engine's seeds are not needed.
         worlds = list(genomes)
-        outcome = simulate(worlds, self.seeds(), self.settings.steps, self.rules)
+        outcome, objective, entities = self.scores(worlds, self.seeds(), self.settings.steps)
         sizes = np.array([world_size(w) for w in worlds], dtype=np.float64).reshape(-1, 2)
-        entities = np.minimum(outcome.entities, POPULATION_CAP).mean(axis=1)
         if self.settings.measures == "entities_nodes":
             second = sizes[:, 0]
         else:
             second = np.array([fsm_size_entropy(w) for w in worlds])
         return Evaluation(
-            objective=outcome.fitness.mean(axis=1),
+            objective=objective,
             measures=np.stack([entities, second], axis=1),
             fields={
                 "nodes": sizes[:, 0],

@@ -143,6 +143,12 @@ def _sizes_by_total(rng, n_classes: int, per_class: int) -> list[int]:
     return [int(s) for s in sizes]
 
 
+def _entropy(counts: np.ndarray, base: int) -> float:
+    """Shannon entropy of a histogram, in base ``base`` (the number of classes, as the original's measure)."""
+    share = counts[counts > 0] / counts.sum()
+    return float(-(share * np.log(share)).sum() / np.log(base))
+
+
 @lru_cache(maxsize=4)
 def _entropy_table(n_classes: int, n_bins: int) -> dict[int, list[tuple[int, ...]]]:
     """Every way to spread ``n_classes`` classes over as many size bins (as counts, sorted), grouped by the binned
@@ -159,9 +165,7 @@ def _entropy_table(n_classes: int, n_bins: int) -> dict[int, list[tuple[int, ...
 
     table: dict[int, list[tuple[int, ...]]] = {}
     for spread in partitions(n_classes, n_classes):
-        share = np.asarray(spread, dtype=np.float64) / n_classes
-        share = share[share > 0]
-        value = float(-(share * np.log(share)).sum() / np.log(n_classes))
+        value = _entropy(np.asarray(spread), n_classes)
         table.setdefault(int(value * (n_bins - 1)), []).append(spread)
     return table
 
@@ -318,5 +322,4 @@ def fsm_size_entropy(world: FortressFile) -> float:
         return 0.0
     bins = [int((len(e.nodes) - 1 - 1) / (per_class - 1) * (n_classes - 1)) for e in world.classes.values()]
     _, counts = np.unique(bins, return_counts=True)
-    share = counts / counts.sum()
-    return float(-(share * np.log(share)).sum() / np.log(n_classes))
+    return _entropy(counts, n_classes)
