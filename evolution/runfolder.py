@@ -349,19 +349,15 @@ class RunFolder:
         order = np.argsort(data["index"], kind="stable")
         # A field that is also a measure (the structures' height) is written once, as the measure.
         fields = [name for name in problem.field_names if name not in problem.measure_names]
+        measures = problem.measure_names
         cells = np.asarray(archive.int_to_grid_index(data["index"][order])).reshape(len(order), -1)
-        header = ["index", "objective", *problem.measure_names, *(f"cell_{m}" for m in problem.measure_names)]
-        header += ["threshold", *fields]
-        columns = [data["index"][order], data["objective"][order]]
-        columns += [data["measures"][order, k] for k in range(len(problem.measure_names))]
-        whole = [cells[:, k] for k in range(len(problem.measure_names))]
-        columns += [data["threshold"][order], *[data[name][order] for name in fields]]
-        lines = [",".join(header)]
+        columns = [("index", data["index"][order], int), ("objective", data["objective"][order], float)]
+        columns += [(name, data["measures"][order, k], float) for k, name in enumerate(measures)]
+        columns += [(f"cell_{name}", cells[:, k], int) for k, name in enumerate(measures)]
+        columns += [("threshold", data["threshold"][order], float), *[(name, data[name][order], float) for name in fields]]
+        lines = [",".join(name for name, _, _ in columns)]
         for r in range(len(order)):
-            numbers = [repr(float(c[r])) for c in columns[1:]]
-            cell = [repr(int(c[r])) for c in whole]
-            m = len(problem.measure_names)
-            lines.append(",".join([repr(int(columns[0][r])), *numbers[: 1 + m], *cell, *numbers[1 + m :]]))
+            lines.append(",".join(repr(kind(values[r])) for _, values, kind in columns))
         solutions = data["solution"][order]
         if problem.flat:
             atomic_write(self / self.SOLUTIONS, _npy_bytes(np.asarray(solutions, dtype=np.float64)))
@@ -370,8 +366,9 @@ class RunFolder:
             atomic_write(self / self.GENOMES, text)
         atomic_write(self / self.ARCHIVE, "\n".join(lines) + "\n")
 
-    def archive_genome(self, index: int, problem: Problem) -> Any:
-        """The genome of the archive elite in cell ``index`` (the ``index`` column of archive.csv)."""
+    def archive_rows(self) -> list[dict[str, str]]:
+        """The rows of ``archive.csv`` as read (column name -> text), in file order; each names its cell by a
+        whole-number ``index``."""
         path = self / self.ARCHIVE
         if not path.is_file():
             raise RunFolderError(f"{self.path}: this run has no archive (only quality-diversity runs keep one)")
@@ -379,22 +376,21 @@ class RunFolder:
         if not reader.fieldnames or reader.fieldnames[:2] != ["index", "objective"]:
             raise InputFileError(f"{path}: not an archive (its first line should name the columns index, objective, ...)")
         rows = list(reader)
-        cells = []
         for number, row in enumerate(rows, start=2):
             try:
-                cells.append(int(row["index"]))
+                int(row["index"])
             except (KeyError, TypeError, ValueError):
                 raise InputFileError(f"{path}, line {number}: no whole-number 'index' column") from None
-        if index not in cells:
-            known = ", ".join(str(cell) for cell in cells[:10])
-            raise RunFolderError(f"{path}: no elite in cell {index} (cells held: {known}{', ...' if len(rows) > 10 else ''})")
-        position = cells.index(index)
-        if "genome" in rows[position]:  # written by structgen 0.1, which kept object genomes in a CSV column
-            where = f"{path}, line {position + 2}"
-            return self._from_json(where, parse_json(rows[position]["genome"] or "", where), problem)
+        return rows
+
+    def _genome_store(self, rows: list[dict[str, str]], problem: Problem) -> tuple[Path, Any] | None:
+        """Where the rows' genomes are and their raw form (an array of vectors, or JSON lines), checked to hold one
+        per row; None for an archive of structgen 0.1, which kept object genomes in a CSV column."""
+        if rows and "genome" in rows[0]:
+            return None
         if problem.flat:
-            genomes: Any = read_npy(self / self.SOLUTIONS, _MAX_STATE)
             source = self / self.SOLUTIONS
+            genomes: Any = read_npy(source, _MAX_STATE)
             if genomes.ndim != 2:
                 raise InputFileError(f"{source}: expected one genome per row, got shape {genomes.shape}")
         else:
@@ -402,10 +398,35 @@ class RunFolder:
             genomes = read_text(source, _MAX_STATE, what="JSON lines").splitlines()
         if len(genomes) != len(rows):
             raise RunFolderError(
-                f"{source}: holds {len(genomes)} genomes for the {len(rows)} rows of {path.name} (a write was cut "
+                f"{source}: holds {len(genomes)} genomes for the {len(rows)} rows of {self.ARCHIVE} (a write was cut "
                 "short); resume the run to rewrite both"
             )
+        return source, genomes
+
+    def _genome_at(self, rows: list[dict[str, str]], store: tuple[Path, Any] | None, position: int, problem: Problem) -> Any:
+        if store is None:
+            where = f"{self / self.ARCHIVE}, line {position + 2}"
+            return self._from_json(where, parse_json(rows[position]["genome"] or "", where), problem)
+        source, genomes = store
         if problem.flat:
             return self._vector(source, genomes[position], problem)
         where = f"{source}, line {position + 1}"
         return self._from_json(where, parse_json(genomes[position], where), problem)
+
+    def archive_genome(self, index: int, problem: Problem) -> Any:
+        """The genome of the archive elite in cell ``index`` (the ``index`` column of archive.csv)."""
+        rows = self.archive_rows()
+        cells = [int(row["index"]) for row in rows]
+        if index not in cells:
+            known = ", ".join(str(cell) for cell in cells[:10])
+            raise RunFolderError(
+                f"{self / self.ARCHIVE}: no elite in cell {index} (cells held: {known}{', ...' if len(rows) > 10 else ''})"
+            )
+        position = cells.index(index)
+        return self._genome_at(rows, self._genome_store(rows, problem), position, problem)
+
+    def archive_genomes(self, problem: Problem, rows: list[dict[str, str]] | None = None) -> list[Any]:
+        """The genome of every archive elite, in the order of ``rows`` (default: :meth:`archive_rows`)."""
+        rows = self.archive_rows() if rows is None else rows
+        store = self._genome_store(rows, problem)
+        return [self._genome_at(rows, store, position, problem) for position in range(len(rows))]

@@ -1,29 +1,24 @@
-"""The paper's robustness table: a MAP-Elites archive of worlds, merged over runs, re-simulated on new seeds and on
-longer episodes and re-binned into fresh archives.
+"""The paper's robustness table: each run's MAP-Elites archive of worlds re-simulated on new seeds and on longer
+episodes and re-binned into a fresh archive, the runs' archives merged.
 
 As the original's re-evaluation does, an elite's new simulations are averaged with the ones it was stored with (5 +
-5 = 10 simulations) before it is placed again, and a cell keeps the best newcomer. Runs are merged first (the best
-elite of each cell over all of them), which is how the paper reports its QD numbers over 10 seeds.
+5 = 10 simulations) before it is placed again, and a cell keeps the best newcomer. Each run is re-evaluated on its
+own and the results merged afterwards (the best elite of each cell over all runs), which is how the paper reports
+its QD numbers over 10 seeds.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from evolution.files import parse_json, read_text
-from evolution.runfolder import RunFolder, RunFolderError
-from structgen.domains.fortress.engine import POPULATION_CAP, simulate
+from evolution.runfolder import RunFolder
 from structgen.domains.fortress.problem import FortressProblem
 from structgen.errors import InputError
 
 __all__ = ["Elites", "load_elites", "merge", "rebin", "reevaluate"]
-
-_LIMIT = 16 << 30
 
 
 class Elites:
@@ -36,22 +31,15 @@ class Elites:
         return len(self.worlds)
 
 
-def load_elites(folder: RunFolder, problem: FortressProblem) -> Elites:
-    """A fortress run's archive (``archive.csv`` and ``archive_genomes.jsonl``)."""
-    table = folder / RunFolder.ARCHIVE
-    if not table.is_file():
-        raise RunFolderError(f"{folder.path}: this run has no archive (run it with the map_elites optimiser)")
-    rows = list(csv.DictReader(io.StringIO(read_text(table, _LIMIT, what="CSV"), newline="")))
-    lines = read_text(folder / RunFolder.GENOMES, _LIMIT, what="JSON lines").splitlines()
-    if len(lines) != len(rows):
-        raise RunFolderError(f"{folder.path}: {len(lines)} genomes for {len(rows)} archive rows; resume the run to rewrite both")
+def load_elites(folder: RunFolder, problem: FortressProblem, rows: list[dict[str, str]] | None = None) -> Elites:
+    """A fortress run's archive (``rows``: its :meth:`RunFolder.archive_rows`, if already read)."""
+    rows = folder.archive_rows() if rows is None else rows
     names = problem.measure_names
-    missing = [name for name in ("objective", *names) if rows and name not in rows[0]]
+    missing = [name for name in names if rows and name not in rows[0]]
     if missing:
+        table = folder / RunFolder.ARCHIVE
         raise InputError(f"{table}: no column {', '.join(missing)} (not a fortress archive with these measures)")
-    worlds = [
-        problem.genome_from_json(parse_json(line, f"{folder / RunFolder.GENOMES}, line {i + 1}")) for i, line in enumerate(lines)
-    ]
+    worlds = folder.archive_genomes(problem, rows)
     objective = np.array([float(r["objective"]) for r in rows])
     measures = np.array([[float(r[name]) for name in names] for r in rows]).reshape(len(rows), len(names))
     return Elites(worlds, objective, measures, problem.settings.sims)
@@ -94,9 +82,7 @@ def resimulate(
     entities = np.zeros(len(elites))
     for start in range(0, len(elites), chunk):
         part = elites.worlds[start : start + chunk]
-        outcome = simulate(part, seeds, steps, problem.rules)
-        fitness[start : start + len(part)] = outcome.fitness.mean(axis=1)
-        entities[start : start + len(part)] = np.minimum(outcome.entities, POPULATION_CAP).mean(axis=1)
+        _, fitness[start : start + len(part)], entities[start : start + len(part)] = problem.scores(part, seeds, steps)
         progress(len(part))
     old, new = elites.sims, len(seeds)
     measures = elites.measures.copy()
@@ -131,18 +117,18 @@ def reevaluate(
     passes = ((", new seeds", settings.steps), (f", new seeds, {longer}x longer", settings.steps * longer))
     # One run's worlds in memory at a time (a paper run's archive is ~9,800 worlds, several GB as objects); the
     # archives are kept as numbers, each elite named by (run, row).
+    tables = [folder.archive_rows() for folder in folders]
     evolved: list[Elites] = []
     again: list[list[Elites]] = [[] for _ in passes]
     bar = None
     if progress:
         from tqdm import tqdm
 
-        rows = sum(max(len(read_text(f / RunFolder.ARCHIVE, _LIMIT, what="CSV").splitlines()) - 1, 0) for f in folders)
-        bar = tqdm(total=2 * rows, desc="re-simulating elites", unit="world")
+        bar = tqdm(total=2 * sum(len(rows) for rows in tables), desc="re-simulating elites", unit="world")
     step = (lambda n: bar.update(n)) if bar is not None else (lambda n: None)
     try:
-        for r, folder in enumerate(folders):
-            elites = load_elites(folder, problem)
+        for r, (folder, rows) in enumerate(zip(folders, tables)):
+            elites = load_elites(folder, problem, rows)
             for p, (_, steps) in enumerate(passes):
                 found = resimulate(problem, elites, new_seeds, steps, chunk, step)
                 labelled = Elites([(r, i) for i in range(len(found))], found.objective, found.measures, found.sims)
