@@ -30,11 +30,16 @@ __all__ = [
 ]
 
 
-def _positive_int(settings: Any, *names: str) -> None:
+def _whole_numbers(settings: Any, *names: str, low: int) -> None:
     for name in names:
         value = getattr(settings, name)
-        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-            raise ValueError(f"optimizer {name} must be a positive integer, got {value!r}")
+        if not isinstance(value, int) or isinstance(value, bool) or value < low:
+            wanted = "a positive integer" if low == 1 else f"a whole number >= {low}"
+            raise ValueError(f"optimizer {name} must be {wanted}, got {value!r}")
+
+
+def _positive_int(settings: Any, *names: str) -> None:
+    _whole_numbers(settings, *names, low=1)
 
 
 def _in_range(settings: Any, name: str, low: float, high: float, *, low_open: bool = False) -> None:
@@ -102,8 +107,7 @@ class GASettings:
         _in_range(self, "mutation_rate", 0.0, 1.0, low_open=True)
         _in_range(self, "mutation_scale", 0.0, math.inf, low_open=True)
         _in_range(self, "crossover_rate", 0.0, 1.0)
-        if not isinstance(self.initial, int) or isinstance(self.initial, bool) or self.initial < 0:
-            raise ValueError(f"optimizer initial must be a whole number (0: population), got {self.initial!r}")
+        _whole_numbers(self, "initial", low=0)  # 0: population
 
 
 class GeneticAlgorithm(Optimizer):
@@ -247,8 +251,7 @@ class MapElitesSettings:
 
     def __post_init__(self) -> None:
         _positive_int(self, "emitters", "batch_size")
-        if not isinstance(self.immigrants, int) or isinstance(self.immigrants, bool) or not 0 <= self.immigrants:
-            raise ValueError(f"optimizer immigrants must be a whole number >= 0, got {self.immigrants!r}")
+        _whole_numbers(self, "immigrants", low=0)
         if self.immigrants > self.batch_size:
             raise ValueError(f"optimizer immigrants ({self.immigrants}) cannot exceed batch_size ({self.batch_size})")
         _in_range(self, "sigma", 0.0, math.inf, low_open=True)
