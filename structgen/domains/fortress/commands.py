@@ -64,10 +64,11 @@ def load_world(args: argparse.Namespace) -> tuple[Any, str]:
     return read_fortress_file(path), str(path)
 
 
-def _simulate(args: argparse.Namespace, world: Any, label: str, record: bool = False) -> Any:
+def _simulate(args: argparse.Namespace, world: Any, label: str) -> Any:
+    """The world's one simulation under ``--seed`` and ``--steps``, every tick recorded."""
     from structgen.domains.fortress.engine import simulate
 
-    return simulate([world], [args.seed], args.steps, _rules(args), record=record, where=[label])
+    return simulate([world], [args.seed], args.steps, _rules(args), record=True, where=[label])
 
 
 def _save(world: Any, path: Path | None) -> None:
@@ -84,7 +85,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from structgen.domains.fortress.show import map_text
 
     world, label = load_world(args)
-    outcome = _simulate(args, world, label, record=True)
+    outcome = _simulate(args, world, label)
     trace = outcome.traces[0][0]
     chars = list(world.classes)
     populations = dict(zip(chars, trace.populations(chars)[-1].tolist()))
@@ -108,7 +109,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from structgen.domains.fortress.show import map_text, trace_gif, trace_strip
 
     world, label = load_world(args)
-    outcome = _simulate(args, world, label, record=True)
+    outcome = _simulate(args, world, label)
     trace = outcome.traces[0][0]
     chars = list(world.classes)
     if args.json:
@@ -150,7 +151,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     if args.populations is not None:
         if args.populations.suffix.lower() != ".png":
             raise InputError(f"{args.populations}: --populations writes a .png")
-        trace = _simulate(args, world, label, record=True).traces[0][0]
+        trace = _simulate(args, world, label).traces[0][0]
         figure = population_figure(trace, list(world.classes), f"{Path(label).name}: population by class, seed {args.seed}")
         atomic_write(args.populations, figure_png(figure))
         print(f"{args.populations}: population of each class over {len(trace.entities) - 1} ticks")
