@@ -184,11 +184,12 @@ def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> _C
 def compile_worlds(worlds: Sequence[FortressFile], where: Sequence[str] | None = None) -> Tables:
     """The kernel's arrays for these worlds. An ``add`` or ``transform`` of a class a world does not define is an
     :class:`InputError` (the original crashes on it); conditions and targets naming such a class never hold."""
-    compiled = []
+    compiled, initial = [], []
     for w, world in enumerate(worlds):
         index = {char: k for k, char in enumerate(world.classes)}
         label = where[w] if where is not None else f"world {w}"
         compiled.append([_compile_class(entity, index, label) for entity in world.classes.values()])
+        initial.append([(index[c], x, y) for c, x, y in world.initial])
     n_worlds = len(worlds)
     k_max = max((len(c) for c in compiled), default=1) or 1
     n_max = max((len(c.act) for classes in compiled for c in classes), default=1) or 1
@@ -219,10 +220,6 @@ def compile_worlds(worlds: Sequence[FortressFile], where: Sequence[str] | None =
             edge_offset += c.n_edges
         n_nodes[w] = total_nodes
         n_edges[w] = edge_offset - total_nodes
-    initial = []
-    for world in worlds:
-        index = {char: k for k, char in enumerate(world.classes)}
-        initial.append([(index[c], x, y) for c, x, y in world.initial])
     return Tables(
         chars=[list(world.classes) for world in worlds],
         node_act=node_act,
