@@ -10,7 +10,7 @@ through the generic ``structgen export``. This module stays light: it is importe
 from __future__ import annotations
 
 import argparse
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -102,10 +102,15 @@ class DomainCommands:
     """What a domain adds to the command line. Subclass it, override what applies, and name an instance in the
     domain's spec (``commands="mypackage.cli:COMMANDS"``). Handlers raise :class:`InputError` for bad input."""
 
+    #: The domain's verbs: name -> a function adding that verb's parser to ``subparsers``.
+    adders: Mapping[str, Callable[[Any], None]] = {}
+
     def add_verbs(self, subparsers: Any, domain: DomainSpec, only: Collection[str] | None = None) -> None:
         """Add the domain's verbs to ``subparsers`` (all of them, or those named in ``only``, for the top-level
         shortcuts). Each verb's parser sets ``handler`` to a function of the parsed arguments returning the exit
-        code."""
+        code. By default, the verbs of :attr:`adders`; override for anything else."""
+        for name in verbs_wanted(self.adders, only):
+            self.adders[name](subparsers)
 
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         """Options for exporting this domain's files and elites; they appear in ``structgen export --help``, so

@@ -8,13 +8,12 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, verbs_wanted, whole_number
+from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, whole_number
 
 EXIT_OK = 0
 
@@ -243,10 +242,7 @@ def _add_clone(subparsers: Any) -> None:
 
 
 class AutoverseCommands(DomainCommands):
-    def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
-        adders = {"play": _add_play, "search": _add_search, "show": _add_show, "clone": _add_clone}
-        for name in verbs_wanted(adders, only):
-            adders[name](subparsers)
+    adders = {"play": _add_play, "search": _add_search, "show": _add_show, "clone": _add_clone}
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         suffix = output.suffix.lower()

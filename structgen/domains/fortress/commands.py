@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, verbs_wanted, whole_number
+from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, whole_number
 
 EXIT_OK = 0
 
@@ -252,10 +251,7 @@ def _add_robustness(subparsers: Any) -> None:
 
 
 class FortressCommands(DomainCommands):
-    def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
-        adders = {"run": _add_run, "replay": _add_replay, "show": _add_show, "robustness": _add_robustness}
-        for name in verbs_wanted(adders, only):
-            adders[name](subparsers)
+    adders = {"run": _add_run, "replay": _add_replay, "show": _add_show, "robustness": _add_robustness}
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         suffix = output.suffix.lower()

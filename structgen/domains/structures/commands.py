@@ -11,7 +11,7 @@ import argparse
 import json
 import logging
 import time
-from collections.abc import Collection, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,6 @@ from structgen.commands import (
     add_set_option,
     output_path,
     settings_from_args,
-    verbs_wanted,
     whole_number,
 )
 from structgen.structure import Structure
@@ -379,11 +378,7 @@ def _add_render(subparsers: Any) -> None:
 
 
 class StructureCommands(DomainCommands):
-    VERBS = {"grow": _add_grow, "check": _add_check, "render": _add_render, "info": _add_info}
-
-    def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
-        for name in verbs_wanted(self.VERBS, only):
-            self.VERBS[name](subparsers)
+    adders = {"grow": _add_grow, "check": _add_check, "render": _add_render, "info": _add_info}
 
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         _add_mesh_options(parser, "structures: mesh dimensions (mesh formats only; defaults match the physics model)")
