@@ -31,12 +31,20 @@ def _games(rng: np.random.Generator, count: int) -> list[dict]:
     return games
 
 
-@pytest.mark.parametrize("backend", ["torch", "numba"])
-@pytest.mark.parametrize("mechanics", [Mechanics(), Mechanics.original()], ids=["default", "original"])
+@pytest.mark.parametrize(
+    "mechanics, backend",
+    [
+        *((m, b) for m in (Mechanics(), Mechanics.original()) for b in ("torch", "numba")),
+        # torch.compile (the fast GPU path) once: compiling costs about a minute on 2 cores with a cold cache
+        pytest.param(Mechanics(), "torch-compiled", marks=pytest.mark.slow),
+    ],
+    ids=["default-torch", "default-numba", "original-torch", "original-numba", "default-torch-compiled"],
+)
 def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics, backend):
     rng = np.random.default_rng(11)
     games = _games(rng, 12)
-    engine = Engine(games, mechanics=mechanics, backend=backend)
+    compiled = backend == "torch-compiled"
+    engine = Engine(games, mechanics=mechanics, backend="torch" if compiled else backend, compile=compiled)
     state = engine.reset()
     refs = [ref.reset(g) for g in games]
     options = {"force_clear": mechanics.force_clear, "empty_rules_fire": mechanics.empty_rules_fire}
@@ -125,3 +133,8 @@ def test_bad_games_are_refused_with_the_field_named():
     game["map"][0] = 0
     with pytest.raises(InputError, match="g.map: the player channel must hold exactly one cell, holds 0"):
         check_game(game, "g")
+
+
+def test_compiling_the_numba_backend_is_refused():
+    with pytest.raises(ValueError, match="numba backend is compiled already"):
+        Engine(_games(np.random.default_rng(0), 1), backend="numba", compile=True)
