@@ -141,6 +141,7 @@ class StaticsResult:
     """Forces and failures predicted by the static analysis."""
 
     first_forces: np.ndarray  # (J,) joint forces of the intact structure, N (NaN where no static answer: falls)
+    first_loads: np.ndarray  # (J,) the same with the load factors applied, as compared with the break force
     broken: np.ndarray  # (J,) bool
     broken_round: np.ndarray  # (J,) int: the failure round in which a joint broke (-1: intact)
     standing: np.ndarray  # (V,) bool: the vertex is still held up at the end
@@ -290,6 +291,7 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
     broken = np.zeros(2 * n_edges, dtype=bool)
     broken_round = np.full(2 * n_edges, -1)
     first_forces = np.full(2 * n_edges, np.nan)
+    first_loads = np.full(2 * n_edges, np.nan)
     standing = np.zeros(n_vertices, dtype=bool)
     solved: dict[tuple, np.ndarray | None] = {}
     weight_of_cylinder = config.cylinder_mass * config.gravity
@@ -339,7 +341,7 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
                 loads[2 * members + end] = np.hypot(config.statics_load_factor * along, config.statics_shear_factor * across)
             forces[held_joint[hanging]] = loads[held_joint[hanging]] = weight_of_cylinder
         if round_number == 0:
-            first_forces = forces.copy()
+            first_forces, first_loads = forces.copy(), loads.copy()
         overloaded = ~broken & np.nan_to_num(loads > config.break_force)
         falling = np.zeros_like(broken)
         if falling_joints:
@@ -352,7 +354,7 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
         broken_round[newly] = round_number
         broken |= newly
         round_number += 1
-    return StaticsResult(first_forces, broken, broken_round, standing, round_number)
+    return StaticsResult(first_forces, first_loads, broken, broken_round, standing, round_number)
 
 
 def check_statics(structure: Any, config: PhysicsConfig | None = None) -> StabilityReport:

@@ -34,6 +34,10 @@ Growth starts from a single *seed* vertex at the origin ``(0, 0, 0)`` with no ed
    before the step, and ``metadata["growth"]["hit_max_vertices"]`` is set. Memory is thus bounded by
    ``population x (2 * min(iterations, max_extent) + 3) ** 3 x 14`` bytes of grids plus ``max_vertices`` rows of
    network activations per structure.
+6. **Fixed point.** A step that changes nothing (no vertex or edge added or removed) would repeat forever, since a
+   step depends on the state alone: growth stops there, with the same structure any number of further steps would
+   give, and ``metadata["growth"]["reached_fixed_point"]`` is set. ``iterations_run`` counts the steps that changed
+   something, so a large ``iterations`` costs only those.
 
 The result is a :class:`~structgen.structure.Structure` whose vertices are sorted by (x, y, z) and whose edges
 ``(i, j)`` have ``i < j`` and are sorted by ``i``, then ``j``, so equal growth gives equal (``==``) structures.
@@ -73,6 +77,7 @@ __all__ = [
     "NCAConfig",
     "grow",
     "grow_population",
+    "grow_steps",
     "load_weights",
     "n_params",
     "random_weights",
@@ -111,7 +116,18 @@ def grow_population(weights: Any, config: NCAConfig | None = None) -> list[Struc
     config = config or NCAConfig()
     weights = _check_weights(weights, config)
     with torch.no_grad():
-        return _Growth(weights, config).run()
+        return _Growth(weights, config).run()[0]
+
+
+def grow_steps(weights: Any, config: NCAConfig | None = None) -> list[Structure]:
+    """The structure of one NCA after each growth step: the lone seed first, then one structure per step that
+    changed something (growth ends early at a fixed point or at the vertex cap), the last equal to :func:`grow`'s."""
+    config = config or NCAConfig()
+    weights = _check_weights(weights, config)
+    if len(weights) != 1:
+        raise ValueError(f"grow_steps() takes one weight vector, got {len(weights)}")
+    with torch.no_grad():
+        return [frame[0] for frame in _Growth(weights, config).run(every_step=True)]
 
 
 def grow(weights: Any, config: NCAConfig | None = None) -> Structure:
@@ -260,14 +276,23 @@ class _Growth:
         self.active = torch.ones(self.population, dtype=torch.bool)
         self.hit_max_vertices = torch.zeros(self.population, dtype=torch.bool)
         self.hit_max_extent = torch.zeros(self.population, dtype=torch.bool)
+        self.reached_fixed_point = torch.zeros(self.population, dtype=torch.bool)
         self.steps_run = torch.zeros(self.population, dtype=torch.int64)
 
-    def run(self) -> list[Structure]:
+    def run(self, every_step: bool = False) -> list[list[Structure]]:
+        """The structures at the end (one list), or after every step from the lone seed on (one list a step, until
+        every structure has stopped)."""
+        frames = [self._structures()] if every_step else []
         for _ in range(self.config.iterations):
             if not self.active.any():
                 break
             self._step()
-        return self._structures()
+            if every_step and self.active.any():
+                frames.append(self._structures())
+        if every_step:  # the last frame again, now with its final growth metadata (caps hit, fixed point)
+            frames[-1] = self._structures()
+            return frames
+        return [self._structures()]
 
     def _cube_flags(self, per_structure: torch.Tensor) -> torch.Tensor:
         """Broadcast a ``(P,)`` bool to every cell (the padding cube gets False)."""
@@ -337,9 +362,12 @@ class _Growth:
 
         counts = occupied.view(self.population + 1, self.volume).sum(1)[: self.population]
         over = self.active & (counts > self.config.max_vertices)
-        advancing = self.active & ~over
+        changed = (state != self.state).view(1 + N_DIRECTIONS, self.population + 1, self.volume)[:, : self.population]
+        still = self.active & ~changed.any(2).any(0)
+        advancing = self.active & ~over & ~still
         self.hit_max_vertices |= over
-        self.hit_max_extent |= advancing & leaves_box
+        self.reached_fixed_point |= still
+        self.hit_max_extent |= self.active & ~over & leaves_box
         self.steps_run += advancing.long()
         if bool(advancing.all()):
             self.state = state
@@ -375,6 +403,7 @@ class _Growth:
                 "iterations_run": int(self.steps_run[p]),
                 "hit_max_vertices": bool(self.hit_max_vertices[p]),
                 "hit_max_extent": bool(self.hit_max_extent[p]),
+                "reached_fixed_point": bool(self.reached_fixed_point[p]),
             }
             structures.append(Structure._trusted(coords[v0:v1], pairs, {"growth": growth}))
         return structures

@@ -16,12 +16,23 @@ import numpy as np
 from structgen.lattice import OFFSETS, are_neighbours
 from structgen.structure import Structure
 
-__all__ = ["braced", "cantilever", "column", "flat_edge", "random_growth"]
+__all__ = ["braced", "cantilever", "column", "flat_edge", "random_growth", "star_on_five_legs"]
 
 
 def column(n: int) -> Structure:
     """``n`` vertices stacked straight up from the ground, each joined to the next."""
     return Structure([[0, 0, z] for z in range(n)], [[z, z + 1] for z in range(n - 1)], {"sample": f"column({n})"})
+
+
+def star_on_five_legs() -> Structure:
+    """A one-step star grown by random generation-0 weights (seed 0): a vertex one level up on five diagonal legs,
+    with three arms. It stands in PyBullet under both presets, while statics loads one leg 12% past the break force
+    (the load can take several paths; the simulation's contacts share it more evenly). The near miss that the
+    statics+bullet screen's margin exists for."""
+    vertices = [[-1, -1, -1], [-1, -1, 1], [-1, 0, -1], [-1, 0, 1], [-1, 1, -1], [-1, 1, 1], [0, 0, 0], [0, 1, -1]]
+    vertices += [[1, 0, -1], [1, 0, 0]]
+    edges = [[k, 6] for k in range(6)] + [[6, 7], [6, 8], [6, 9]]
+    return Structure(vertices, edges, {"sample": "star_on_five_legs()"})
 
 
 def braced(n: int = 4) -> Structure:

@@ -7,7 +7,8 @@ import pytest
 
 from physics import InputError, PhysicsConfig, check_stability, check_statics
 from physics.statics import _local_stiffness, joint_forces, predict
-from structgen.samples import braced, cantilever, column, flat_edge, random_growth
+from structgen import NCAConfig
+from structgen.samples import braced, cantilever, column, flat_edge, random_growth, star_on_five_legs
 
 FAST = PhysicsConfig.preset("fast")
 W = 9.81  # one unit weight: a 1 kg sphere or cylinder
@@ -175,3 +176,25 @@ def test_progressive_failure_in_a_large_structure_stays_local():
     ends = vertices[edges[broken_edges]]  # (broken, 2, 3)
     assert (ends[:, :, :2] == [12, 12]).all(axis=2).any(axis=1).all()
     assert report.integrity > 0.99 and report.height == 1.0
+
+
+def test_generation_zero_stars_where_statics_and_pybullet_disagree_are_within_the_screen_margin():
+    """The shapes evolution meets first: one-step stars of random weights. Where statics' verdict differs from the
+    simulation's, no joint of the intact star may be loaded past 1.25 times the break force, the default margin of
+    the statics+bullet screen, so that the screen hands it to PyBullet."""
+    from structgen import grow_population
+    from structgen.domains.structures.problem import INIT_SCALE
+    from structgen.nca import n_params
+
+    config = NCAConfig(max_vertices=64, iterations=1)
+    weights = np.random.default_rng(0).uniform(-INIT_SCALE, INIT_SCALE, size=(40, n_params(config)))
+    stars = [s for s in grow_population(weights, config) if s.n_vertices > 1][:10] + [star_on_five_legs()]
+    verdicts = []
+    for star in stars:
+        predicted, simulated = check_statics(star, FAST), check_stability(star, FAST)
+        verdicts.append((predicted.intact, simulated.intact))
+        if predicted.intact != simulated.intact:
+            loads = predict(star, FAST, rounds=0).first_loads
+            assert not np.isnan(loads).any() and loads.max() <= 1.25 * FAST.break_force
+    assert verdicts[-1] == (False, True)  # the known near miss
+    assert sum(p == s for p, s in verdicts) >= len(verdicts) - 1

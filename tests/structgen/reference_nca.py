@@ -31,7 +31,7 @@ def reference_grow(weights: np.ndarray, config: NCAConfig) -> Structure:
     seed = (0, 0, 0)
     vertices = {seed}
     edges: set[frozenset] = set()
-    steps_run, hit_vertices, hit_extent = 0, False, False
+    steps_run, hit_vertices, hit_extent, fixed_point = 0, False, False, False
 
     for _ in range(config.iterations):
         wishes = {}
@@ -55,8 +55,11 @@ def reference_grow(weights: np.ndarray, config: NCAConfig) -> Structure:
         if len(new_vertices) > config.max_vertices:
             hit_vertices = True
             break
-        vertices, edges = new_vertices, new_edges
         hit_extent |= left_box
+        if new_vertices == vertices and new_edges == edges:  # nothing changed: every later step would repeat this
+            fixed_point = True
+            break
+        vertices, edges = new_vertices, new_edges
         steps_run += 1
 
     ordered = sorted(vertices)
@@ -73,5 +76,6 @@ def reference_grow(weights: np.ndarray, config: NCAConfig) -> Structure:
         "iterations_run": steps_run,
         "hit_max_vertices": hit_vertices,
         "hit_max_extent": hit_extent,
+        "reached_fixed_point": fixed_point,
     }
     return Structure(np.array(ordered).reshape(-1, 3), np.array(pairs).reshape(-1, 2), {"growth": growth})

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from structgen import LocalNCA, NCAConfig, Structure, grow, grow_population, random_weights
 from structgen.lattice import offset_index
-from structgen.nca import load_weights, n_params, save_weights
+from structgen.nca import grow_steps, load_weights, n_params, save_weights
 
 from .reference_nca import reference_grow
 
@@ -221,6 +222,26 @@ def test_max_extent_drops_wishes_beyond_the_box_and_says_so():
     assert capped.metadata["growth"]["hit_max_extent"] is True
     within = grow(constant_wishes(UP), config(iterations=2, max_extent=2))
     assert within.metadata["growth"]["hit_max_extent"] is False
+
+
+def test_growth_stops_at_a_fixed_point_and_says_so():
+    # The column reaches the top of its box after 2 steps; every later step would change nothing.
+    stopped = grow(constant_wishes(UP), config(iterations=10_000, max_extent=2))
+    growth = stopped.metadata["growth"]
+    assert geometry(stopped) == geometry(column(3))
+    assert growth["reached_fixed_point"] is True and growth["iterations_run"] == 2
+    assert grow(constant_wishes(UP), config(iterations=2, max_extent=2)).metadata["growth"]["reached_fixed_point"] is False
+
+
+def test_grow_steps_gives_the_structure_after_every_step_that_changed_something():
+    weights = random_weights(1, seed=4, config=NCAConfig(hidden=8))[0]
+    nca_config = NCAConfig(hidden=8, iterations=4)
+    frames = grow_steps(weights, nca_config)
+    assert geometry(frames[0]) == ([[0, 0, 0]], [])
+    assert frames[-1] == grow(weights, nca_config)
+    for k, frame in enumerate(frames[:-1]):
+        assert geometry(frame) == geometry(grow(weights, replace(nca_config, iterations=k)))
+    assert len(grow_steps(constant_wishes(UP), config(iterations=50, max_extent=3))) == 4  # seed + 3 steps
 
 
 @pytest.mark.parametrize("limit, vertices, steps", [(30, 27, 1), (27, 27, 1), (26, 1, 0)])
