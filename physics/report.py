@@ -33,7 +33,8 @@ def height_of(z: np.ndarray, config: PhysicsConfig) -> float:
 
 @dataclass(frozen=True)
 class BrokenJoint:
-    """A joint that gave way: which one, between which edge and vertex, when, and under what load."""
+    """A joint that gave way: which one, between which edge and vertex, when, and under what load. ``fell`` (static
+    analysis only): the joint was not overloaded, but its piece lost its support or tipped over and falls."""
 
     joint: int
     edge: int
@@ -41,6 +42,7 @@ class BrokenJoint:
     time: float
     force: float
     torque: float
+    fell: bool = False
 
 
 @dataclass(frozen=True)

@@ -144,6 +144,7 @@ class StaticsResult:
     first_loads: np.ndarray  # (J,) the same with the load factors applied, as compared with the break force
     broken: np.ndarray  # (J,) bool
     broken_round: np.ndarray  # (J,) int: the failure round in which a joint broke (-1: intact)
+    fell: np.ndarray  # (J,) bool: broke because its piece fell (lost support or tipped), not overloaded
     standing: np.ndarray  # (V,) bool: the vertex is still held up at the end
     rounds: int
 
@@ -290,6 +291,7 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
     ground = np.isclose(bodies.sphere_positions[:, 2], config.sphere_radius, atol=1e-9)
     broken = np.zeros(2 * n_edges, dtype=bool)
     broken_round = np.full(2 * n_edges, -1)
+    fell = np.zeros(2 * n_edges, dtype=bool)
     first_forces = np.full(2 * n_edges, np.nan)
     first_loads = np.full(2 * n_edges, np.nan)
     standing = np.zeros(n_vertices, dtype=bool)
@@ -351,10 +353,11 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
             break
         if not newly.any():
             break
+        fell |= newly & ~overloaded
         broken_round[newly] = round_number
         broken |= newly
         round_number += 1
-    return StaticsResult(first_forces, first_loads, broken, broken_round, standing, round_number)
+    return StaticsResult(first_forces, first_loads, broken, broken_round, fell, standing, round_number)
 
 
 def check_statics(structure: Any, config: PhysicsConfig | None = None) -> StabilityReport:
@@ -378,6 +381,7 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
             time=float(result.broken_round[j]),
             force=float(forces[j]),
             torque=0.0,
+            fell=bool(result.fell[j]),
         )
         for j in np.flatnonzero(result.broken)
     )

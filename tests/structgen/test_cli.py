@@ -59,6 +59,38 @@ def test_grow_from_saved_weights_and_straight_to_a_mesh(tmp_path, capsys):
     assert scene.metadata["n_vertices"] == expected.n_vertices
 
 
+def test_grow_draws_every_step_as_frames_and_a_gif(tmp_path, capsys):
+    from PIL import Image
+
+    from structgen.nca import grow_steps
+
+    code, _, err = run(
+        capsys,
+        "grow",
+        "--seed",
+        3,
+        "--iterations",
+        3,
+        "-o",
+        tmp_path / "s.json",
+        "--frames",
+        tmp_path / "f",
+        "--gif",
+        tmp_path / "g.gif",
+    )
+    assert code == 0, err
+    steps = len(grow_steps(LocalNCA.random(3, NCAConfig(iterations=3)).get_weights(), NCAConfig(iterations=3)))
+    assert sorted(p.name for p in (tmp_path / "f").iterdir()) == [f"step_{k:03d}.png" for k in range(steps)]
+    with Image.open(tmp_path / "g.gif") as gif:
+        assert gif.n_frames == steps
+    grown = Structure.load(tmp_path / "s.json")
+    assert grown.vertices.tolist() == LocalNCA.random(3, NCAConfig(iterations=3)).grow().vertices.tolist()
+    with pytest.raises(SystemExit) as exit_info:
+        main(["grow", "--seed", "3", "-o", str(tmp_path / "t.json"), "--gif", str(tmp_path / "g.png")])
+    assert exit_info.value.code == 2 and "give a name ending in .gif" in capsys.readouterr().err
+    assert not (tmp_path / "t.json").exists()
+
+
 def test_grow_is_deterministic(tmp_path, capsys):
     run(capsys, "grow", "--seed", 5, "-o", tmp_path / "a.json")
     run(capsys, "grow", "--seed", 5, "-o", tmp_path / "b.json")

@@ -203,9 +203,20 @@ def cmd_grow(args: argparse.Namespace) -> int:
     except ValueError as err:
         raise InputError(str(err)) from None
     started = time.perf_counter()
-    structure = nca.grow()
+    if args.frames or args.gif:
+        from structgen.nca import grow_steps
+        from structgen.render import render_growth
+
+        frames = grow_steps(nca.get_weights(), config)
+        structure = frames[-1]
+        pictures = render_growth(frames, folder=args.frames, gif=args.gif)
+        log.info("drew %d growth steps: %s", len(frames), ", ".join(str(p) for p in pictures[-1:] + pictures[:1]))
+    else:
+        structure = nca.grow()
     log.info("grew %d vertices and %d edges in %.2f s", structure.n_vertices, structure.n_edges, time.perf_counter() - started)
     growth = structure.metadata["growth"]
+    if growth["reached_fixed_point"]:
+        log.info("growth reached a fixed point after %d steps: further steps change nothing", growth["iterations_run"])
     if growth["hit_max_vertices"]:
         log.warning("growth stopped after %d steps at --max-vertices %d", growth["iterations_run"], config.max_vertices)
     if growth["hit_max_extent"]:
@@ -214,6 +225,20 @@ def cmd_grow(args: argparse.Namespace) -> int:
     path = _write(structure, args.output, settings["mesh"])
     print(f"{path}: {_describe(structure)}")
     return EXIT_OK
+
+
+def _frames_folder(text: str) -> Path:
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: --frames names a folder to draw the steps in, and this is a file")
+    return path
+
+
+def _gif_path(text: str) -> Path:
+    path = output_path(text)
+    if path.suffix.lower() != ".gif":
+        raise argparse.ArgumentTypeError(f"{text}: --gif writes an animated GIF; give a name ending in .gif")
+    return path
 
 
 def _run_nca(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
@@ -284,9 +309,17 @@ def cmd_check(args: argparse.Namespace) -> int:
         ]
         for name, value in rows:
             print(f"{name:<11} {value}")
-        for joint in report.broken_joints[:10]:
+        limit = report.config.break_force
+        fell = sum(joint.fell for joint in report.broken_joints)
+        if statics and broken:
+            print(f"{'overloaded':<11} {broken - fell} joints (listed first), then {fell} fell with their pieces")
+        # The overloaded joints are the cause; those that fell with their pieces follow.
+        for joint in sorted(report.broken_joints, key=lambda j: (j.fell, j.time))[:10]:
             when = f"in round {joint.time:.0f}" if statics else f"at {joint.time:.3f} s"
-            print(f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) {when}, {joint.force:.1f} N")
+            load = f"{joint.force:.1f} N"
+            if joint.fell:  # its force was within the limit: say why it counts as broken
+                load += f" (within the {limit:g} N limit: the piece it holds lost its support or tipped, and falls)"
+            print(f"broken      joint {joint.joint} (edge {joint.edge}, vertex {joint.vertex}) {when}, {load}")
         if broken > 10:
             print(f"broken      ... and {broken - 10} more (--json lists all)")
     if args.strict and not report.stands:
@@ -328,6 +361,13 @@ def _add_grow(subparsers: Any) -> None:
     grow.add_argument(
         "-o", "--output", required=True, type=output_path, metavar="OUT", help="output file; format from the suffix"
     )
+    grow.add_argument(
+        "--frames",
+        type=_frames_folder,
+        metavar="DIR",
+        help="also draw the structure after every growth step, from the lone seed on, as DIR/step_000.png, ...",
+    )
+    grow.add_argument("--gif", type=_gif_path, metavar="FILE.gif", help="also write the growth steps as an animated GIF")
     _add_nca_options(grow)
     _add_mesh_options(grow, "mesh dimensions (mesh formats only; defaults match the physics model)")
     add_set_option(grow, "the NCA (nca.*) and the mesh (mesh.*)", "nca.cutoff=0.6 or sphere_radius=0.2")
