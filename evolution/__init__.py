@@ -36,11 +36,13 @@ _HOMES = {
     "RunSettings": "evolution.run",
     "advance": "evolution.run",
     "graceful_interrupt": "evolution.run",
+    "Archive": "evolution.runfolder",
     "Best": "evolution.runfolder",
     "RunFolder": "evolution.runfolder",
     "RunFolderError": "evolution.runfolder",
     "RunState": "evolution.runfolder",
     "library_versions": "evolution.runfolder",
+    "load_archive": "evolution.runfolder",
 }
 
 if TYPE_CHECKING:
@@ -50,9 +52,10 @@ if TYPE_CHECKING:
     from evolution.problem import Evaluation, Problem
     from evolution.registry import DEFAULT_OPTIMIZER, OPTIMIZERS, make_optimizer
     from evolution.run import RunSettings, advance, graceful_interrupt
-    from evolution.runfolder import Best, RunFolder, RunFolderError, RunState, library_versions
+    from evolution.runfolder import Archive, Best, RunFolder, RunFolderError, RunState, library_versions, load_archive
 
 __all__ = [
+    "Archive",
     "Best",
     "DEFAULT_OPTIMIZER",
     "DaskEvaluator",
@@ -73,6 +76,7 @@ __all__ = [
     "atomic_write",
     "graceful_interrupt",
     "library_versions",
+    "load_archive",
     "make_evaluator",
     "make_optimizer",
 ]

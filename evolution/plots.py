@@ -14,7 +14,7 @@ import numpy as np
 from evolution.problem import Problem
 from evolution.runfolder import RunFolder, atomic_write
 
-__all__ = ["figure_png", "new_figure", "write_plots"]
+__all__ = ["compare_figure", "figure_png", "new_figure", "write_plots"]
 
 
 def new_figure(**options: Any) -> Any:
@@ -109,3 +109,24 @@ def write_plots(folder: RunFolder, problem: Problem, archive: Any = None) -> Non
         atomic_write(folder / folder.QD_PLOT, figure_png(qd_figure([r for r in rows if "qd_score" in r], problem)))
     if archive is not None and len(problem.measure_names) in (1, 2):
         atomic_write(folder / folder.ARCHIVE_PLOT, figure_png(archive_figure(archive, problem)))
+
+
+def compare_figure(runs: dict[str, list[dict[str, Any]]]) -> Any:
+    """Several runs' metrics side by side: best objective so far per generation and, when every run is a
+    quality-diversity run, QD score and coverage too. ``runs`` maps a label to its metrics rows."""
+    quality_diversity = all(rows and "qd_score" in rows[-1] for rows in runs.values())
+    panels = [("best_objective", "best objective so far", 1.0)]
+    if quality_diversity:
+        panels += [("qd_score", "QD score", 1.0), ("coverage", "coverage (% of cells)", 100.0)]
+    figure = new_figure(figsize=(8, 2.2 + 2.4 * len(panels)), layout="constrained")
+    axes = figure.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, (key, label, scale) in zip(axes, panels):
+        for name, rows in runs.items():
+            kept = [row for row in rows if key in row]
+            ax.plot([row["generation"] for row in kept], [scale * row[key] for row in kept], lw=1.6, label=name)
+        ax.set_ylabel(label, fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0].set_title(f"{len(runs)} runs compared")
+    axes[0].legend(loc="best", fontsize=8)
+    axes[-1].set_xlabel("generation")
+    return figure

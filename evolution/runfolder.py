@@ -55,7 +55,17 @@ from evolution.files import (
 from evolution.optimizers import Optimizer
 from evolution.problem import Problem
 
-__all__ = ["CHECKPOINT_SCHEMA", "Best", "RunFolder", "RunFolderError", "RunState", "atomic_write", "library_versions"]
+__all__ = [
+    "CHECKPOINT_SCHEMA",
+    "Archive",
+    "Best",
+    "RunFolder",
+    "RunFolderError",
+    "RunState",
+    "atomic_write",
+    "library_versions",
+    "load_archive",
+]
 
 CHECKPOINT_SCHEMA = 1
 #: The key and value in manifest.json that mark a folder as a run folder; --overwrite deletes nothing else.
@@ -92,6 +102,52 @@ class RunState:
     best: Best | None = None
     best_written: int = -1  # generation of the best candidate last written to best/
     extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Archive:
+    """A quality-diversity archive read back from a run folder: one row per elite, sorted by cell.
+
+    ``columns`` maps every column of ``archive.csv`` to an array (``index`` and the ``cell_*`` columns whole
+    numbers, the rest floats); ``measure_names`` are the measures in order; ``genomes`` holds each row's genome (an
+    ``(N, n_params)`` array for flat genomes, a list otherwise), or is None when no problem was given to decode them.
+    """
+
+    columns: dict[str, np.ndarray]
+    measure_names: tuple[str, ...]
+    genomes: Any = None
+
+    def __len__(self) -> int:
+        return len(self.columns["index"])
+
+    @property
+    def objective(self) -> np.ndarray:
+        return self.columns["objective"]
+
+    @property
+    def measures(self) -> np.ndarray:
+        """``(N, k)`` measure values, one column per measure."""
+        return np.stack([self.columns[name] for name in self.measure_names], axis=1).reshape(len(self), -1)
+
+    @property
+    def cells(self) -> np.ndarray:
+        """``(N, k)`` whole-number cell coordinates, one column per measure."""
+        return np.stack([self.columns[f"cell_{name}"] for name in self.measure_names], axis=1).reshape(len(self), -1)
+
+    def best(self) -> int:
+        """The row of the elite with the highest objective."""
+        if not len(self):
+            raise ValueError("the archive is empty")
+        return int(np.argmax(self.objective))
+
+    def row(self, position: int) -> dict[str, float | int]:
+        """Every column's value in row ``position`` as plain numbers."""
+        return {name: values[position].item() for name, values in self.columns.items()}
+
+
+def load_archive(run_dir: str | os.PathLike, problem: Problem | None = None) -> Archive:
+    """The archive of the run in ``run_dir`` (a quality-diversity run); with ``problem``, each elite's genome too."""
+    return RunFolder.open(run_dir).load_archive(problem)
 
 
 def library_versions(names: list[str]) -> dict[str, str | None]:
@@ -424,6 +480,29 @@ class RunFolder:
             )
         position = cells.index(index)
         return self._genome_at(rows, self._genome_store(rows, problem), position, problem)
+
+    def load_archive(self, problem: Problem | None = None) -> Archive:
+        """``archive.csv`` as arrays (see :class:`Archive`); with ``problem``, each elite's genome too."""
+        rows = self.archive_rows()
+        path = self / self.ARCHIVE
+        names = list(rows[0]) if rows else read_text(path, _MAX_TABLE, what="CSV").split("\n", 1)[0].split(",")
+        measures = tuple(name[len("cell_") :] for name in names if name.startswith("cell_") and name[len("cell_") :] in names)
+        columns: dict[str, np.ndarray] = {}
+        for name in names:
+            if name == "genome":  # an archive of structgen 0.1 kept object genomes in a column
+                continue
+            whole = name == "index" or name.startswith("cell_")
+            try:
+                values = [int(row[name]) if whole else float(row[name]) for row in rows]
+            except (TypeError, ValueError):
+                raise InputFileError(f"{path}: column {name!r} holds a value that is not a number") from None
+            columns[name] = np.array(values, dtype=np.int64 if whole else np.float64)
+        genomes = None
+        if problem is not None:
+            genomes = self.archive_genomes(problem, rows)
+            if problem.flat:
+                genomes = np.asarray(genomes, dtype=np.float64).reshape(len(rows), problem.n_params)
+        return Archive(columns, measures, genomes)
 
     def archive_genomes(self, problem: Problem, rows: list[dict[str, str]] | None = None) -> list[Any]:
         """The genome of every archive elite, in the order of ``rows`` (default: :meth:`archive_rows`)."""

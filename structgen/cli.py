@@ -35,7 +35,7 @@ from structgen.commands import (
 
 log = logging.getLogger("structgen")
 
-GENERIC_VERBS = ("list", "evolve", "resume", "export")
+GENERIC_VERBS = ("list", "evolve", "resume", "export", "compare")
 # Bounds of the run options given by name (RunSettings checks the same settings however they are given).
 MAX_GENERATIONS, MAX_WORKERS = 10**9, 1024
 
@@ -191,6 +191,75 @@ def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
     evolve.set_defaults(handler=cmd_evolve)
 
 
+def cmd_compare(args: argparse.Namespace) -> int:
+    from evolution import atomic_write
+    from evolution.plots import compare_figure, figure_png
+    from structgen.runs import open_run
+
+    output = Path(args.output)
+    if output.suffix.lower() != ".png":
+        raise InputError(f"{output}: compare draws a PNG image; give a name ending in .png")
+    runs, table = {}, []
+    for run_dir in args.runs:
+        folder, experiment = open_run(run_dir)
+        rows = folder.metrics()
+        if not rows:
+            raise InputError(f"{run_dir}: this run has no finished generation to compare")
+        label = folder.path.name
+        while label in runs:  # two folders of the same name in different places
+            label += "'"
+        runs[label] = rows
+        last = rows[-1]
+        table.append(
+            {
+                "run": str(folder.path),
+                "domain": experiment.domain,
+                "optimizer": experiment.optimizer_name,
+                "generations": last["generation"],
+                "evaluations": last["evaluations"],
+                "best_objective": last["best_objective"],
+                "qd_score": last.get("qd_score"),
+                "coverage": last.get("coverage"),
+            }
+        )
+    atomic_write(output, figure_png(compare_figure(runs)))
+    if args.json:
+        print(json.dumps(table))
+        return EXIT_OK
+    print("| run | domain | optimizer | generations | evaluations | best objective | QD score | coverage |")
+    print("|---|---|---|---:|---:|---:|---:|---:|")
+    for row in table:
+        qd = "-" if row["qd_score"] is None else f"{row['qd_score']:.4g}"
+        coverage = "-" if row["coverage"] is None else f"{row['coverage']:.1%}"
+        print(
+            f"| {row['run']} | {row['domain']} | {row['optimizer']} | {row['generations']} | {row['evaluations']:,} | "
+            f"{row['best_objective']:.4g} | {qd} | {coverage} |"
+        )
+    log.info("wrote %s", output)
+    return EXIT_OK
+
+
+def _add_compare(commands: Any) -> None:
+    compare = commands.add_parser(
+        "compare",
+        help="compare runs: a table of their results and a plot of their progress",
+        description="Print a table of each run's generations, evaluations, best objective and (quality diversity) "
+        "QD score and coverage, and draw their best objective (and QD score and coverage, when every run has an "
+        "archive) over generations in one picture.",
+    )
+    compare.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run folders, of any domain and optimiser")
+    compare.add_argument(
+        "-o",
+        "--output",
+        type=output_path,
+        default=Path("compare.png"),
+        metavar="OUT.png",
+        help="picture to write (default compare.png)",
+    )
+    compare.add_argument("--json", action="store_true", help="print the table as a JSON list")
+    compare.set_defaults(handler=cmd_compare)
+
+
 def _add_resume(commands: Any) -> None:
     resume = commands.add_parser(
         "resume",
@@ -277,6 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
     listing_parser.set_defaults(handler=cmd_list)
     _add_evolve(commands, None)
     _add_resume(commands)
+    _add_compare(commands)
     exporters = [(spec, hooks) for spec, hooks in hooked if hooks is not None]
     _add_export(commands, exporters, None)
 

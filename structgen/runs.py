@@ -10,6 +10,9 @@ registered domain; scripts can call them directly::
     folder, state = resume("runs/mine", generations=80)
 
 Each builds the problem once and the optimiser once (a resumed run's optimiser comes from its checkpoint).
+
+:func:`load_run` opens a finished or running run for a look: its settings, metrics, best genome, archive and (for
+the structures domain) its best NCA; :func:`run_summary` is what ``structgen info RUN_DIR`` prints.
 """
 
 from __future__ import annotations
@@ -18,17 +21,18 @@ import datetime as _dt
 import logging
 import sys
 from collections.abc import Callable
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from evolution import Problem, RunFolder, RunFolderError, RunState, advance, library_versions, make_evaluator
+from evolution import Archive, Problem, RunFolder, RunFolderError, RunState, advance, library_versions, make_evaluator
 from structgen import __version__
 from structgen.config import ConfigError
 from structgen.experiment import Experiment, load_experiment
 
-__all__ = ["default_run_dir", "elite_genome", "evolve", "open_run", "resume"]
+__all__ = ["Run", "default_run_dir", "elite_genome", "evolve", "load_run", "open_run", "resume", "run_summary"]
 
 log = logging.getLogger(__name__)
 #: Libraries every run's manifest records; a domain adds its own (DomainSpec.libraries).
@@ -222,3 +226,126 @@ def elite_genome(folder: RunFolder, problem: Problem, elite: str) -> Any:
         raise ConfigError(f"--elite {elite!r}: use 'best' or 'index:I' with I a cell index from archive.csv")
     genome = folder.archive_genome(int(value), problem)
     return np.asarray(genome) if problem.flat else genome
+
+
+class Run:
+    """A run folder opened for a look (nothing is resumed or written). The problem is built on first use (it may
+    load torch or a physics engine); ``close()`` or a ``with`` block releases it.
+
+    >>> run = load_run("runs/structures")          # doctest: +SKIP
+    >>> archive, nca = run.archive(), run.best_nca()  # doctest: +SKIP
+    """
+
+    def __init__(self, run_dir: str | Path) -> None:
+        self.folder, self.experiment = open_run(run_dir)
+
+    @property
+    def path(self) -> Path:
+        return self.folder.path
+
+    @cached_property
+    def problem(self) -> Problem:
+        return self.experiment.make_problem()
+
+    def metrics(self) -> list[dict[str, Any]]:
+        """One dict per finished generation (``metrics.jsonl``)."""
+        return self.folder.metrics()
+
+    def best_genome(self) -> Any:
+        return elite_genome(self.folder, self.problem, "best")
+
+    def archive(self, genomes: bool = True) -> Archive:
+        """The quality-diversity archive (``archive.csv``), with each elite's genome unless ``genomes`` is False."""
+        return self.folder.load_archive(self.problem if genomes else None)
+
+    def best_nca(self) -> Any:
+        """The best candidate as a :class:`structgen.nca.LocalNCA` with the run's NCA settings (structures runs)."""
+        from structgen.nca import LocalNCA
+
+        nca_config = getattr(self.experiment.problem_settings, "nca", None)
+        if nca_config is None or not hasattr(nca_config, "max_vertices"):
+            raise RunFolderError(f"{self.path}: a run of the {self.experiment.domain} domain has no NCA of the structures kind")
+        return LocalNCA(self.best_genome(), nca_config)
+
+    def close(self) -> None:
+        problem = self.__dict__.pop("problem", None)
+        if problem is not None:
+            problem.close()
+
+    def __enter__(self) -> Run:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def load_run(run_dir: str | Path) -> Run:
+    """Open the run in ``run_dir`` for a look: ``run.metrics()``, ``run.best_genome()``, ``run.archive()``,
+    ``run.best_nca()``. A folder that is not a run is a :class:`~evolution.RunFolderError`."""
+    return Run(run_dir)
+
+
+def run_summary(run_dir: str | Path) -> dict[str, Any]:
+    """What a run is and how far it got, from its files alone (no problem is built): settings, progress, the best
+    candidate and, for quality diversity, the archive's size, coverage and QD score."""
+    folder, experiment = open_run(run_dir)
+    manifest = folder.manifest()
+    rows = folder.metrics()
+    last = rows[-1] if rows else {}
+    summary: dict[str, Any] = {
+        "run": str(folder.path),
+        "domain": experiment.domain,
+        "optimizer": experiment.optimizer_name,
+        "seed": experiment.run.seed,
+        "generations": last.get("generation", 0),
+        "generations_configured": experiment.run.generations,
+        "evaluations": last.get("evaluations", 0),
+        "wall_s": last.get("wall_s"),
+        "created": manifest.get("created"),
+        "structgen": manifest.get("structgen"),
+    }
+    best_file = folder / RunFolder.BEST / "best.json"
+    if best_file.is_file():
+        from evolution.files import read_json
+
+        best = read_json(best_file, 1 << 24)
+        if isinstance(best, dict):
+            summary["best"] = {key: best.get(key) for key in ("objective", "generation", "measures", "fields")}
+    if "qd_score" in last:
+        summary["archive"] = {"elites": last.get("num_elites"), "coverage": last["coverage"], "qd_score": last["qd_score"]}
+    summary["files"] = sorted(p.name + ("/" if p.is_dir() else "") for p in folder.path.iterdir() if not p.name.startswith("."))
+    return summary
+
+
+def describe_run(summary: dict[str, Any]) -> str:
+    """:func:`run_summary` as aligned lines of text."""
+    done, planned = summary["generations"], summary["generations_configured"]
+    wall = summary.get("wall_s")
+    rows = [
+        ("run", summary["run"]),
+        ("domain", summary["domain"]),
+        ("optimizer", f"{summary['optimizer']}, seed {summary['seed']}"),
+        (
+            "progress",
+            f"{done} of {planned} generations, {summary['evaluations']:,} evaluations"
+            + (f", {wall:.1f} s" if isinstance(wall, (int, float)) else "")
+            + ("" if done >= planned else " (resume to go on)"),
+        ),
+        ("created", f"{summary.get('created') or '?'} by structgen {summary.get('structgen') or '?'}"),
+    ]
+    best = summary.get("best")
+    if best:
+        rows.append(("best", f"objective {best['objective']:g} (generation {best['generation']})"))
+        measures = best.get("measures") or {}
+        if measures:
+            rows.append(("  measures", ", ".join(f"{k} {v:g}" for k, v in measures.items())))
+        fields = best.get("fields") or {}
+        if fields:
+            rows.append(("  fields", ", ".join(f"{k} {v:g}" for k, v in fields.items())))
+    archive = summary.get("archive")
+    if archive:
+        rows.append(
+            ("archive", f"{archive['elites']:,} elites, coverage {archive['coverage']:.1%}, QD score {archive['qd_score']:.4g}")
+        )
+    rows.append(("files", ", ".join(summary["files"])))
+    return "\n".join(f"{name:<11} {value}" for name, value in rows)

@@ -289,6 +289,54 @@ def test_export_the_best_and_an_archive_elite(tmp_path, capsys, qd_run):
     assert len(elite["vertices"]) == int(float(row["vertices"])) and elite["metadata"]["elite"] == f"index:{row['index']}"
 
 
+def test_a_run_loads_back_from_python_with_its_archive_and_best_nca(qd_run):
+    from evolution import load_archive
+    from structgen.nca import LocalNCA
+    from structgen.runs import load_run
+
+    with load_run(qd_run) as run:
+        archive, nca = run.archive(), run.best_nca()
+        best_genome = run.best_genome()
+        rows = run.metrics()
+    assert isinstance(nca, LocalNCA) and np.array_equal(nca.get_weights(), best_genome)
+    assert nca.config.max_vertices == 16  # the run's NCA settings, not the defaults
+    header, *lines = (qd_run / "archive.csv").read_text().splitlines()
+    assert len(archive) == len(lines) == rows[-1]["num_elites"]
+    assert archive.measure_names == ("height", "vertices") and archive.cells.shape == (len(lines), 2)
+    first = dict(zip(header.split(","), lines[0].split(",")))
+    assert archive.row(0)["index"] == int(first["index"]) and archive.objective[0] == float(first["objective"])
+    assert archive.genomes.shape == (len(lines), best_genome.size)
+    # the best archive elite grows the structure its row describes
+    top = archive.best()
+    assert run.problem.structure_of(archive.genomes[top]).n_vertices == archive.columns["vertices"][top]
+    numbers_only = load_archive(qd_run)
+    assert numbers_only.genomes is None and np.array_equal(numbers_only.objective, archive.objective)
+
+
+def test_info_summarises_a_run_folder(capsys, qd_run, ga_run):
+    code, out, err = cli(capsys, "info", qd_run)
+    assert code == 0, err
+    assert "structures-v0" in out and "map_elites, seed 3" in out and "4 of 4 generations" in out
+    assert "elites, coverage" in out and "QD score" in out
+    code, out, _ = cli(capsys, "info", qd_run, "--json")
+    summary = json.loads(out)
+    rows = [json.loads(line) for line in (qd_run / "metrics.jsonl").read_text().splitlines()]
+    assert summary["archive"]["qd_score"] == rows[-1]["qd_score"] and summary["generations"] == 4
+    code, out, _ = cli(capsys, "info", ga_run)
+    assert "1 of 1 generations" in out and "(resume to go on)" not in out and "archive" not in out
+
+
+def test_compare_tabulates_and_plots_several_runs(tmp_path, capsys, qd_run, ga_run):
+    code, out, err = cli(capsys, "compare", qd_run, ga_run, "-o", tmp_path / "c.png", "--json")
+    assert code == 0, err
+    table = json.loads(out)
+    assert [row["optimizer"] for row in table] == ["map_elites", "ga"]
+    assert table[0]["qd_score"] is not None and table[1]["qd_score"] is None
+    assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
+    code, _, err = cli(capsys, "compare", qd_run, tmp_path / "nowhere", "-o", tmp_path / "d.png")
+    assert code == 2 and "nowhere" in err and not (tmp_path / "d.png").exists()
+
+
 @pytest.mark.parametrize(
     "elite, message",
     [("index:99999", "no elite in cell 99999"), ("top", "use 'best' or 'index:I'"), ("index:x", "use 'best' or 'index:I'")],

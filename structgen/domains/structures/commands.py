@@ -258,6 +258,12 @@ def _run_nca(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    if Path(args.file).is_dir():  # a run folder, of any domain
+        from structgen.runs import describe_run, run_summary
+
+        summary = run_summary(args.file)
+        print(json.dumps(summary) if args.json else describe_run(summary))
+        return EXIT_OK
     structure = _load_structure(args.file)
     summary = {"file": str(args.file), **structure.summary()}
     if args.json:
@@ -377,10 +383,11 @@ def _add_grow(subparsers: Any) -> None:
 def _add_info(subparsers: Any) -> None:
     info = subparsers.add_parser(
         "info",
-        help="print counts, height and connectivity of a structure",
-        description="Print a structure's vertex and edge counts, height, bounding box and connected components.",
+        help="print counts, height and connectivity of a structure, or summarise a run folder",
+        description="Print a structure's vertex and edge counts, height, bounding box and connected components; "
+        "or, given a run folder (of any domain), what the run is, how far it got, its best candidate and archive.",
     )
-    info.add_argument("file", metavar="FILE", help="structure JSON file")
+    info.add_argument("file", metavar="FILE|RUN_DIR", help="structure JSON file, or a run folder")
     info.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     info.set_defaults(handler=cmd_info)
 
