@@ -314,30 +314,32 @@ class Structure:
         return cls.from_dict(data, source=str(path))
 
     # -- meshes -----------------------------------------------------------------------------------------------------
-    def to_mesh(self, **dimensions: float) -> trimesh.Trimesh:
-        """One triangle mesh: a sphere at every vertex and a cylinder along every edge.
+    def to_mesh(self, *, solid: bool = False, **dimensions: float) -> trimesh.Trimesh:
+        """One triangle mesh: a sphere at every vertex and a cylinder along every edge, standing on the ground plane
+        (z = 0), with vertex normals; ``solid=True`` unions them into one watertight shell.
 
         Keyword arguments are :class:`structgen.mesh.MeshStyle` fields (``sphere_radius=0.25``,
         ``cylinder_radius=0.08``, ``spacing=1.0``, ...); the defaults match the physics model. Coordinates stay z-up.
         """
         from structgen.mesh import MeshStyle, structure_mesh
 
-        return structure_mesh(self, MeshStyle(**dimensions))
+        return structure_mesh(self, MeshStyle(**dimensions), solid=solid)
 
-    def export(self, path: str | os.PathLike, **dimensions: float) -> Path:
+    def export(self, path: str | os.PathLike, *, solid: bool = False, **dimensions: float) -> Path:
         """Write the structure to ``path``, format chosen by suffix: ``.json``, ``.glb``, ``.obj``, ``.stl``, ``.ply``.
 
-        GLB is converted to y-up as glTF requires and carries the metadata; the others keep z-up. Keyword arguments
-        are mesh dimensions as in :meth:`to_mesh`. The file is written atomically.
+        GLB is converted to y-up as glTF requires, shares one sphere and one cylinder per direction between all
+        parts, and carries the metadata; the others keep z-up. ``solid=True`` writes one watertight shell (for
+        printing). Keyword arguments are mesh dimensions as in :meth:`to_mesh`. The file is written atomically.
         """
         path = Path(path)
         if path.suffix.lower() == ".json":
-            if dimensions:
-                raise StructureError(f"{path}: mesh dimensions do not apply to a JSON export")
+            if dimensions or solid:
+                raise StructureError(f"{path}: mesh options do not apply to a JSON export")
             return self.save(path)
         from structgen.mesh import MeshStyle, export_structure
 
-        return export_structure(self, path, MeshStyle(**dimensions))
+        return export_structure(self, path, MeshStyle(**dimensions), solid=solid)
 
 
 def _dump_json(data: dict[str, Any]) -> str:

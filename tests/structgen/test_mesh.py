@@ -12,7 +12,6 @@ from structgen import Structure, StructureError
 from structgen.mesh import MeshStyle
 
 SPHERE = trimesh.creation.icosphere(subdivisions=MeshStyle().sphere_subdivisions)
-CYLINDER = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=MeshStyle().cylinder_sections)
 
 
 def column(n: int) -> Structure:
@@ -24,20 +23,26 @@ def diagonal() -> Structure:
 
 
 def test_mesh_has_one_sphere_per_vertex_and_one_cylinder_per_edge():
+    style = MeshStyle()
     mesh = column(3).to_mesh()
-    assert len(mesh.vertices) == 3 * len(SPHERE.vertices) + 2 * len(CYLINDER.vertices)
-    assert len(mesh.faces) == 3 * len(SPHERE.faces) + 2 * len(CYLINDER.faces)
+    # a cylinder: two side rings and two flat caps (their own rings, plus centres)
+    cylinder_vertices = 4 * style.cylinder_sections + 2
+    assert len(mesh.vertices) == 3 * len(SPHERE.vertices) + 2 * cylinder_vertices
+    assert len(mesh.faces) == 3 * len(SPHERE.faces) + 2 * 4 * style.cylinder_sections
 
 
-def test_default_dimensions_match_the_physics_model():
+def test_default_dimensions_match_the_physics_model_standing_on_the_ground():
     bounds = column(2).to_mesh().bounds
-    np.testing.assert_allclose(bounds, [[-0.25, -0.25, -0.25], [0.25, 0.25, 1.25]], atol=1e-9)
+    np.testing.assert_allclose(bounds, [[-0.25, -0.25, 0.0], [0.25, 0.25, 1.5]], atol=1e-9)
+    lifted = Structure([[0, 0, -3], [0, 0, -2]], [[0, 1]]).to_mesh().bounds
+    np.testing.assert_allclose(lifted, bounds, atol=1e-9)
 
 
 def test_cylinders_run_between_sphere_surfaces_along_the_edge():
     style = MeshStyle(sphere_radius=0.2, cylinder_radius=0.05, spacing=2.0)
     mesh = diagonal().to_mesh(sphere_radius=0.2, cylinder_radius=0.05, spacing=2.0)
     rod = mesh.vertices[2 * len(trimesh.creation.icosphere(subdivisions=style.sphere_subdivisions).vertices) :]
+    rod = rod - [0, 0, 0.2]  # the lowest sphere's centre sits one radius above the ground
     axis = np.ones(3) / np.sqrt(3)
     along = rod @ axis
     across = np.linalg.norm(rod - along[:, None] * axis, axis=1)
@@ -46,34 +51,65 @@ def test_cylinders_run_between_sphere_surfaces_along_the_edge():
     assert on_rim.sum() >= 2 * style.cylinder_sections and np.all(on_rim | np.isclose(across, 0, atol=1e-9))
 
 
+def test_normals_are_unit_and_point_outwards():
+    mesh = diagonal().to_mesh()
+    normals = mesh.vertex_normals
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-9)
+    # every triangle's winding agrees with its vertices' normals: faces face outwards
+    corners = mesh.vertices[mesh.faces]
+    winding = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert (np.einsum("fi,fi->f", winding, normals[mesh.faces].sum(axis=1)) > 0).all()
+
+
 @pytest.mark.parametrize("suffix", [".stl", ".obj", ".ply"])
 def test_z_up_exports_load_back_with_the_same_geometry(tmp_path, suffix):
     structure = column(3)
     path = structure.export(tmp_path / f"column{suffix}")
-    loaded = trimesh.load(path, force="mesh")
+    loaded = trimesh.load(path, force="mesh", process=False)
     expected = structure.to_mesh()
     assert len(loaded.faces) == len(expected.faces)
     np.testing.assert_allclose(loaded.bounds, expected.bounds, atol=1e-5)
 
 
-def test_glb_is_y_up_and_carries_the_metadata(tmp_path):
-    structure = Structure([[0, 0, 0], [0, 0, 1], [0, 1, 2]], [[0, 1], [1, 2]], {"run": "r1", "score": 2.5})
+def test_solid_is_one_watertight_shell(tmp_path):
+    structure = Structure([[0, 0, 0], [0, 0, 1], [1, 0, 1], [1, 1, 2]], [[0, 1], [1, 2], [2, 3], [0, 2]])
+    assert trimesh.load(structure.export(tmp_path / "parts.stl")).body_count > 1  # loose spheres and rods
+    solid = trimesh.load(structure.export(tmp_path / "solid.stl", solid=True))
+    assert solid.is_watertight and solid.is_volume and solid.body_count == 1
+    np.testing.assert_allclose(solid.bounds, structure.to_mesh().bounds, atol=0.02)  # its sphere is turned a little
+    scene = trimesh.load(structure.export(tmp_path / "solid.glb", solid=True))
+    assert scene.metadata["solid"] is True and len(scene.geometry) == 1
+
+
+def test_glb_shares_one_sphere_and_one_cylinder_per_axis_and_carries_the_metadata(tmp_path):
+    structure = Structure([[0, 0, 0], [0, 0, 1], [0, 1, 2], [0, 1, 3]], [[0, 1], [1, 2], [2, 3]], {"run": "r1", "score": 2.5})
     scene = trimesh.load(structure.export(tmp_path / "s.glb"))
-    assert set(scene.geometry) == {"vertices", "edges"}
+    assert len(scene.geometry) == 1 + 2  # a sphere, an upright cylinder, a diagonal one
+    assert len(scene.graph.nodes_geometry) == 4 + 3  # one placed copy per vertex and per edge
     z_up = structure.to_mesh().bounds
     y_up = scene.to_geometry().bounds
-    # (x, y, z) -> (x, z, -y): height moves to y, depth to -z.
+    # (x, y, z) -> (x, z, -y): height moves to y, depth to -z; the lowest sphere touches the ground y = 0.
     np.testing.assert_allclose(y_up[:, 0], z_up[:, 0], atol=1e-5)
     np.testing.assert_allclose(y_up[:, 1], z_up[:, 2], atol=1e-5)
     np.testing.assert_allclose(y_up[:, 2], -z_up[::-1, 1], atol=1e-5)
+    assert y_up[0, 1] == pytest.approx(0.0, abs=1e-6)
     meta = scene.metadata
-    assert meta["up_axis"] == "y" and meta["n_vertices"] == 3 and meta["n_edges"] == 2 and meta["height"] == 2
+    assert meta["up_axis"] == "y" and meta["n_vertices"] == 4 and meta["n_edges"] == 3 and meta["height"] == 3
     assert meta["structure_metadata"] == {"run": "r1", "score": 2.5}
+
+
+def test_a_large_structure_is_a_small_glb(tmp_path):
+    from structgen import LocalNCA, NCAConfig
+
+    big = LocalNCA.random(3, NCAConfig(iterations=6, max_vertices=2500)).grow()
+    assert big.n_vertices > 1000
+    size = big.export(tmp_path / "big.glb").stat().st_size
+    assert size < 600 * big.n_vertices  # about 250 bytes a vertex and its edges' share; the old meshes took 11 KB
 
 
 def test_structure_without_edges_exports(tmp_path):
     scene = trimesh.load(Structure([[0, 0, 0]], []).export(tmp_path / "lone.glb"))
-    assert set(scene.geometry) == {"vertices"}
+    assert len(scene.geometry) == 1 and len(scene.graph.nodes_geometry) == 1
 
 
 def test_json_export_is_the_structure_file(tmp_path):

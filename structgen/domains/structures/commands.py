@@ -75,6 +75,11 @@ def _add_mesh_options(parser: argparse.ArgumentParser, title: str) -> None:
         metavar="N",
         help=f"sides of each cylinder, 3..128 (default {style.cylinder_sections}; 6 for big structures)",
     )
+    group.add_argument(
+        "--solid",
+        action="store_true",
+        help="union every sphere and cylinder into one closed, watertight shell (for 3D printing; slower)",
+    )
 
 
 def _add_nca_options(parser: argparse.ArgumentParser) -> None:
@@ -143,7 +148,7 @@ def _load_structure(path: str | Path) -> Structure:
     return Structure.load(source)
 
 
-def _write(structure: Structure, output: str | Path, style: Any) -> Path:
+def _write(structure: Structure, output: str | Path, style: Any, solid: bool = False) -> Path:
     from dataclasses import asdict
 
     from structgen.mesh import MeshStyle
@@ -153,9 +158,9 @@ def _write(structure: Structure, output: str | Path, style: Any) -> Path:
         raise InputError(f"{path}: is a folder, expected an output file name")
     default = asdict(MeshStyle())
     changed = {name: value for name, value in asdict(style).items() if value != default[name]}
-    if changed and path.suffix.lower() == ".json":
-        raise InputError(f"{path}: mesh dimensions only apply to mesh formats (.glb, .obj, .stl, .ply)")
-    return structure.export(path, **changed)
+    if (changed or solid) and path.suffix.lower() == ".json":
+        raise InputError(f"{path}: mesh options (dimensions, --solid) only apply to mesh formats (.glb, .obj, .stl, .ply)")
+    return structure.export(path, solid=solid, **changed)
 
 
 def _describe(structure: Structure) -> str:
@@ -222,7 +227,7 @@ def cmd_grow(args: argparse.Namespace) -> int:
     if growth["hit_max_extent"]:
         log.warning("some growth was dropped at --max-extent %d", config.max_extent)
     structure = structure.with_metadata(**origin)
-    path = _write(structure, args.output, settings["mesh"])
+    path = _write(structure, args.output, settings["mesh"], args.solid)
     print(f"{path}: {_describe(structure)}")
     return EXIT_OK
 
@@ -432,12 +437,12 @@ class StructureCommands(DomainCommands):
 
     def export_file(self, source: Path, output: Path, args: argparse.Namespace) -> str:
         structure = _load_structure(source)
-        path = _write(structure, output, _mesh_style(args))
+        path = _write(structure, output, _mesh_style(args), args.solid)
         return f"{path}: {_describe(structure)}"
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]) -> str:
         structure = problem.structure_of(genome).with_metadata(**origin)
-        path = _write(structure, output, _mesh_style(args))
+        path = _write(structure, output, _mesh_style(args), args.solid)
         return f"{path}: {_describe(structure)}"
 
 
