@@ -112,11 +112,20 @@ def _quaternions_z_to(directions: np.ndarray) -> np.ndarray:
 def place(vertices: np.ndarray, edges: np.ndarray, config: PhysicsConfig, *, enforce_caps: bool = True) -> Bodies:
     """Bodies of a structure resting on the ground; raises InputError if an edge is too short or, with
     ``enforce_caps`` (the simulation's limits), if it is too large."""
+    # The caps keep a simulation's first step affordable; the static analysis has none, so the hint points there.
+    remedy = (
+        "judge it with the static analysis instead (check --statics: milliseconds, no cap), raise the cap if the "
+        "simulation is worth its time (--set {name}=N), or grow a smaller structure (grow --max-vertices N)"
+    )
     if enforce_caps and len(vertices) > config.max_vertices:
-        raise InputError(f"structure has {len(vertices)} vertices, more than max_vertices = {config.max_vertices}")
+        raise InputError(
+            f"structure has {len(vertices)} vertices, more than max_vertices = {config.max_vertices}; "
+            + remedy.format(name="max_vertices")
+        )
     if enforce_caps and 2 * len(edges) > config.max_joints:
         raise InputError(
-            f"structure has {len(edges)} edges ({2 * len(edges)} joints), more than max_joints = {config.max_joints}"
+            f"structure has {len(edges)} edges ({2 * len(edges)} joints), more than max_joints = {config.max_joints}; "
+            + remedy.format(name="max_joints")
         )
     spheres = vertices * config.spacing
     spheres = spheres + np.array([0.0, 0.0, config.sphere_radius - spheres[:, 2].min()])

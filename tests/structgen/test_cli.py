@@ -296,7 +296,7 @@ def test_check_bad_settings_exit_2_naming_the_key(capsys, column_4, setting, fra
 def test_check_refuses_structures_over_the_size_cap(capsys, column_4):
     code, _, err = run(capsys, "check", column_4, "--set", "max_joints=4")
     assert code == 2
-    assert_one_line_error(err, "column4.json", "more than max_joints = 4")
+    assert_one_line_error(err, "column4.json", "more than max_joints = 4", "check --statics", "--set max_joints=N")
 
 
 def test_check_of_a_broken_file(tmp_path, capsys):
@@ -384,4 +384,4 @@ def test_grow_takes_settings_by_set_as_every_command_does(tmp_path, capsys):
     code, _, _ = run(capsys, "grow", "--seed", 3, "--set", "iterations=9", "--iterations", 2, "-o", tmp_path / "b.json")
     assert code == 0 and Structure.load(tmp_path / "b.json").metadata["growth"]["iterations"] == 2  # the option wins
     code, _, err = run(capsys, "grow", "--set", "sphere_radius=0.2", "-o", tmp_path / "c.json")
-    assert code == 2 and "mesh dimensions only apply to mesh formats" in err
+    assert code == 2 and "mesh options (dimensions, --solid) only apply to mesh formats" in err
