@@ -12,15 +12,16 @@ from structgen.experiment import load_experiment
 STRUCTURES = domains.spec("structures-v0")
 
 
-def test_the_main_job_is_the_papers_setup_scaled_down():
+def test_the_main_job_is_the_papers_setup_with_its_special_rules_scaled_down():
     experiment = load_experiment()
     assert experiment.domain == "structures-v0" and experiment.optimizer_name == "ga"
     settings = experiment.problem_settings
-    assert (settings.nca.hidden, settings.nca.iterations, settings.nca.cutoff, settings.nca.build_down) == (60, 5, 0.5, True)
-    assert settings.nca.max_vertices == 64 and settings.physics == PhysicsConfig.preset("fast")
+    assert (settings.nca.hidden, settings.nca.iterations, settings.nca.cutoff, settings.nca.build_down) == (60, 5, 0.6, False)
+    assert settings.nca.max_vertices == 64 and settings.physics == PhysicsConfig.preset("faithful")
+    assert settings.evaluator == "statics"  # judged in milliseconds; the best's picture is simulated
     ga = experiment.optimizer_settings
     assert (ga.population, ga.parents) == (40, 8)  # the paper keeps the best fifth (20 of 100)
-    assert experiment.run.generations == 30
+    assert experiment.run.generations == 300
 
 
 def test_resolved_configuration_round_trips_through_toml(tmp_path):
@@ -34,12 +35,12 @@ def test_resolved_configuration_round_trips_through_toml(tmp_path):
 
 
 def test_a_preset_is_written_back_only_while_the_settings_equal_it(tmp_path):
-    assert '[problem.physics]\npreset = "fast"' in load_experiment().to_toml()
+    assert '[problem.physics]\npreset = "faithful"' in load_experiment().to_toml()
     changed = load_experiment(overrides=["physics.break_force=60"]).to_toml()
     assert "preset =" not in changed and "break_force = 60.0" in changed
     path = tmp_path / "c.toml"
     path.write_text(changed)
-    assert load_experiment(path).problem_settings.physics == PhysicsConfig.preset("fast", break_force=60.0)
+    assert load_experiment(path).problem_settings.physics == PhysicsConfig.preset("faithful", break_force=60.0)
 
 
 @pytest.mark.parametrize("name", list(STRUCTURES.main_job.optimizers))

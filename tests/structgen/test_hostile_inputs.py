@@ -32,7 +32,9 @@ def run(capsys, *argv) -> tuple[int, str, str]:
 def refused(capsys, *argv, fragments: tuple[str, ...] = ()) -> str:
     code, out, err = run(capsys, *argv)
     assert code == 2, err
-    assert out == "" and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    # Runs kept as fixtures were made on Python 3.11; on another version, resuming warns about it first.
+    lines = [line for line in err.strip().splitlines() if not line.startswith("WARNING: library versions differ")]
+    assert out == "" and len(lines) == 1 and "Traceback" not in err, err
     for fragment in fragments:
         assert fragment in err, err
     return err
