@@ -144,3 +144,27 @@ def test_a_screen_margin_below_one_is_refused():
 def test_unknown_evaluator_is_refused():
     with pytest.raises(ValueError, match="evaluator must be one of bullet, statics, statics\\+bullet"):
         StructuresSettings(evaluator="fem")
+
+
+def test_also_grow_scores_q_times_the_lowest_integrity_of_the_longer_growths():
+    from physics import check_statics
+
+    nca = NCAConfig(hidden=8, iterations=2, max_vertices=200)
+    settings = StructuresSettings(evaluator="statics", nca=nca, also_grow=[3, 4])
+    assert settings.also_grow == (3, 4)  # a TOML array becomes a tuple
+    problem = StableStructures(settings)
+    assert problem.field_names[-1] == "grown_integrity"
+    genomes = problem.initial_genomes(6, np.random.default_rng(2))
+    genomes[0] = 0.0  # never fires: the lone seed at any length, integrity 1 (random blobs break)
+    result = problem.evaluate(genomes, np.arange(6))
+    for genome, objective, grown in zip(genomes, result.objective, result.fields["grown_integrity"]):
+        q = check_statics(grow(genome, nca), settings.physics).score
+        lowest = min(check_statics(grow(genome, replace(nca, iterations=n)), settings.physics).integrity for n in (3, 4))
+        assert grown == lowest and objective == pytest.approx(q * lowest)
+    assert result.fields["grown_integrity"][0] == 1 and min(result.fields["grown_integrity"]) < 1
+
+
+@pytest.mark.parametrize("lengths", [[0], [2.5], "8", [True]])
+def test_bad_growth_lengths_are_refused(lengths):
+    with pytest.raises(ValueError, match="also_grow must be a list of growth lengths"):
+        StructuresSettings(also_grow=lengths)

@@ -32,7 +32,8 @@ false`` (no building below the seed), ``problem.physics.height_mode = "mean"`` (
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,7 @@ from evolution.files import atomic_write
 from physics import PhysicsConfig, StabilityReport, check_stability, check_statics
 from physics.statics import predict
 from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population, n_params
+from structgen.nca_config import MAX_ITERATIONS
 from structgen.structure import Structure
 
 __all__ = ["EVALUATORS", "StableStructures", "StructuresSettings"]
@@ -66,6 +68,11 @@ class StructuresSettings:
             the load can take several paths (a star on five legs): the rare early structures that stand are then
             often predicted to break by a few percent, and a screen without a margin starved runs of every standing
             structure (benchmarks/README.md, "Statics as a screen"). 1 screens on the prediction alone.
+        also_grow: more growth lengths (steps) each NCA is grown for and judged at besides ``nca.iterations``, to
+            train weights whose structures keep standing as they grow on ("train small, grow large"). The objective
+            becomes Q at ``nca.iterations`` times the lowest integrity among these lengths; the field
+            ``grown_integrity`` records that lowest integrity. Longer growths are larger: judge them with
+            ``evaluator = "statics"`` and raise ``nca.max_vertices`` (growth stops before passing it).
         nca: the NCA's shape and growth rules (``[problem.nca]``). The default vertex cap of 64 keeps random
             networks, which fill their growth box with about 1,100 vertices, within what a simulation can judge
             in a search loop: growth stops before the step that would exceed it.
@@ -76,6 +83,7 @@ class StructuresSettings:
     init_scale: float = INIT_SCALE
     evaluator: str = "bullet"
     screen_margin: float = 1.25
+    also_grow: tuple[int, ...] = ()
     nca: NCAConfig = field(default_factory=lambda: NCAConfig(max_vertices=64))
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
 
@@ -85,6 +93,13 @@ class StructuresSettings:
             raise ValueError(f"problem init_scale must be a positive number below 1e6, got {scale!r}")
         if self.evaluator not in EVALUATORS:
             raise ValueError(f"problem evaluator must be one of {', '.join(EVALUATORS)}, got {self.evaluator!r}")
+        lengths = self.also_grow
+        if isinstance(lengths, list):  # as a TOML array arrives
+            object.__setattr__(self, "also_grow", lengths := tuple(lengths))
+        if not isinstance(lengths, tuple) or not all(
+            isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_ITERATIONS for n in lengths
+        ):
+            raise ValueError(f"problem also_grow must be a list of growth lengths from 1 to {MAX_ITERATIONS}, got {lengths!r}")
         margin = self.screen_margin
         if not (isinstance(margin, (int, float)) and not isinstance(margin, bool) and 1 <= margin < 1e6):
             raise ValueError(f"problem screen_margin must be a number of at least 1, got {margin!r}")
@@ -111,6 +126,8 @@ class StableStructures(Problem):
 
     def __init__(self, settings: StructuresSettings | None = None) -> None:
         self.settings = settings or StructuresSettings()
+        if self.settings.also_grow:
+            self.field_names = (*type(self).field_names, "grown_integrity")
         nca = self.settings.nca
         self.n_params = n_params(nca)
         reach = min(nca.iterations, nca.max_extent)
@@ -137,7 +154,23 @@ class StableStructures(Problem):
             "evaluator": [_BY_STATICS if r.method == "statics" else _BY_BULLET for r in reports],
         }
         measures = np.array([[r.height, r.complexity] for r in reports], dtype=np.float64).reshape(-1, 2)
-        return Evaluation(np.array([r.score for r in reports]), measures, fields)
+        objective = np.array([r.score for r in reports])
+        if self.settings.also_grow:
+            grown = self.grown_integrity(genomes)
+            fields["grown_integrity"] = grown.min(axis=1).tolist()
+            objective = objective * grown.min(axis=1)
+        return Evaluation(objective, measures, fields)
+
+    def grown_integrity(self, genomes: np.ndarray, lengths: Sequence[int] | None = None) -> np.ndarray:
+        """``(genomes, lengths)`` integrity of each genome's structure grown for each length (default
+        ``also_grow``), judged by the configured evaluator."""
+        lengths = self.settings.also_grow if lengths is None else lengths
+        genomes = np.asarray(genomes, dtype=np.float64).reshape(-1, self.n_params)
+        columns = []
+        for steps in lengths:
+            longer = grow_population(genomes, replace(self.settings.nca, iterations=steps))
+            columns.append([self.judge(s).integrity for s in longer])
+        return np.array(columns, dtype=np.float64).T.reshape(len(genomes), len(lengths))
 
     def judge(self, structure: Structure) -> StabilityReport:
         """The report that scores one structure, by the configured evaluator; never raises for bad structures.
