@@ -1,6 +1,6 @@
 """The statics+bullet screen on what evolution meets first: random NCAs grown for one, two and five steps.
 
-    python benchmarks/screen.py [--count 600]
+    python benchmarks/screen.py [--count 1000]
 
 For each growth length, ``--count`` random NCAs (the paper's network and initial range, vertex cap 64); structures
 that overflow the cap or stay a lone seed are left out, as are those statics says lose their support (no static
@@ -32,7 +32,7 @@ MARGINS = (1.0, 1.1, 1.25, 1.5, 2.0)
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--count", type=int, default=600, help="random NCAs per growth length (default 600)")
+    parser.add_argument("--count", type=int, default=1000, help="random NCAs per growth length (default 1000)")
     args = parser.parse_args()
     fast = PhysicsConfig.preset("fast")
     started = time.perf_counter()
@@ -40,7 +40,7 @@ def main() -> None:
     grown = 0
     for steps in (1, 2, 5):
         config = NCAConfig(max_vertices=64, iterations=steps)
-        weights = np.random.default_rng(200 + steps).uniform(-INIT_SCALE, INIT_SCALE, size=(args.count, n_params(config)))
+        weights = np.random.default_rng(steps - 1).uniform(-INIT_SCALE, INIT_SCALE, size=(args.count, n_params(config)))
         for structure in grow_population(weights, config):
             if structure.n_vertices < 2 or structure.metadata["growth"]["hit_max_vertices"]:
                 continue

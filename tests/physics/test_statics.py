@@ -180,7 +180,7 @@ def test_progressive_failure_in_a_large_structure_stays_local():
 
 def test_generation_zero_stars_where_statics_and_pybullet_disagree_are_within_the_screen_margin():
     """The shapes evolution meets first: one-step stars of random weights. Where statics' verdict differs from the
-    simulation's, no joint of the intact star may be loaded past 1.25 times the break force, the default margin of
+    simulation's, no joint of the intact star may be loaded past 1.5 times the break force, the default margin of
     the statics+bullet screen, so that the screen hands it to PyBullet."""
     from structgen import grow_population
     from structgen.domains.structures.problem import INIT_SCALE
@@ -195,6 +195,6 @@ def test_generation_zero_stars_where_statics_and_pybullet_disagree_are_within_th
         verdicts.append((predicted.intact, simulated.intact))
         if predicted.intact != simulated.intact:
             loads = predict(star, FAST, rounds=0).first_loads
-            assert not np.isnan(loads).any() and loads.max() <= 1.25 * FAST.break_force
+            assert not np.isnan(loads).any() and loads.max() <= 1.5 * FAST.break_force
     assert verdicts[-1] == (False, True)  # the known near miss
     assert sum(p == s for p, s in verdicts) >= len(verdicts) - 1

@@ -107,7 +107,7 @@ def test_statics_then_bullet_rechecks_exactly_the_structures_predicted_to_stand_
     problem, genomes, result = evaluate_with("statics+bullet", count=12)
     predicted = [check_statics(grow(g, SMALL.nca), SMALL.physics) for g in genomes]
     loads = [predict(grow(g, SMALL.nca), SMALL.physics, rounds=0).first_loads for g in genomes]
-    near = [len(x) > 0 and not np.isnan(x).any() and x.max() <= 1.25 * SMALL.physics.break_force for x in loads]
+    near = [len(x) > 0 and not np.isnan(x).any() and x.max() <= 1.5 * SMALL.physics.break_force for x in loads]
     rechecked = result.fields["evaluator"] == 1
     assert rechecked.tolist() == [p.intact or n for p, n in zip(predicted, near)]
     assert rechecked.any() and (~rechecked).any()

@@ -82,7 +82,7 @@ class StructuresSettings:
 
     init_scale: float = INIT_SCALE
     evaluator: str = "bullet"
-    screen_margin: float = 1.25
+    screen_margin: float = 1.5
     also_grow: tuple[int, ...] = ()
     nca: NCAConfig = field(default_factory=lambda: NCAConfig(max_vertices=64))
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
