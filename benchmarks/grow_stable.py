@@ -20,7 +20,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 
 from evolution.files import atomic_write  # noqa: E402
 from evolution.plots import figure_png, new_figure  # noqa: E402
-from physics import InputError, PhysicsConfig, check_stability, check_statics  # noqa: E402
+from physics import InputError, check_stability, check_statics  # noqa: E402
 from structgen.nca import grow  # noqa: E402
 from structgen.runs import load_run  # noqa: E402
 
@@ -51,7 +51,7 @@ def main() -> None:
             simulated = "-"
             if not args.no_bullet:
                 try:
-                    report = check_stability(structure, PhysicsConfig.preset("faithful", **_masses(physics)))
+                    report = check_stability(structure, physics.stepped_as("faithful"))
                     simulated = f"{report.integrity:.3f}"
                 except InputError:
                     simulated = "over the size caps"
@@ -71,12 +71,6 @@ def main() -> None:
     axes.legend(fontsize=8)
     atomic_write(args.output, figure_png(figure, 110))
     print(f"\nwrote {args.output}")
-
-
-def _masses(physics: PhysicsConfig) -> dict:
-    """The run's physical model (masses, sizes, break force), for the faithful simulation's time stepping."""
-    names = ("sphere_mass", "cylinder_mass", "sphere_radius", "cylinder_radius", "spacing", "break_force")
-    return {name: getattr(physics, name) for name in names}
 
 
 if __name__ == "__main__":

@@ -167,6 +167,13 @@ class PhysicsConfig:
         """A copy with some fields changed (validated like the constructor)."""
         return replace(self, **changes)
 
+    def stepped_as(self, name: str) -> PhysicsConfig:
+        """The same physical model (masses, sizes, joints, score) simulated with preset ``name``'s time stepping, so
+        a run judged with one preset can be re-checked with another."""
+        if name not in PRESETS:
+            raise ValueError(f"unknown physics preset {name!r}; choose one of {', '.join(PRESETS)}")
+        return replace(self, **{field: getattr(PRESETS[name], field) for field in _STEPPING})
+
     @property
     def preset_name(self) -> str | None:
         """Name of the preset this configuration equals, or None if it was customised."""
@@ -185,5 +192,7 @@ _MAY_BE_ZERO = {
 _MAY_BE_INFINITE = {"break_force", "break_torque", "max_speed", "max_distance"}
 
 PRESETS: dict[str, PhysicsConfig] = {}
+# What the presets differ in: how the simulation steps through time, not the structure or its score.
+_STEPPING = ("timestep", "solver_iterations", "horizon", "early_stop")
 PRESETS["faithful"] = PhysicsConfig()
 PRESETS["fast"] = PhysicsConfig(timestep=1 / 120, solver_iterations=20, horizon=2.0, early_stop=True)

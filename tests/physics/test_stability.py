@@ -222,3 +222,12 @@ def test_c_level_output_of_pybullet_is_silenced(capfd):
         assert "no-such-file.urdf" in capfd.readouterr().out  # the warning is real, and only silenced above
     finally:
         pybullet.disconnect(client)
+
+
+def test_a_configuration_stepped_as_another_preset_keeps_its_physical_model():
+    changed = PhysicsConfig.preset("fast", break_force=60.0, sphere_mass=2.0)
+    faithful = changed.stepped_as("faithful")
+    assert faithful == PhysicsConfig(break_force=60.0, sphere_mass=2.0)
+    assert faithful.stepped_as("fast") == changed
+    with pytest.raises(ValueError, match="unknown physics preset 'slow'"):
+        changed.stepped_as("slow")
