@@ -39,7 +39,7 @@ from physics.config import PhysicsConfig
 from physics.model import Bodies, InputError, place, read_structure
 from physics.report import BrokenJoint, StabilityReport, height_of, integrity_of, quality
 
-__all__ = ["StaticsResult", "check_statics", "joint_forces", "predict"]
+__all__ = ["StaticsResult", "check_statics", "check_statics_with_loads", "joint_forces", "predict"]
 
 # Young's modulus of the beams (Pa); the solution for forces does not depend on it, only on stiffness ratios.
 _E = 1.0e9
@@ -366,6 +366,12 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
     Broken joints carry the failure round in ``time`` (0 for joints overloaded in the intact structure) and their
     static force; final positions are the initial ones for vertices still held up and on the ground for the rest.
     """
+    return check_statics_with_loads(structure, config)[0]
+
+
+def check_statics_with_loads(structure: Any, config: PhysicsConfig | None = None) -> tuple[StabilityReport, np.ndarray]:
+    """:func:`check_statics`'s report and, from the same solve, the intact structure's joint loads as compared with
+    the break force (``StaticsResult.first_loads``; NaN where a piece has no static answer)."""
     config = config or PhysicsConfig()
     started_wall, started_cpu = time.perf_counter(), time.process_time()
     bodies = _placed(structure, config)
@@ -392,7 +398,7 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
     standing_edges = result.standing[edges[:, 0]] & result.standing[edges[:, 1]] if len(edges) else np.zeros(0, bool)
     ends = bodies.cylinder_ends(bodies.cylinder_positions, bodies.cylinder_orientations)
     ends[~standing_edges, :, 2] = config.cylinder_radius
-    return StabilityReport(
+    report = StabilityReport(
         integrity=integrity,
         height=height,
         complexity=len(final),
@@ -413,3 +419,4 @@ def check_statics(structure: Any, config: PhysicsConfig | None = None) -> Stabil
         config=config,
         method="statics",
     )
+    return report, result.first_loads

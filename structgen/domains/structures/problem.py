@@ -41,8 +41,8 @@ import numpy as np
 
 from evolution import Evaluation, Problem
 from evolution.files import atomic_write
-from physics import PhysicsConfig, StabilityReport, check_stability, check_statics
-from physics.statics import predict
+from physics import PhysicsConfig, StabilityReport, check_stability
+from physics.statics import check_statics_with_loads
 from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population, n_params
 from structgen.nca_config import MAX_ITERATIONS
 from structgen.structure import Structure
@@ -181,16 +181,16 @@ class StableStructures(Problem):
         physics = self.settings.physics
         if self.settings.evaluator == "bullet":
             return check_stability(structure, physics, errors="report")
-        predicted = check_statics(structure, physics)
-        if self.settings.evaluator == "statics" or not self._worth_simulating(structure, predicted):
+        predicted, loads = check_statics_with_loads(structure, physics)
+        if self.settings.evaluator == "statics" or not self._worth_simulating(predicted, loads):
             return predicted
         return check_stability(structure, physics, errors="report")
 
-    def _worth_simulating(self, structure: Structure, predicted: StabilityReport) -> bool:
-        """The "statics+bullet" screen: predicted to stand, or supported and loaded within the screen margin."""
+    def _worth_simulating(self, predicted: StabilityReport, loads: np.ndarray) -> bool:
+        """The "statics+bullet" screen: predicted to stand, or supported and with the intact structure's joint loads
+        within the screen margin."""
         if predicted.intact:
             return True
-        loads = predict(structure, self.settings.physics, rounds=0).first_loads
         if not len(loads) or np.isnan(loads).any():  # nothing to judge, or a piece with no static answer: it falls
             return False
         return bool(loads.max() <= self.settings.screen_margin * self.settings.physics.break_force)
