@@ -139,9 +139,14 @@ class _Parts:
 
     sphere: _Template
     centres: np.ndarray  # (V, 3) where a sphere goes
-    cylinders: list[_Template]  # one per edge axis in use
-    axis_of_edge: np.ndarray  # (E,) which cylinder template each edge uses
+    steps: np.ndarray  # (A, 3) the lattice step of each edge axis in use (first non-zero component positive)
+    cylinders: list[_Template]  # one per axis, in the order of ``steps``
+    axis_of_edge: np.ndarray  # (E,) which axis each edge lies along
     middles: np.ndarray  # (E, 3) where each edge's cylinder goes
+
+    def by_axis(self) -> list[tuple[np.ndarray, _Template, np.ndarray]]:
+        """(lattice step, cylinder template, where its copies go) for each edge axis in use."""
+        return [(step, t, self.middles[self.axis_of_edge == a]) for a, (step, t) in enumerate(zip(self.steps, self.cylinders))]
 
 
 def _parts(structure: Structure, style: MeshStyle) -> _Parts:
@@ -164,7 +169,7 @@ def _parts(structure: Structure, style: MeshStyle) -> _Parts:
         distance = float(np.linalg.norm(step)) * style.spacing
         cylinders.append(_cylinder(style, step / np.linalg.norm(step), distance - 2 * style.sphere_radius))
     middles = (centres[structure.edges[:, 0]] + centres[structure.edges[:, 1]]) / 2
-    return _Parts(_sphere(style), centres, cylinders, axis_of_edge.ravel(), middles)
+    return _Parts(_sphere(style), centres, axes, cylinders, axis_of_edge.ravel(), middles)
 
 
 def _placed(template: _Template, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -186,7 +191,7 @@ def _soup(structure: Structure, style: MeshStyle) -> tuple[trimesh.Trimesh, trim
     spheres.visual.face_colors = style.vertex_color
     if structure.n_edges == 0:
         return spheres, None
-    pieces = [_placed(t, parts.middles[parts.axis_of_edge == a]) for a, t in enumerate(parts.cylinders)]
+    pieces = [_placed(template, middles) for _, template, middles in parts.by_axis()]
     offsets = np.cumsum([0] + [len(p[0]) for p in pieces[:-1]])
     cylinders = trimesh.Trimesh(
         np.concatenate([p[0] for p in pieces]),
@@ -223,16 +228,13 @@ def _solid(structure: Structure, style: MeshStyle) -> trimesh.Trimesh:
     # (its caps well inside them, so that neighbours along one line never touch each other).
     ball = manifold(parts.sphere.positions @ Rotation.from_rotvec([0.3, 0.71, 0.13]).as_matrix().T, parts.sphere.faces)
     pieces = [ball.translate(tuple(c)) for c in parts.centres]
-    for a in range(len(parts.cylinders)):
-        chosen = parts.axis_of_edge == a
-        ends = structure.edges[chosen][0]
-        step = structure.vertices[ends[1]] - structure.vertices[ends[0]]
+    for a, (step, _, middles) in enumerate(parts.by_axis()):
         axis = step / np.linalg.norm(step)
         thicker = replace(style, cylinder_radius=style.cylinder_radius * (1 + 0.002 * a))
         reaching = _cylinder(thicker, axis, float(np.linalg.norm(step)) * style.spacing - style.sphere_radius)
         turn = Rotation.from_rotvec(axis * (0.1 + 0.37 * a)).as_matrix()
         rod = manifold(reaching.positions @ turn.T, reaching.faces)
-        pieces += [rod.translate(tuple(m)) for m in parts.middles[chosen]]
+        pieces += [rod.translate(tuple(m)) for m in middles]
     # Where a cylinder enters a sphere the union leaves slivers far below the mesh's resolution; simplifying them
     # away keeps the shell watertight once its coordinates are rounded to float32 by the file formats.
     shell = manifold3d.Manifold.batch_boolean(pieces, manifold3d.OpType.Add).simplify(1e-4 * style.spacing).to_mesh()
@@ -326,19 +328,10 @@ def _glb_bytes(structure: Structure, style: MeshStyle, solid: bool) -> bytes:
     from structgen._version import __version__
 
     writer = _GlbWriter()
+    look = {"metallicFactor": 0.0, "roughnessFactor": 0.6}
     materials = [
-        {
-            "name": "vertex",
-            "pbrMetallicRoughness": {
-                "baseColorFactor": _linear(style.vertex_color),
-                "metallicFactor": 0.0,
-                "roughnessFactor": 0.6,
-            },
-        },
-        {
-            "name": "edge",
-            "pbrMetallicRoughness": {"baseColorFactor": _linear(style.edge_color), "metallicFactor": 0.0, "roughnessFactor": 0.6},
-        },
+        {"name": name, "pbrMetallicRoughness": {"baseColorFactor": _linear(colour), **look}}
+        for name, colour in (("vertex", style.vertex_color), ("edge", style.edge_color))
     ]
     nodes: list[dict] = [{"name": "structure", "children": []}]
 
@@ -364,9 +357,9 @@ def _glb_bytes(structure: Structure, style: MeshStyle, solid: bool) -> bytes:
         add_group("vertices", [(sphere, parts.centres)])
         if parts.cylinders:
             placements = []
-            for a, template in enumerate(parts.cylinders):
+            for a, (_, template, middles) in enumerate(parts.by_axis()):
                 mesh = writer.mesh(f"edge {a}", _y_up(template.positions), _y_up(template.normals), template.faces, 1)
-                placements.append((mesh, parts.middles[parts.axis_of_edge == a]))
+                placements.append((mesh, middles))
             add_group("edges", placements)
     metadata = {
         "generator": f"structgen {__version__}",
