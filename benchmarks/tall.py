@@ -2,9 +2,14 @@
 re-checked with PyBullet's faithful preset until one stands with no joint broken.
 
     python benchmarks/tall.py RUN_DIR [RUN_DIR ...] [--candidates 10] [--save-best tall.json]
+    python benchmarks/tall.py --blocks
 
 Prints a markdown table, one row per run: optimiser, evaluator, generations and run time, and the tallest elite that
 the faithful simulation confirms (vertices tall = height + 1), with how many taller ones it broke.
+
+``--blocks`` prints why dense growth cannot be tall under the paper's model: the largest joint force the static
+analysis finds in solid blocks (every lattice cell a vertex) of a given width and number of levels, with every
+neighbour joined or with edges along the axes only.
 """
 
 from __future__ import annotations
@@ -19,16 +24,24 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 import numpy as np  # noqa: E402
 
 from evolution import RunFolderError  # noqa: E402
-from physics import InputError, check_stability  # noqa: E402
+from physics import InputError, PhysicsConfig, check_stability, joint_forces  # noqa: E402
+from structgen.lattice import OFFSETS  # noqa: E402
 from structgen.runs import load_run  # noqa: E402
+from structgen.structure import Structure  # noqa: E402
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("runs", nargs="+", metavar="RUN_DIR")
+    parser.add_argument("runs", nargs="*", metavar="RUN_DIR")
+    parser.add_argument("--blocks", action="store_true", help="the solid-block table instead of runs")
     parser.add_argument("--candidates", type=int, default=10, help="elites to try per run, tallest first (default 10)")
     parser.add_argument("--save-best", metavar="FILE.json", help="save the tallest confirmed structure of all runs")
     args = parser.parse_args()
+    if args.blocks:
+        print_blocks()
+        return
+    if not args.runs:
+        parser.error("give RUN_DIR or --blocks")
     print(
         "| run | optimizer | evaluator | generations | run time | tallest confirmed standing | vertices | taller ones that broke |"
     )
@@ -68,6 +81,44 @@ def main() -> None:
             tallest = found
     if args.save_best and tallest[1] is not None:
         print(f"\n{tallest[1].save(args.save_best)}: {tallest[1].n_vertices} vertices, height {tallest[0]:.2f}")
+
+
+def solid_block(width: int | None, levels: int, offsets: np.ndarray) -> Structure:
+    """Every cell of a ``width`` x ``width`` x ``levels`` box a vertex, joined to its neighbours along ``offsets``;
+    width None: a solid pyramid instead, each level one cell narrower on every side than the one below."""
+    if width is None:
+        cells = np.array(
+            [
+                (x, y, z)
+                for z in range(levels)
+                for x in range(z - levels + 1, levels - z)
+                for y in range(z - levels + 1, levels - z)
+            ]
+        )
+    else:
+        cells = np.array([(x, y, z) for x in range(width) for y in range(width) for z in range(levels)])
+    index = {tuple(c): i for i, c in enumerate(cells.tolist())}
+    edges = [
+        (i, index[q])
+        for c, i in index.items()
+        for d in offsets.tolist()
+        if (q := (c[0] + d[0], c[1] + d[1], c[2] + d[2])) in index and index[q] > i
+    ]
+    return Structure(cells, np.array(edges, dtype=np.int64).reshape(-1, 2), {})
+
+
+def print_blocks(widths: tuple[int | None, ...] = (1, 2, 3, 5, None), levels: range = range(2, 9)) -> None:
+    physics = PhysicsConfig()
+    print(f"largest joint force (N) in a solid block, static analysis; joints break above {physics.break_force:g} N")
+    print()
+    print("| edges | width (pyramid: base 2 x levels - 1) | " + " | ".join(f"{n} levels" for n in levels) + " |")
+    print("|---|---:|" + "---:|" * len(levels))
+    for name, offsets in (("every neighbour", OFFSETS), ("axes only", np.eye(3, dtype=np.int64))):
+        for width in widths:
+            forces = [float(np.nanmax(joint_forces(solid_block(width, n, offsets), physics))) for n in levels]
+            marked = [f"{f:.0f}" if f <= physics.break_force else f"**{f:.0f}**" for f in forces]
+            shape = "pyramid" if width is None else width
+            print(f"| {name} | {shape} | " + " | ".join(marked) + " |", flush=True)
 
 
 if __name__ == "__main__":

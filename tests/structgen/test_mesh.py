@@ -144,3 +144,53 @@ def test_export_overwrites_only_on_success(tmp_path):
     assert path.read_bytes() == before
     column(3).export(path)
     assert path.read_bytes() != before
+
+
+@pytest.mark.parametrize("solid", [False, True])
+def test_glb_follows_the_gltf_container_rules(tmp_path, solid):
+    # The Khronos validator is not available to the tests (it needs node); these are the rules it checks that this
+    # writer could break: header and chunk lengths, 4-byte alignment, views inside the buffer, exact POSITION
+    # bounds, indices inside their mesh, unit normals, and every mesh, accessor and view used.
+    import json
+    import struct
+
+    structure = Structure([[0, 0, 0], [1, 0, 0], [1, 1, 1], [1, 1, 2]], [[0, 1], [1, 2], [2, 3]])
+    data = structure.export(tmp_path / "s.glb", solid=solid).read_bytes()
+    magic, version, total = struct.unpack_from("<4sII", data)
+    assert (magic, version, total) == (b"glTF", 2, len(data))
+    json_length, json_kind = struct.unpack_from("<I4s", data, 12)
+    assert json_kind == b"JSON" and json_length % 4 == 0
+    document = json.loads(data[20 : 20 + json_length])
+    bin_length, bin_kind = struct.unpack_from("<I4s", data, 20 + json_length)
+    assert bin_kind == b"BIN\0" and bin_length % 4 == 0 and 28 + json_length + bin_length == len(data)
+    binary = data[28 + json_length :]
+    assert document["asset"]["version"] == "2.0" and document["buffers"] == [{"byteLength": bin_length}]
+    for view in document["bufferViews"]:
+        assert view["byteOffset"] % 4 == 0 and view["byteOffset"] + view["byteLength"] <= bin_length
+    kinds = {5126: np.float32, 5123: np.uint16, 5125: np.uint32}
+    widths = {"SCALAR": 1, "VEC3": 3}
+
+    def read(index: int) -> np.ndarray:
+        accessor = document["accessors"][index]
+        view = document["bufferViews"][accessor["bufferView"]]
+        dtype, width = kinds[accessor["componentType"]], widths[accessor["type"]]
+        assert view["byteLength"] == accessor["count"] * width * np.dtype(dtype).itemsize
+        raw = binary[view["byteOffset"] : view["byteOffset"] + view["byteLength"]]
+        return np.frombuffer(raw, dtype=dtype).reshape(accessor["count"], width)
+
+    used_accessors = set()
+    for mesh in document["meshes"]:
+        (primitive,) = mesh["primitives"]
+        position, normal, indices = primitive["attributes"]["POSITION"], primitive["attributes"]["NORMAL"], primitive["indices"]
+        used_accessors |= {position, normal, indices}
+        points = read(position)
+        assert document["accessors"][position]["min"] == points.min(axis=0).tolist()
+        assert document["accessors"][position]["max"] == points.max(axis=0).tolist()
+        np.testing.assert_allclose(np.linalg.norm(read(normal), axis=1), 1.0, atol=1e-5)
+        triangles = read(indices)
+        assert len(triangles) % 3 == 0 and triangles.max() < len(points)
+        assert primitive["material"] < len(document["materials"])
+    assert used_accessors == set(range(len(document["accessors"])))
+    assert {a["bufferView"] for a in document["accessors"]} == set(range(len(document["bufferViews"])))
+    placed = {node["mesh"] for node in document["nodes"] if "mesh" in node}
+    assert placed == set(range(len(document["meshes"])))
