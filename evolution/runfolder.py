@@ -428,10 +428,14 @@ class RunFolder:
         path = self / self.ARCHIVE
         if not path.is_file():
             raise RunFolderError(f"{self.path}: this run has no archive (only quality-diversity runs keep one)")
+        not_an_archive = f"{path}: not an archive (its first line should name the columns index, objective, ...)"
         reader = csv.DictReader(io.StringIO(read_text(path, _MAX_TABLE, what="CSV"), newline=""))
-        if not reader.fieldnames or reader.fieldnames[:2] != ["index", "objective"]:
-            raise InputFileError(f"{path}: not an archive (its first line should name the columns index, objective, ...)")
-        rows = list(reader)
+        try:
+            if not reader.fieldnames or reader.fieldnames[:2] != ["index", "objective"]:
+                raise InputFileError(not_an_archive)
+            rows = list(reader)
+        except csv.Error as err:  # Python 3.10's reader refuses NUL bytes, which later versions read as text
+            raise InputFileError(f"{not_an_archive}: {err}") from None
         for number, row in enumerate(rows, start=2):
             try:
                 int(row["index"])
