@@ -156,9 +156,9 @@ class StableStructures(Problem):
         measures = np.array([[r.height, r.complexity] for r in reports], dtype=np.float64).reshape(-1, 2)
         objective = np.array([r.score for r in reports])
         if self.settings.also_grow:
-            grown = self.grown_integrity(genomes)
-            fields["grown_integrity"] = grown.min(axis=1).tolist()
-            objective = objective * grown.min(axis=1)
+            lowest = self.grown_integrity(genomes).min(axis=1)
+            fields["grown_integrity"] = lowest.tolist()
+            objective = objective * lowest
         return Evaluation(objective, measures, fields)
 
     def grown_integrity(self, genomes: np.ndarray, lengths: Sequence[int] | None = None) -> np.ndarray:
