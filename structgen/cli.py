@@ -335,7 +335,9 @@ def build_parser() -> argparse.ArgumentParser:
         f"evolve the generators.\n\nDomains (structgen <domain> --help for their verbs):\n{listing}",
     )
     parser.add_argument("--version", action="version", version=f"structgen {__version__}")
-    parser.add_argument("-v", "--verbose", action="store_true", help="log more, and show tracebacks on errors")
+    parser.add_argument(
+        "-v", "--verbose", action="store_true", help="log more, and show tracebacks on errors (anywhere on the line)"
+    )
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     listing_parser = commands.add_parser(
@@ -387,6 +389,14 @@ def _unknown_options(unknown: list[str], args: argparse.Namespace, argv: list[st
     return f"unrecognized arguments: {option} (settings go through --set: --set {name.replace('-', '_')}={value or 'VALUE'})"
 
 
+def _verbose_first(argv: list[str]) -> list[str]:
+    """``argv`` with -v/--verbose moved to the front: it belongs to the top-level parser, and users type it after the
+    command too (``structgen evolve CONFIG -v``). Nothing after ``--`` is touched."""
+    end = argv.index("--") if "--" in argv else len(argv)
+    flags = [word for word in argv[:end] if word in ("-v", "--verbose")]
+    return flags + [word for word in argv[:end] if word not in ("-v", "--verbose")] + argv[end:]
+
+
 def _report(message: str) -> None:
     print(f"structgen: error: {message}", file=sys.stderr)
 
@@ -396,7 +406,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # Our packages talk at INFO; third-party libraries (matplotlib, dask) only when something is wrong.
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s: %(message)s", stream=sys.stderr, force=True)
     parser = build_parser()
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = _verbose_first(list(sys.argv[1:] if argv is None else argv))
     args, unknown = parser.parse_known_args(argv)
     if unknown:
         _report(_unknown_options(unknown, args, argv))

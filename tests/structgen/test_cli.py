@@ -215,6 +215,14 @@ def test_info_of_a_missing_file(tmp_path, capsys):
     assert_one_line_error(err, "nope.json", "no such file")
 
 
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_verbose_before_or_after_the_command_shows_the_traceback(tmp_path, capsys, where):
+    flag, command = ["-v"], ["info", str(tmp_path / "nope.json")]
+    code, _, err = run(capsys, *(flag + command if where == "before" else command + flag))
+    assert code == 2 and "Traceback" in err
+    assert err.splitlines()[0] == f"structgen: error: {tmp_path / 'nope.json'}: no such file"
+
+
 # -- the installed entry point --------------------------------------------------------------------------------------------
 def test_console_script_and_help_for_every_subcommand(tmp_path):
     script = Path(sys.executable).with_name("structgen")
