@@ -10,7 +10,9 @@ The model is the simulation's (``physics.bullet``) with time taken out:
   weights from the bottom joint up, the same as PyBullet reads once the structure is at rest).
 - Vertices at the lowest level rest on the ground as pins (no moment, as a sphere on a plane). A support that would
   have to pull the structure down is released. A supported piece whose centre of mass lies outside the convex
-  hull of its ground contacts tips over.
+  hull of its ground contacts tips over. The pins hold in every direction; with ``sliding_ground`` they hold only
+  vertically (plus the least that stops the piece sliding or spinning), the other bound on the simulation's
+  friction.
 - Progressive failure: every joint whose force times ``config.statics_load_factor`` exceeds the break force breaks;
   the structure is solved again, and so on until nothing more breaks. A piece that no longer touches the ground
   (cut loose, or tipping) falls, and its joints count as broken: in the simulation, falling pieces hit the ground
@@ -111,6 +113,19 @@ def _frame(bodies: Bodies, config: PhysicsConfig) -> _Frame:
     return _Frame(stiffness, loads, dofs)
 
 
+def _vertical_holds(contacts: np.ndarray, first_dofs: np.ndarray) -> np.ndarray:
+    """Degrees of freedom that hold a piece on sliding ground: every contact's vertical, plus the two horizontal
+    ones of the contact nearest the middle and one of the contact furthest from it (across the line between them),
+    the least that stops the piece sliding or spinning without resisting any spreading of its feet."""
+    middle = int(np.argmin(np.abs(contacts - contacts.mean(axis=0)).sum(axis=1)))
+    apart = np.abs(contacts - contacts[middle])
+    far = int(np.argmax(apart.sum(axis=1)))
+    held = [first_dofs + 2, first_dofs[middle] + np.arange(2)]
+    if far != middle:
+        held.append(np.array([first_dofs[far] + (1 if apart[far, 0] >= apart[far, 1] else 0)]))
+    return np.unique(np.concatenate(held))
+
+
 def _inside_hull(point: np.ndarray, contacts: np.ndarray, tolerance: float, margin: float = 0.0) -> bool:
     """Whether a 2D point lies in the convex hull of 2D contact points (a point, a segment or a polygon), at least
     ``margin`` inside a polygon's edges (a point or segment of contacts has no inside: only balance counts)."""
@@ -157,6 +172,7 @@ def _solve_piece(
     supports: np.ndarray,
     bodies: Bodies,
     config: PhysicsConfig,
+    sliding: bool = False,
 ) -> tuple[np.ndarray | None, np.ndarray]:
     """Solve one connected piece; ``hanging`` lists the vertex each one-jointed cylinder hangs from. Returns (member
     end forces (M, 12) or None if the piece falls, the contacts still supporting it)."""
@@ -189,7 +205,10 @@ def _solve_piece(
             return None, supports  # tips over
         # Number the free degrees of freedom (all but the supports' translations) and assemble only their block.
         position = np.full(n, -1)
-        fixed = (6 * index[supports][:, None] + np.arange(3)).ravel()
+        if sliding:
+            fixed = _vertical_holds(bodies.sphere_positions[supports, :2], 6 * index[supports])
+        else:
+            fixed = (6 * index[supports][:, None] + np.arange(3)).ravel()
         free = np.ones(n, dtype=bool)
         free[fixed] = False
         position[free] = np.arange(free.sum())
@@ -253,11 +272,18 @@ def _one_blas_thread():
     return _blas.limit(limits=1)
 
 
-def predict(structure: Any, config: PhysicsConfig | None = None, *, rounds: int | None = None) -> StaticsResult:
+def predict(
+    structure: Any, config: PhysicsConfig | None = None, *, rounds: int | None = None, sliding_ground: bool = False
+) -> StaticsResult:
     """Static forces of the intact structure, then progressive failure (at most ``rounds`` rounds; None: until
-    nothing more breaks)."""
+    nothing more breaks).
+
+    ``sliding_ground``: the ground holds the contacts up but not sideways (only as much as stops the whole piece
+    sliding or spinning), as on ice. The default holds them in every direction, which is what the load factors were
+    fitted with; a wide structure whose feet push outwards loads its lowest joints more in the simulation than
+    that predicts, and its sliding-ground forces bound them from the other side."""
     config = config or PhysicsConfig()
-    return _predict(_placed(structure, config), config, rounds)
+    return _predict(_placed(structure, config), config, rounds, sliding_ground)
 
 
 def memory_estimate(n_vertices: int) -> float:
@@ -279,12 +305,12 @@ def _placed(structure: Any, config: PhysicsConfig) -> Bodies:
     return place(vertices, edges, config, enforce_caps=False)
 
 
-def _predict(bodies: Bodies, config: PhysicsConfig, rounds: int | None) -> StaticsResult:
+def _predict(bodies: Bodies, config: PhysicsConfig, rounds: int | None, sliding_ground: bool = False) -> StaticsResult:
     with _one_blas_thread():
-        return _progressive_failure(bodies, config, rounds)
+        return _progressive_failure(bodies, config, rounds, sliding_ground)
 
 
-def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | None) -> StaticsResult:
+def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | None, sliding_ground: bool) -> StaticsResult:
     edges = bodies.edges
     frame = _frame(bodies, config)
     n_vertices, n_edges = len(bodies.sphere_positions), len(edges)
@@ -327,7 +353,9 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
             if key not in solved:
                 found = len(supports) > 0
                 solved[key] = (
-                    _solve_piece(frame, members, held_node[hanging], nodes, supports, bodies, config)[0] if found else None
+                    _solve_piece(frame, members, held_node[hanging], nodes, supports, bodies, config, sliding_ground)[0]
+                    if found
+                    else None
                 )
             ends = solved[key]
             if ends is None:
