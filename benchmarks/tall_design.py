@@ -46,8 +46,8 @@ from structgen.structure import Structure  # noqa: E402
 Cell = tuple[int, int, int]
 Edge = tuple[Cell, Cell]
 NEIGHBOURS: list[Cell] = [tuple(int(v) for v in d) for d in OFFSETS.tolist()]  # type: ignore[misc]
-MIRRORS = [(1, 1, False), (-1, 1, False), (1, -1, False), (-1, -1, False), (1, 1, True), (-1, 1, True), (1, -1, True)]
-MIRRORS.append((-1, -1, True))
+# (sign of x, sign of y, swap x and y): the eight symmetries of the square.
+MIRRORS = [(sx, sy, swap) for swap in (False, True) for sy in (1, -1) for sx in (1, -1)]
 
 
 def images(cell: Cell) -> list[Cell]:

@@ -203,7 +203,7 @@ def _solve_piece(
     while len(supports):
         if not _inside_hull(centre[:2], bodies.sphere_positions[supports, :2], tolerance, config.statics_tip_margin):
             return None, supports  # tips over
-        # Number the free degrees of freedom (all but the supports' translations) and assemble only their block.
+        # Number the free degrees of freedom (all but the held translations of the supports) and assemble only their block.
         position = np.full(n, -1)
         if sliding:
             fixed = _vertical_holds(bodies.sphere_positions[supports, :2], 6 * index[supports])
