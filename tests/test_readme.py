@@ -11,6 +11,8 @@ run by tests/test_plugins.py).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import re
 import shlex
 import sys
@@ -73,15 +75,28 @@ def test_the_readme_has_examples_of_each_kind():
     assert len(commands()) >= 30 and len(blocks("python")) >= 4 and blocks("toml")
 
 
-def test_every_command_runs_as_written(scratch, monkeypatch, capsys):
-    monkeypatch.chdir(scratch)
-    for argv, expected in commands():
-        code = main(shortened(argv, scratch))
-        out, err = capsys.readouterr()
+@pytest.fixture(scope="module")
+def ran_commands(scratch) -> list[tuple[list[str], int, int, str]]:
+    """Every command run once, in order, in the scratch folder: ``(argv, expected code, code, stderr)`` each. A
+    fixture, not a test, because the python blocks need what the commands made, and a test run split over several
+    processes (pytest -n) may give the two tests to different ones."""
+    results = []
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(scratch)
+        for argv, expected in commands():
+            out, err = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                code = main(shortened(argv, scratch))
+            results.append((argv, expected, code, err.getvalue()))
+    return results
+
+
+def test_every_command_runs_as_written(ran_commands):
+    for argv, expected, code, err in ran_commands:
         assert code == expected, f"structgen {shlex.join(argv)} exited {code}:\n{err[-2000:]}"
 
 
-def test_every_python_block_runs(scratch, monkeypatch, capsys):
+def test_every_python_block_runs(ran_commands, scratch, monkeypatch, capsys):
     monkeypatch.chdir(scratch)
     namespace: dict = {"__name__": "readme_example"}
     for n, block in enumerate(blocks("python")):
