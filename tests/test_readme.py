@@ -26,7 +26,8 @@ from structgen.experiment import load_experiment
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
 
-pytestmark = pytest.mark.slow
+# One worker for the whole file under pytest -n (make test uses --dist loadgroup): the commands run once, not twice.
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("readme")]
 
 
 def blocks(language: str) -> list[str]:
