@@ -34,8 +34,6 @@ from pathlib import Path
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
 import numpy as np  # noqa: E402
-from scipy.sparse import coo_matrix  # noqa: E402
-from scipy.sparse.csgraph import connected_components  # noqa: E402
 
 from physics import PhysicsConfig, StabilityReport, check_stability  # noqa: E402
 from physics.statics import predict  # noqa: E402
@@ -71,9 +69,7 @@ def connected_to_the_top(cells: set[Cell], edges: set[Edge], top: int) -> Struct
     if not edges or max(c[2] for c in cells) != top or min(c[2] for c in cells) != 0:
         return None
     structure = to_structure(cells, edges)
-    n = structure.n_vertices
-    graph = coo_matrix((np.ones(structure.n_edges), (structure.edges[:, 0], structure.edges[:, 1])), shape=(n, n))
-    return structure if connected_components(graph, directed=False)[0] == 1 else None
+    return structure if structure.n_components == 1 else None
 
 
 def worst_and_rest(forces: np.ndarray) -> float:

@@ -113,8 +113,7 @@ def five_level_pyramid() -> Structure:
     joint broken, its largest static joint force 37 N of the 52.5 N limit. Found by a small search over level-by-level
     rules with the static analysis; taller structures need designing vertex by vertex (``benchmarks/tall_design.py``).
     """
-    pyramid = sparse_pyramid(5)
-    return Structure(pyramid.vertices, pyramid.edges, {"sample": "five_level_pyramid()"})
+    return sparse_pyramid(5).with_metadata(sample="five_level_pyramid()")
 
 
 def flat_edge() -> Structure:
