@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from evolution.files import read_weights
 from evolution.problem import Problem
 
 __all__ = [
@@ -160,6 +161,30 @@ class GeneticAlgorithm(Optimizer):
         self._asked = None
 
 
+# -- where a search starts ---------------------------------------------------------------------------------------------
+_START_WORDS = ("random", "zeros")
+
+
+def _start_setting(settings: Any) -> None:
+    x0 = settings.x0
+    if not isinstance(x0, str) or not (x0 in _START_WORDS or x0.lower().endswith((".npy", ".json"))):
+        raise ValueError(
+            f"optimizer x0 must be 'random', 'zeros' or the path of a .npy or .json file holding a genome, got {x0!r}"
+        )
+
+
+def start_genome(problem: Problem, x0: str, rng: np.random.Generator) -> np.ndarray:
+    """The genome a search starts from: one random genome drawn with ``rng`` (drawn for "zeros" and files too,
+    so that what ``rng`` gives next does not depend on ``x0``), zeros, or the genome in the file ``x0`` (a path
+    relative to the working directory; an error names the file and what is wrong with it)."""
+    genome = np.asarray(problem.initial_genomes(1, rng), dtype=np.float64)[0]
+    if x0 == "random":
+        return genome
+    if x0 == "zeros":
+        return np.zeros_like(genome)
+    return read_weights(x0, len(genome), f"a genome of {problem.name}")
+
+
 # -- CMA-ES (pycma) ---------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class CMAESSettings:
@@ -170,17 +195,21 @@ class CMAESSettings:
         sigma0: initial step size.
         diagonal: learn only a diagonal covariance (sep-CMA-ES). Needed for thousands of parameters: a full
             covariance of the NCA's 4766 weights is 180 MB and its decomposition takes seconds.
+        x0: where the search starts: "random" (one genome from the problem's initial distribution), "zeros", or
+            a ``.npy``/``.json`` file holding one genome (such as an elite's weights), to refine it.
     """
 
     population: int = 100
     sigma0: float = 0.1
     diagonal: bool = True
+    x0: str = "random"
 
     def __post_init__(self) -> None:
         _positive_int(self, "population")
         if self.population < 2:
             raise ValueError("optimizer population must be at least 2 for CMA-ES")
         _in_range(self, "sigma0", 0.0, math.inf, low_open=True)
+        _start_setting(self)
 
 
 class _Normal:
@@ -203,7 +232,7 @@ class CMAES(Optimizer):
         if not problem.flat:
             raise ValueError(f"cma_es needs flat genomes; {problem.name} has object genomes (use ga or map_elites)")
         rng = np.random.default_rng(seed)
-        x0 = np.asarray(problem.initial_genomes(1, rng), dtype=np.float64)[0]
+        x0 = start_genome(problem, settings.x0, rng)
         options = {
             "popsize": settings.population,
             "randn": _Normal(int(rng.integers(2**63))),
@@ -282,8 +311,8 @@ class CMAMAESettings:
             (only when its step size collapses).
         result_archive: keep the best of each cell in a second archive (CMA-MAE), or report the learning archive
             itself (CMA-ME).
-        x0: where the emitters start: "random" (one genome from the problem's initial distribution) or "zeros"
-            (the origin, as the warehouse work does).
+        x0: where the emitters start: "random" (one genome from the problem's initial distribution), "zeros"
+            (the origin, as the warehouse work does), or a ``.npy``/``.json`` file holding one genome.
     """
 
     cells: tuple[int, ...] = (16, 16)
@@ -310,11 +339,11 @@ class CMAMAESettings:
             "ranker": ("imp", "2imp", "obj", "2obj"),
             "selection": ("mu", "filter"),
             "restart": ("no_improvement", "basic"),
-            "x0": ("random", "zeros"),
         }
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
                 options = " or ".join(repr(a) for a in allowed)
                 raise ValueError(f"optimizer {name} must be {options}, got {getattr(self, name)!r}")
+        _start_setting(self)
         if not isinstance(self.result_archive, bool):
             raise ValueError(f"optimizer result_archive must be true or false, got {self.result_archive!r}")

@@ -13,7 +13,7 @@ from ribs.archives import GridArchive
 from ribs.emitters import EmitterBase, EvolutionStrategyEmitter, GaussianEmitter
 from ribs.schedulers import Scheduler
 
-from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer
+from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, start_genome
 from evolution.problem import Problem
 
 __all__ = ["ProblemMutationEmitter", "RibsOptimizer", "cma_mae", "map_elites"]
@@ -133,9 +133,7 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
         threshold = problem.objective_floor - 1e-6 * max(1.0, abs(problem.objective_floor))
     archive = _grid_archive(problem, cells, int(seeds[0]), learning_rate=settings.learning_rate, threshold_min=threshold)
     result_archive = _grid_archive(problem, cells, int(seeds[1])) if settings.result_archive else None
-    x0 = np.asarray(problem.initial_genomes(1, np.random.default_rng(int(seeds[2]))), dtype=np.float64)[0]
-    if settings.x0 == "zeros":
-        x0 = np.zeros_like(x0)
+    x0 = start_genome(problem, settings.x0, np.random.default_rng(int(seeds[2])))
     emitters = [
         EvolutionStrategyEmitter(
             archive,

@@ -65,7 +65,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from evolution.files import MiB, atomic_write, read_json, read_npy
+from evolution.files import atomic_write, read_weights
 from structgen.budget import check_memory
 from structgen.lattice import N_DIRECTIONS, N_NEIGHBOURS, OFFSETS
 from structgen.nca_config import INIT_SCALE, N_INPUTS, N_OUTPUTS, NCAConfig, n_params
@@ -409,45 +409,11 @@ class _Growth:
         return structures
 
 
-#: Weight files larger than this are refused before they are read (a 52-60-26 network takes 38 KB).
-MAX_WEIGHTS_BYTES = 64 * MiB
-
-
 def load_weights(path: str | os.PathLike, config: NCAConfig | None = None) -> np.ndarray:
     """Read one flat weight vector from ``.npy`` (a 1-D array) or ``.json`` (a list of numbers, or an object with a
     ``"weights"`` list); raise ValueError naming the file and the problem if it does not fit ``config``."""
     config = config or NCAConfig()
     return read_weights(path, n_params(config), f"a 52-{config.hidden}-26 NCA")
-
-
-def read_weights(path: str | os.PathLike, expected: int, network: str) -> np.ndarray:
-    """Read a flat vector of ``expected`` finite numbers (the weights of ``network``, named in errors) from ``.npy``
-    or ``.json``; raise ValueError naming the file and the problem otherwise."""
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix == ".npy":
-        data = read_npy(path, MAX_WEIGHTS_BYTES)
-    elif suffix == ".json":
-        data = read_json(path, MAX_WEIGHTS_BYTES)
-        if isinstance(data, dict):
-            if "weights" not in data:
-                raise ValueError(f"{path}: expected a list of numbers or an object with a 'weights' list")
-            data = data["weights"]
-        if not isinstance(data, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in data):
-            raise ValueError(f"{path}: weights must be a flat list of numbers")
-        try:
-            data = np.asarray(data, dtype=np.float64)
-        except OverflowError:  # an integer too large for a float
-            raise ValueError(f"{path}: a weight is too large to be a number") from None
-    else:
-        raise ValueError(f"{path}: unknown weights format {path.suffix!r}; use .npy or .json")
-    if data.ndim != 1 or data.dtype.kind not in "iuf":
-        raise ValueError(f"{path}: expected a 1-D array of numbers, got shape {data.shape} of {data.dtype}")
-    if len(data) != expected:
-        raise ValueError(f"{path}: holds {len(data)} weights, but {network} has {expected}")
-    if not np.isfinite(data).all():
-        raise ValueError(f"{path}: weights contain NaN or infinity")
-    return data.astype(np.float64)
 
 
 def save_weights(path: str | os.PathLike, weights: Any) -> Path:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 
 import numpy as np
@@ -206,6 +207,26 @@ def test_cma_me_settings_reach_the_emitters_and_report_the_learning_archive():
     assert optimizer.archive is optimizer.scheduler.archive and optimizer.archive.learning_rate == 0.5
     with pytest.raises(ValueError, match="optimizer selection must be 'mu' or 'filter', got 'best'"):
         CMAMAESettings(selection="best")
+
+
+@pytest.mark.parametrize("name", ["cma_es", "cma_mae"])
+def test_a_search_can_start_from_a_genome_in_a_file(tmp_path, name):
+    # Refining an elite: the first samples lie around the genome in the file, not around a random one.
+    problem = Sphere()
+    start = np.full(problem.n_params, 0.7)
+    np.save(tmp_path / "elite.npy", start)
+    settings = dataclasses.replace(SMALL[name], x0=str(tmp_path / "elite.npy"), sigma0=1e-3)
+    genomes = make_optimizer(name, problem, settings, seed=0).ask()
+    assert np.abs(np.asarray(genomes) - start).max() < 0.02
+
+
+def test_a_start_file_that_does_not_fit_is_refused_by_name(tmp_path):
+    problem = Sphere()
+    np.save(tmp_path / "short.npy", np.zeros(problem.n_params - 1))
+    with pytest.raises(ValueError, match=f"short.npy: holds {problem.n_params - 1} weights, but a genome of sphere has"):
+        make_optimizer("cma_es", problem, CMAESSettings(population=8, x0=str(tmp_path / "short.npy")))
+    with pytest.raises(ValueError, match="optimizer x0 must be 'random', 'zeros' or the path of a .npy or .json file"):
+        CMAESSettings(x0="elite.txt")
 
 
 def test_quality_diversity_settings_must_match_the_measures():

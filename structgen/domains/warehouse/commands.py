@@ -43,8 +43,8 @@ def _check_output(path: Path, suffix: str) -> None:
 
 # -- generate ---------------------------------------------------------------------------------------------------------
 def cmd_generate(args: argparse.Namespace) -> int:
+    from evolution.files import read_weights
     from structgen.conv_nca import ConvNCA
-    from structgen.nca import read_weights
 
     kind = _kind(args)
     _check_output(args.output, ".json")
