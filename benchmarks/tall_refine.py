@@ -1,10 +1,11 @@
 """Refine a grown structure that nearly stands: CMA-ES on the NCA's weights, judged by the transient the faithful
 simulation sees while the structure takes up its weight.
 
-    python benchmarks/tall_refine.py START.npy [--levels 5] [--generations 70] [--sigma 0.01] [--seed 0] [-o BEST.npy]
+    python benchmarks/tall_refine.py START.npy [--levels 5] [--max-vertices 200] [--generations 70] [--sigma 0.01]
+        [--seed 0] [-o BEST.npy]
 
 ``START.npy`` holds the weights of an NCA grown with the settings of ``configs/tall.toml`` (ten steps, cutoff 0.6, no
-building down, at most 200 vertices), such as a near-miss elite of that run. Each generation grows 16 weight vectors
+building down, at most 200 vertices unless ``--max-vertices`` says otherwise), such as a near-miss elite of that run. Each generation grows 16 weight vectors
 around the current mean and scores each structure by the largest force any joint carries in the first 0.3 s of the
 faithful preset with joints that cannot break (plus a fiftieth of the mean of that peak and the nineteen largest
 forces at the end, so that ties go to the structure with less load elsewhere); a structure less than ``--levels`` vertices tall, or one
@@ -19,6 +20,7 @@ machine: the same arguments give the same generations.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 import time
@@ -62,6 +64,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("start", metavar="START.npy", help="weights to start from (.npy or .json)")
     parser.add_argument("--levels", type=int, default=5, help="how many vertices tall a structure must be (default 5)")
+    parser.add_argument(
+        "--max-vertices",
+        type=int,
+        default=TALL.max_vertices,
+        help=f"growth stops at this many vertices (default {TALL.max_vertices}, as in configs/tall.toml); a taller "
+        "structure needs room to grow",
+    )
     parser.add_argument("--generations", type=int, default=70, help="CMA-ES generations of 16 (default 70)")
     parser.add_argument("--sigma", type=float, default=0.01, help="CMA-ES initial step size (default 0.01)")
     parser.add_argument("--seed", type=int, default=0, help="CMA-ES seed (default 0)")
@@ -70,9 +79,12 @@ def main() -> None:
     args = parser.parse_args()
     if args.generations < 1:
         parser.error(f"--generations must be at least 1, got {args.generations}")
+    if args.max_vertices < args.levels:
+        parser.error(f"--max-vertices must be at least --levels ({args.levels}), got {args.max_vertices}")
+    growth = dataclasses.replace(TALL, max_vertices=args.max_vertices)
 
     try:
-        start = load_weights(args.start, TALL)
+        start = load_weights(args.start, growth)
     except ValueError as err:  # the file gate's errors name the file and what is wrong
         parser.error(str(err))
     strategy = cma.CMAEvolutionStrategy(
@@ -83,7 +95,7 @@ def main() -> None:
     with ProcessPoolExecutor(args.workers) as pool:
         for generation in range(1, args.generations + 1):
             asked = strategy.ask()
-            structures = grow_population(np.array(asked), TALL)
+            structures = grow_population(np.array(asked), growth)
             jobs = [(s.vertices, s.edges, args.levels) for s in structures]
             results = list(pool.map(transient_score, jobs, chunksize=4))
             scores = [score for score, _ in results]
