@@ -9,7 +9,7 @@ adds or removes a vertex or an edge together with its seven mirror images about 
 top are refused. Two stages:
 
 1. ``--steps`` moves per seed scored by the static analysis: the largest joint load (load factors applied) over two
-   ground models, held and sliding (``physics.statics.predict(..., sliding_ground=True)``), plus a fiftieth of the
+   ground models, held and sliding (``physics.statics.bounding_loads``), plus a fiftieth of the
    mean of the twenty largest so that ties go to the design with less load elsewhere. Held ground alone lets the
    search lean on feet that in the simulation slide apart. The best design over ``--seeds`` goes on.
 2. ``--polish`` moves scored by the faithful simulation itself: the largest force any joint carries in the first
@@ -36,7 +36,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 import numpy as np  # noqa: E402
 
 from physics import PhysicsConfig, StabilityReport, check_stability  # noqa: E402
-from physics.statics import predict  # noqa: E402
+from physics.statics import bounding_loads  # noqa: E402
 from structgen.lattice import OFFSETS  # noqa: E402
 from structgen.samples import sparse_pyramid  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
@@ -78,21 +78,13 @@ def worst_and_rest(forces: np.ndarray) -> float:
     return float(largest[0] + 0.02 * largest[:20].mean())
 
 
-def static_loads(structure: Structure, physics: PhysicsConfig) -> np.ndarray:
-    """Each joint's static load (load factors applied), the larger of held and sliding ground; NaN where it falls."""
-    return np.fmax(
-        predict(structure, physics, rounds=0).first_loads,
-        predict(structure, physics, rounds=0, sliding_ground=True).first_loads,
-    )
-
-
 def transient(structure: Structure, physics: PhysicsConfig) -> StabilityReport:
     """The first 0.3 s of the faithful simulation with joints that cannot break."""
     return check_stability(structure, physics.replace(break_force=math.inf, horizon=0.3))
 
 
 def static_score(structure: Structure, physics: PhysicsConfig) -> float:
-    loads = static_loads(structure, physics)
+    loads = bounding_loads(structure, physics)
     return math.inf if np.isnan(loads).any() else worst_and_rest(loads)
 
 
@@ -189,11 +181,11 @@ def main() -> None:
         spent = time.perf_counter() - begun
         verdict = check_stability(polished, physics)
         cells = [
-            f"{d.n_vertices}, {d.n_edges}, {np.nanmax(static_loads(d, physics)):.1f} N, {transient(d, physics).peak_force:.1f} N"
+            f"{d.n_vertices}, {d.n_edges}, {np.nanmax(bounding_loads(d, physics)):.1f} N, {transient(d, physics).peak_force:.1f} N"
             for d in (static_best, polished)
         ]
         print(
-            f"| {levels} | {np.nanmax(static_loads(start, physics)):.1f} N | {cells[0]} | {cells[1]} | {spent / 60:.1f} min | "
+            f"| {levels} | {np.nanmax(bounding_loads(start, physics)):.1f} N | {cells[0]} | {cells[1]} | {spent / 60:.1f} min | "
             f"{verdict.verdict()}, height {verdict.height:.2f} |",
             flush=True,
         )

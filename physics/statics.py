@@ -41,7 +41,7 @@ from physics.config import PhysicsConfig
 from physics.model import Bodies, InputError, place, read_structure
 from physics.report import BrokenJoint, StabilityReport, height_of, integrity_of, quality
 
-__all__ = ["StaticsResult", "check_statics", "check_statics_with_loads", "joint_forces", "predict"]
+__all__ = ["StaticsResult", "bounding_loads", "check_statics", "check_statics_with_loads", "joint_forces", "predict"]
 
 # Young's modulus of the beams (Pa); the solution for forces does not depend on it, only on stiffness ratios.
 _E = 1.0e9
@@ -284,6 +284,19 @@ def predict(
     that predicts, and its sliding-ground forces bound them from the other side."""
     config = config or PhysicsConfig()
     return _predict(_placed(structure, config), config, rounds, sliding_ground)
+
+
+def bounding_loads(structure: Any, config: PhysicsConfig | None = None) -> np.ndarray:
+    """``(J,)`` each joint's static load (load factors applied) on the intact structure, the larger of held and
+    sliding ground; NaN for joints of pieces that could not stand.
+
+    The simulation's ground lies between the two: friction holds feet that push outwards only so far. A search
+    judged on held ground alone ends on designs whose spreading feet break their joints in the simulation
+    (benchmarks/README.md, "Tall structures"); the larger of the two is the safer guide."""
+    config = config or PhysicsConfig()
+    bodies = _placed(structure, config)
+    held = _predict(bodies, config, rounds=0).first_loads
+    return np.fmax(held, _predict(bodies, config, rounds=0, sliding_ground=True).first_loads)
 
 
 def memory_estimate(n_vertices: int) -> float:

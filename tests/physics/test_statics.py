@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from physics import InputError, PhysicsConfig, check_stability, check_statics
-from physics.statics import _local_stiffness, joint_forces, predict
+from physics.statics import _local_stiffness, bounding_loads, joint_forces, predict
 from structgen import NCAConfig
 from structgen.samples import (
     braced,
@@ -238,6 +238,19 @@ def test_on_sliding_ground_the_ring_between_the_feet_takes_their_outward_push():
     # Without the ring the legs bend instead of pushing their feet apart: the top carries less of its weight along them.
     legs_held, legs_sliding = (predict(tent(False), FAST, rounds=0, sliding_ground=f).first_forces for f in (False, True))
     assert legs_sliding[0::2].max() < 0.5 * legs_held[0::2].min()
+
+
+def test_bounding_loads_take_each_joints_larger_load_of_the_two_grounds():
+    # The tent's ring is loaded more on sliding ground and its legs more on held ground: the bound must take each
+    # joint's own larger value, not one ground model's answer for the whole structure.
+    structure = tent(True)
+    held, sliding = (predict(structure, FAST, rounds=0, sliding_ground=flag).first_loads for flag in (False, True))
+    bound = bounding_loads(structure, FAST)
+    np.testing.assert_array_equal(bound, np.maximum(held, sliding))
+    assert (bound > held + 1).any() and (bound > sliding + 1e-6).any()
+    # A piece with no static answer stays NaN, so a search can tell it fell.
+    leaning = Structure([[0, 0, 1], [1, 0, 2]], [[0, 1]], {})
+    assert np.isnan(bounding_loads(leaning, FAST)).all()
 
 
 @pytest.mark.slow
