@@ -132,7 +132,8 @@ def main() -> None:
                     flush=True,
                 )
     structure = best[3]
-    peak = rate((structure.vertices, structure.edges, args.levels, "transient"))[1]
+    # A transient run already measured its best's peak; a statics run has not simulated it yet.
+    peak = best[1] if args.judge == "transient" else rate((structure.vertices, structure.edges, args.levels, "transient"))[1]
     print(f"best: generation {best[4]}, transient peak {peak:.1f} N; the faithful verdict (30 s) ...", flush=True)
     report = check_stability(structure, PhysicsConfig())
     print(
