@@ -9,20 +9,20 @@ The structure the NCA grows from one seed vertex (:mod:`structgen.nca`, settings
 
 ## Objective
 The paper's score Q = I + (Wh * H + Wc * C) * I from a PyBullet stability check (:mod:`physics`, settings in
-``[problem.physics]``, fast preset by default), or from the static frame solve (``problem.evaluator``). Structures
-the check refuses (over its size caps) score 0.
+``[problem.physics]``, fast preset by default), or from the static frame solve, or from the first moments of the
+simulation with joints that hold (``problem.evaluator``). Structures the check refuses (over its size caps) score 0.
 
 ## Measures
 ``height`` (H, lattice units) and ``vertices`` (C), for quality-diversity archives. Their ranges are centred on
 whole numbers, so a structure that sags from height 3 to 2.998 stays in the cell of height 3.
 
 ## Fields
-``integrity``, ``height``, ``complexity``, ``standing_height`` (the height if no joint broke and nothing was still
-falling when the simulation ended, else 0), ``edges``,
-``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the check refused the structure), ``capped`` (0/1: growth
-stopped at the NCA's vertex cap) and ``evaluator`` (0: scored by the static solve, 1: by the simulation). Metrics
-record each generation's maximum of every field, so the tallest standing structure of a run is there even when it
-was not the best-scoring one.
+``integrity`` (the transient evaluator's strength ratio), ``height``, ``complexity``, ``standing_height`` (the
+height if no joint broke, or none would have, and nothing was still falling when the simulation ended, else 0),
+``edges``, ``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the check refused the structure), ``capped`` (0/1:
+growth stopped at the NCA's vertex cap), ``evaluator`` (0: scored by the static solve, 1: by the simulation), and
+with the transient evaluator ``peak_force`` (N). Metrics record each generation's maximum of every field, so the
+tallest standing structure of a run is there even when it was not the best-scoring one.
 
 ## The paper's special rules
 As settings: ``problem.nca.cutoff`` (activation cutoff, 0.6 in the paper's variant), ``problem.nca.build_down =
@@ -32,6 +32,7 @@ false`` (no building below the seed), ``problem.physics.height_mode = "mean"`` (
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -42,6 +43,7 @@ import numpy as np
 from evolution import Evaluation, Problem
 from evolution.files import atomic_write
 from physics import PhysicsConfig, StabilityReport, check_stability
+from physics.report import quality
 from physics.statics import check_statics_with_loads
 from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population, n_params
 from structgen.nca_config import MAX_ITERATIONS
@@ -49,7 +51,7 @@ from structgen.structure import Structure
 
 __all__ = ["EVALUATORS", "StableStructures", "StructuresSettings"]
 
-EVALUATORS = ("bullet", "statics", "statics+bullet")
+EVALUATORS = ("bullet", "statics", "statics+bullet", "transient")
 _BY_STATICS, _BY_BULLET = 0.0, 1.0
 
 
@@ -61,13 +63,20 @@ class StructuresSettings:
         init_scale: random genomes are uniform in [-init_scale, init_scale] (the paper's range by default).
         evaluator: how structures are judged: "bullet" (simulation), "statics" (the static frame solve of
             :mod:`physics.statics`, milliseconds), or "statics+bullet" (statics for every structure, then the
-            simulation for each one statics predicts to stand or to come close: the candidates for best). The field
-            ``evaluator`` records which one scored each candidate.
+            simulation for each one statics predicts to stand or to come close: the candidates for best), or
+            "transient": the first ``transient_window`` seconds of the simulation with joints that cannot break,
+            scored by Q with I replaced by the strength ratio min(1, break force / largest joint force seen). The
+            ratio is 1 exactly when the simulation with breakable joints would break nothing in that window (both
+            run the same steps until a joint breaks), and unlike integrity it keeps falling as the peak rises, so a
+            search can refine a structure that almost stands (``optimizer.x0``, ``configs/tall_refine.toml``). The
+            field ``evaluator`` records which one scored each candidate (1 for transient).
         screen_margin: "statics+bullet" also simulates a structure statics predicts to break when no joint of the
             intact structure is loaded beyond ``screen_margin`` times the break force. Statics is approximate where
             the load can take several paths (a star on five legs): the rare early structures that stand are then
             often predicted to break by a few percent, and a screen without a margin starved runs of every standing
             structure (benchmarks/README.md, "Statics as a screen"). 1 screens on the prediction alone.
+        transient_window: simulated seconds the transient evaluator runs (the spawn transient, where tall
+            structures carry their largest loads, is over within the first 0.3 s).
         also_grow: more growth lengths (steps) each NCA is grown for and judged at besides ``nca.iterations``, to
             train weights whose structures keep standing as they grow on ("train small, grow large"). The objective
             becomes Q at ``nca.iterations`` times the lowest integrity among these lengths; the field
@@ -83,6 +92,7 @@ class StructuresSettings:
     init_scale: float = INIT_SCALE
     evaluator: str = "bullet"
     screen_margin: float = 1.5
+    transient_window: float = 0.3
     also_grow: tuple[int, ...] = ()
     nca: NCAConfig = field(default_factory=lambda: NCAConfig(max_vertices=64))
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
@@ -103,6 +113,9 @@ class StructuresSettings:
         margin = self.screen_margin
         if not (isinstance(margin, (int, float)) and not isinstance(margin, bool) and 1 <= margin < 1e6):
             raise ValueError(f"problem screen_margin must be a number of at least 1, got {margin!r}")
+        window = self.transient_window
+        if not (isinstance(window, (int, float)) and not isinstance(window, bool) and 0 < window <= 3600):
+            raise ValueError(f"problem transient_window must be a number of seconds above 0 and at most 3600, got {window!r}")
 
 
 class StableStructures(Problem):
@@ -126,8 +139,10 @@ class StableStructures(Problem):
 
     def __init__(self, settings: StructuresSettings | None = None) -> None:
         self.settings = settings or StructuresSettings()
+        if self.settings.evaluator == "transient":
+            self.field_names = (*self.field_names, "peak_force")
         if self.settings.also_grow:
-            self.field_names = (*type(self).field_names, "grown_integrity")
+            self.field_names = (*self.field_names, "grown_integrity")
         nca = self.settings.nca
         self.n_params = n_params(nca)
         reach = min(nca.iterations, nca.max_extent)
@@ -145,7 +160,7 @@ class StableStructures(Problem):
             "integrity": [r.integrity for r in reports],
             "height": [r.height for r in reports],
             "complexity": [r.complexity for r in reports],
-            "standing_height": [r.height if r.stands else 0.0 for r in reports],
+            "standing_height": [r.height if r.stands and r.integrity == 1 else 0.0 for r in reports],
             "edges": [s.n_edges for s in structures],
             "broken_joints": [len(r.broken_joints) for r in reports],
             "settled": [float(r.settled) for r in reports],
@@ -155,6 +170,8 @@ class StableStructures(Problem):
         }
         measures = np.array([[r.height, r.complexity] for r in reports], dtype=np.float64).reshape(-1, 2)
         objective = np.array([r.score for r in reports])
+        if self.settings.evaluator == "transient":
+            fields["peak_force"] = [r.peak_force for r in reports]
         if self.settings.also_grow:
             lowest = self.grown_integrity(genomes).min(axis=1)
             fields["grown_integrity"] = lowest.tolist()
@@ -181,10 +198,23 @@ class StableStructures(Problem):
         physics = self.settings.physics
         if self.settings.evaluator == "bullet":
             return check_stability(structure, physics, errors="report")
+        if self.settings.evaluator == "transient":
+            return self._transient(structure)
         predicted, loads = check_statics_with_loads(structure, physics)
         if self.settings.evaluator == "statics" or not self._worth_simulating(predicted, loads):
             return predicted
         return check_stability(structure, physics, errors="report")
+
+    def _transient(self, structure: Structure) -> StabilityReport:
+        """The transient evaluator's report: the first ``transient_window`` seconds with joints that hold, integrity
+        replaced by the strength ratio, and the configured physics (break force included) as its config."""
+        physics = self.settings.physics
+        held = physics.replace(break_force=math.inf, horizon=min(self.settings.transient_window, physics.horizon))
+        report = replace(check_stability(structure, held, errors="report"), config=physics, method="transient")
+        if report.error is not None or report.exploded:
+            return report  # already scored 0
+        strength = min(1.0, physics.break_force / report.peak_force) if report.peak_force > 0 else 1.0
+        return replace(report, integrity=strength, score=quality(strength, report.height, report.complexity, physics))
 
     def _worth_simulating(self, predicted: StabilityReport, loads: np.ndarray) -> bool:
         """The "statics+bullet" screen: predicted to stand, or supported and with the intact structure's joint loads
