@@ -9,8 +9,9 @@ could run any command. :func:`loads` reads only what checkpoints are made of:
   ``object.__new__`` (or ``dict.__new__``/``list.__new__``), or if it is one of a few named numpy and built-in types,
   or if it is a plain dataclass of a built-in domain (``structgen.domains``: genomes such as a fortress world) with
   no ``__setstate__`` of its own, so that restoring it only sets its fields.
-- **Calls** (the pickle REDUCE instruction) are allowed for six numpy functions only, those that rebuild arrays,
-  scalars, dtypes and random generators.
+- **Calls** (the pickle REDUCE instruction) are allowed for the numpy functions that rebuild arrays, scalars,
+  dtypes and random generators, and for ``range`` and ``slice``, which only make a value (pycma keeps a range in
+  its state when it mirrors samples, as it does in populations under 6).
 - The instructions of old pickle protocols that call constructors, and the extension registry, are refused; so are
   function references other than three that pycma keeps among its options, and a module name in pyribs' array
   state other than numpy's.
@@ -49,6 +50,8 @@ _CALLS = frozenset(
         _reducer(np.random.PCG64(0)),  # bit generators
         _reducer(np.random.SeedSequence(0)),
         _reducer(np.random.RandomState(0)),
+        range,
+        slice,
     }
 )
 _TYPES = frozenset(

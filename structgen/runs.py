@@ -18,6 +18,7 @@ the structures domain) its best NCA; :func:`run_summary` is what ``structgen inf
 from __future__ import annotations
 
 import datetime as _dt
+import hashlib
 import logging
 import sys
 from collections.abc import Callable
@@ -28,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from evolution import Archive, Problem, RunFolder, RunFolderError, RunState, advance, library_versions, make_evaluator
+from evolution.files import MAX_WEIGHTS_BYTES, atomic_write, read_bytes
 from structgen import __version__
 from structgen.config import ConfigError
 from structgen.experiment import Experiment, load_experiment
@@ -55,8 +57,17 @@ def _libraries(experiment: Experiment) -> list[str]:
     return list(dict.fromkeys([*LIBRARIES, *experiment.spec.libraries]))
 
 
-def _manifest(experiment: Experiment) -> dict[str, Any]:
-    return {
+def _start_file(experiment: Experiment) -> tuple[str, bytes] | None:
+    """(name of its copy in the run folder, contents) of the genome file the optimiser starts from, if it names one
+    (``optimizer.x0``): the run keeps its own copy, so its start is known after the file moves or changes."""
+    x0 = getattr(experiment.optimizer_settings, "x0", None)
+    if not isinstance(x0, str) or x0 in ("random", "zeros"):
+        return None
+    return "x0" + Path(x0).suffix.lower(), read_bytes(x0, MAX_WEIGHTS_BYTES)
+
+
+def _manifest(experiment: Experiment, start: tuple[str, bytes] | None) -> dict[str, Any]:
+    manifest = {
         "schema": 1,
         "structgen": __version__,
         "domain": experiment.domain,
@@ -64,6 +75,13 @@ def _manifest(experiment: Experiment) -> dict[str, Any]:
         "argv": sys.argv,
         "versions": library_versions(_libraries(experiment)),
     }
+    if start is not None:
+        manifest["x0"] = {
+            "source": experiment.optimizer_settings.x0,
+            "copy": start[0],
+            "sha256": hashlib.sha256(start[1]).hexdigest(),
+        }
+    return manifest
 
 
 def _advance(folder: RunFolder, experiment: Experiment, problem: Problem, state: RunState, **options: Any) -> RunState:
@@ -88,7 +106,10 @@ def evolve(
     try:
         optimizer = experiment.make_optimizer(problem)
         path = run_dir or default_run_dir(experiment)
-        folder = RunFolder.create(path, experiment.to_toml(), _manifest(experiment), overwrite=overwrite)
+        start = _start_file(experiment)
+        folder = RunFolder.create(path, experiment.to_toml(), _manifest(experiment, start), overwrite=overwrite)
+        if start is not None:
+            atomic_write(folder / start[0], start[1])
         state = RunState(optimizer=optimizer, extra={"config": experiment.to_mapping()})
         try:
             with folder.locked():

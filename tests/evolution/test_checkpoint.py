@@ -75,6 +75,7 @@ def test_a_module_import_hidden_in_pyribs_state_is_refused():
 OPTIMIZERS = {
     "ga": (Sphere, GASettings(population=6, parents=2)),
     "cma_es": (Sphere, CMAESSettings(population=6)),
+    "cma_es_mirrored": (Sphere, CMAESSettings(population=4)),  # pycma mirrors samples and keeps a range
     "map_elites": (Ones, MapElitesSettings(cells=(4, 4), batch_size=6)),
     "cma_mae": (Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3)),
 }
@@ -85,7 +86,7 @@ def test_every_optimizers_checkpoint_loads_as_plain_unpickling_would(tmp_path, n
     problem_type, settings = OPTIMIZERS[name]
     problem = problem_type()
     folder = RunFolder.create(tmp_path / name, "", {})
-    state = RunState(make_optimizer(name, problem, settings, seed=1))
+    state = RunState(make_optimizer(name.removesuffix("_mirrored"), problem, settings, seed=1))
     advance(folder, problem, state, RunSettings(generations=2, workers=0), SerialEvaluator(), progress=False)
     data = (folder / "checkpoint.pkl").read_bytes()
     assert pickle.dumps(checkpoint.loads(data)) == pickle.dumps(pickle.loads(data))

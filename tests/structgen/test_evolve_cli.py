@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import signal
 import subprocess
@@ -375,6 +376,35 @@ def test_evolve_with_the_static_evaluators_records_which_scored(tmp_path, capsys
     # With statics+bullet, what statics predicts to fall keeps its score and what it predicts to stand is simulated:
     # this run has both.
     assert scored_by == ({0.0} if evaluator == "statics" else {0.0, 1.0})
+
+
+def test_evolve_with_the_transient_evaluator_records_the_peak_force(tmp_path, capsys):
+    run = tmp_path / "run"
+    code, _, err = cli(capsys, "evolve", tiny_config(tmp_path, "cma_es"), "--run-dir", run, "--set", "evaluator=transient")
+    assert code == 0, err
+    rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    assert all(row["best_evaluator"] == 1 and 0 < row["best_integrity"] <= 1 for row in rows)
+    assert "best_peak_force" in rows[-1]
+    assert json.loads((run / "best" / "report.json").read_text())["method"] == "transient"
+
+
+def test_a_run_keeps_its_own_copy_of_the_genome_it_starts_from(tmp_path, capsys):
+    start = tmp_path / "start.npy"
+    np.save(start, np.full(8, 0.25))
+    config = tmp_path / "sphere.toml"
+    config.write_text(
+        f"[run]\ngenerations = 2\nworkers = 0\n[problem]\nname = 'sphere'\n[optimizer]\nname = 'cma_es'\n"
+        f"population = 4\nx0 = '{start}'\n"
+    )
+    code, _, err = cli(capsys, "evolve", config, "--run-dir", tmp_path / "run")
+    assert code == 0, err
+    assert (tmp_path / "run" / "x0.npy").read_bytes() == start.read_bytes()
+    recorded = json.loads((tmp_path / "run" / "manifest.json").read_text())["x0"]
+    assert recorded["source"] == str(start) and recorded["copy"] == "x0.npy"
+    assert recorded["sha256"] == hashlib.sha256(start.read_bytes()).hexdigest()
+    start.unlink()  # the run goes on from its checkpoint without the file it started from
+    code, out, err = cli(capsys, "resume", tmp_path / "run", "--generations", "3")
+    assert code == 0, err
 
 
 def test_an_option_that_is_a_setting_points_to_set(tmp_path, capsys):
