@@ -2,7 +2,8 @@
 
 A library of its own: it takes anything that offers ``vertices`` and ``edges`` arrays and imports nothing from
 ``structgen``. ``check_stability`` simulates; ``check_statics`` predicts the same report from a static frame solve
-in milliseconds.
+in milliseconds; ``check_transient`` simulates only the first moments, with joints that hold, and says how far the
+largest load is from breaking one.
 
 >>> from physics import PhysicsConfig, check_stability
 >>> report = check_stability({"vertices": [[0, 0, 0], [0, 0, 1], [0, 0, 2]], "edges": [[0, 1], [1, 2]]},
@@ -25,6 +26,7 @@ _LAZY = {
     "StabilityReport": "physics.report",
     "quality": "physics.report",
     "check_stability": "physics.stability",
+    "check_transient": "physics.stability",
     "check_statics": "physics.statics",
     "joint_forces": "physics.statics",
 }
@@ -33,7 +35,7 @@ if TYPE_CHECKING:
     from physics.model import InputError
     from physics.parallel import CheckPool, check_many
     from physics.report import BrokenJoint, StabilityReport, quality
-    from physics.stability import check_stability
+    from physics.stability import check_stability, check_transient
     from physics.statics import check_statics, joint_forces
 
 __all__ = [
@@ -46,6 +48,7 @@ __all__ = [
     "check_many",
     "check_stability",
     "check_statics",
+    "check_transient",
     "joint_forces",
     "quality",
 ]

@@ -57,6 +57,10 @@ class StabilityReport:
     ``falling`` counts the vertices still faster than ``PhysicsConfig.fall_speed`` when the simulation ended (a
     piece dropping from above, cut short by the horizon): they add no height. ``final_speed`` is the fastest
     vertex's speed then. :attr:`stands` is the verdict: no joint broke and everything came to rest.
+
+    A transient report (``method = "transient"``, from ``check_transient``) covers only the first moments, with
+    joints that hold: its ``integrity`` is the strength ratio min(1, break force / ``peak_force``), and it is
+    intact when no joint's force went past the break force.
     """
 
     integrity: float
@@ -79,13 +83,16 @@ class StabilityReport:
     wall_time: float = 0.0
     cpu_time: float = 0.0
     config: PhysicsConfig = field(default_factory=PhysicsConfig)
-    method: str = "bullet"  # "bullet": simulated; "statics": predicted by physics.statics
+    method: str = "bullet"  # "bullet": simulated; "statics": predicted by physics.statics; "transient": first moments
     falling: int = 0
     final_speed: float = 0.0
 
     @property
     def intact(self) -> bool:
-        """No joint broke and the simulation ran normally."""
+        """No joint broke (for a transient report: none was loaded past the break force) and the simulation ran
+        normally."""
+        if self.method == "transient" and self.peak_force > self.config.break_force:
+            return False
         return not self.broken_joints and not self.exploded and self.error is None
 
     @property
@@ -101,6 +108,12 @@ class StabilityReport:
             return f"check failed: {self.error}"
         if self.exploded:
             return "the simulation exploded (scored as collapsed)"
+        if self.method == "transient":
+            within = self.peak_force <= self.config.break_force
+            return (
+                f"{'holds' if within else 'breaks'} in the first {self.sim_time:g} s: the largest joint force, "
+                f"{self.peak_force:.1f} N, is {'within' if within else 'over'} the {self.config.break_force:g} N limit"
+            )
         if self.broken_joints:
             return f"breaks: {len(self.broken_joints)} of {self.n_joints} joints broke"
         if self.falling:

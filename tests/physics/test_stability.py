@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from physics import InputError, PhysicsConfig, check_stability
+from physics import InputError, PhysicsConfig, check_stability, check_transient
 from physics._quiet import import_pybullet, silenced
 from structgen.samples import braced, cantilever, column, flat_edge
 
@@ -65,6 +65,32 @@ def test_column_of_four_breaks_at_its_bottom_joint_first():
     first = min(report.broken_joints, key=lambda b: b.time)
     assert (first.joint, first.edge, first.vertex) == (0, 0, 0)
     assert first.force > 52.5 and first.time < 0.1
+
+
+# -- the first moments alone (check_transient) -------------------------------------------------------------------------------
+@PRESETS
+@pytest.mark.parametrize(
+    "structure, holds",
+    [(column(3), True), (column(4), False), (braced(4), True), (cantilever(2), False)],
+    ids=["column3", "column4", "braced4", "cantilever2"],
+)
+def test_the_transient_check_rates_the_peak_and_agrees_with_breakable_joints(config, structure, holds):
+    report = check_transient(structure, config, window=0.3)
+    held = check_stability(structure, config.replace(break_force=math.inf, horizon=0.3))
+    assert report.method == "transient" and report.config == config and report.sim_time == pytest.approx(0.3)
+    assert report.peak_force == held.peak_force and not report.broken_joints
+    assert report.integrity == min(1.0, 52.5 / report.peak_force)
+    assert report.score == pytest.approx(report.integrity * (1 + report.height + report.complexity))
+    # Breakable joints take the same steps until one breaks: they break something in the window exactly when the
+    # peak is over the limit.
+    assert report.intact is holds is check_stability(structure, config.replace(horizon=0.3)).intact
+    assert report.verdict().startswith("holds in the first 0.3 s" if holds else "breaks in the first 0.3 s")
+    assert f"{report.peak_force:.1f} N" in report.verdict()
+
+
+def test_a_bad_transient_window_is_refused():
+    with pytest.raises(ValueError, match="window must be a positive number of seconds, got 0"):
+        check_transient(column(2), FAST, window=0)
 
 
 # -- the report -------------------------------------------------------------------------------------------------------------

@@ -32,7 +32,6 @@ false`` (no building below the seed), ``problem.physics.height_mode = "mean"`` (
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -42,8 +41,7 @@ import numpy as np
 
 from evolution import Evaluation, Problem
 from evolution.files import atomic_write
-from physics import PhysicsConfig, StabilityReport, check_stability
-from physics.report import quality
+from physics import PhysicsConfig, StabilityReport, check_stability, check_transient
 from physics.statics import check_statics_with_loads
 from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population, n_params
 from structgen.nca_config import MAX_ITERATIONS
@@ -64,12 +62,11 @@ class StructuresSettings:
         evaluator: how structures are judged: "bullet" (simulation), "statics" (the static frame solve of
             :mod:`physics.statics`, milliseconds), or "statics+bullet" (statics for every structure, then the
             simulation for each one statics predicts to stand or to come close: the candidates for best), or
-            "transient": the first ``transient_window`` seconds of the simulation with joints that cannot break,
-            scored by Q with I replaced by the strength ratio min(1, break force / largest joint force seen). The
-            ratio is 1 exactly when the simulation with breakable joints would break nothing in that window (both
-            run the same steps until a joint breaks), and unlike integrity it keeps falling as the peak rises, so a
-            search can refine a structure that almost stands (``optimizer.x0``, ``configs/tall_refine.toml``). The
-            field ``evaluator`` records which one scored each candidate (1 for transient).
+            "transient" (:func:`physics.check_transient`: the first ``transient_window`` seconds with joints that
+            hold, Q with I replaced by the strength ratio min(1, break force / largest joint force), which keeps
+            falling as the peak rises where integrity moves a joint at a time, so a search can refine a structure
+            that almost stands: ``optimizer.x0``, ``configs/tall_six_refine.toml``). The field ``evaluator``
+            records which one scored each candidate (1 for transient).
         screen_margin: "statics+bullet" also simulates a structure statics predicts to break when no joint of the
             intact structure is loaded beyond ``screen_margin`` times the break force. Statics is approximate where
             the load can take several paths (a star on five legs): the rare early structures that stand are then
@@ -160,7 +157,7 @@ class StableStructures(Problem):
             "integrity": [r.integrity for r in reports],
             "height": [r.height for r in reports],
             "complexity": [r.complexity for r in reports],
-            "standing_height": [r.height if r.stands and r.integrity == 1 else 0.0 for r in reports],
+            "standing_height": [r.height if r.stands else 0.0 for r in reports],
             "edges": [s.n_edges for s in structures],
             "broken_joints": [len(r.broken_joints) for r in reports],
             "settled": [float(r.settled) for r in reports],
@@ -199,22 +196,11 @@ class StableStructures(Problem):
         if self.settings.evaluator == "bullet":
             return check_stability(structure, physics, errors="report")
         if self.settings.evaluator == "transient":
-            return self._transient(structure)
+            return check_transient(structure, physics, window=self.settings.transient_window, errors="report")
         predicted, loads = check_statics_with_loads(structure, physics)
         if self.settings.evaluator == "statics" or not self._worth_simulating(predicted, loads):
             return predicted
         return check_stability(structure, physics, errors="report")
-
-    def _transient(self, structure: Structure) -> StabilityReport:
-        """The transient evaluator's report: the first ``transient_window`` seconds with joints that hold, integrity
-        replaced by the strength ratio, and the configured physics (break force included) as its config."""
-        physics = self.settings.physics
-        held = physics.replace(break_force=math.inf, horizon=min(self.settings.transient_window, physics.horizon))
-        report = replace(check_stability(structure, held, errors="report"), config=physics, method="transient")
-        if report.error is not None or report.exploded:
-            return report  # already scored 0
-        strength = min(1.0, physics.break_force / report.peak_force) if report.peak_force > 0 else 1.0
-        return replace(report, integrity=strength, score=quality(strength, report.height, report.complexity, physics))
 
     def _worth_simulating(self, predicted: StabilityReport, loads: np.ndarray) -> bool:
         """The "statics+bullet" screen: predicted to stand, or supported and with the intact structure's joint loads
