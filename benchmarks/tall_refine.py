@@ -43,7 +43,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 import cma  # noqa: E402
 import numpy as np  # noqa: E402
 
-from physics import PhysicsConfig, check_stability  # noqa: E402
+from physics import PhysicsConfig, check_stability, check_transient  # noqa: E402
 from physics.statics import bounding_loads  # noqa: E402
 from structgen.nca import NCAConfig, grow_population, load_weights, save_weights  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
@@ -67,8 +67,8 @@ def rate(job: tuple[np.ndarray, np.ndarray, int, str]) -> tuple[float, float]:
             return FELL, math.nan
         largest = np.sort(loads)[::-1]
         return float(largest[0] + 0.02 * largest[:20].mean()), float(largest[0])
-    report = check_stability(structure, PhysicsConfig(break_force=math.inf, horizon=0.3))
-    if not report.intact or report.height < top - 0.5:
+    report = check_transient(structure, PhysicsConfig(), window=0.3)
+    if report.exploded or report.error or report.height < top - 0.5:
         return FELL, math.nan
     final = np.sort(report.joint_forces)[::-1]
     return float(report.peak_force + 0.02 * np.concatenate([[report.peak_force], final])[:20].mean()), report.peak_force
