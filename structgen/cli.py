@@ -194,7 +194,7 @@ def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
 def cmd_compare(args: argparse.Namespace) -> int:
     from evolution import atomic_write
     from evolution.plots import compare_figure, figure_png
-    from structgen.runs import open_run
+    from structgen.runs import open_run, summary_of
 
     output = Path(args.output)
     if output.suffix.lower() != ".png":
@@ -209,17 +209,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
         while label in runs:  # two folders of the same name in different places
             label += "'"
         runs[label] = rows
-        last = rows[-1]
+        summary = summary_of(folder, experiment, rows)
+        archive = summary.get("archive", {})
         table.append(
             {
-                "run": str(folder.path),
-                "domain": experiment.domain,
-                "optimizer": experiment.optimizer_name,
-                "generations": last["generation"],
-                "evaluations": last["evaluations"],
-                "best_objective": last["best_objective"],
-                "qd_score": last.get("qd_score"),
-                "coverage": last.get("coverage"),
+                **{key: summary[key] for key in ("run", "domain", "optimizer", "generations", "evaluations")},
+                "best_objective": rows[-1]["best_objective"],  # the metrics' own: best.json lags between checkpoints
+                "qd_score": archive.get("qd_score"),
+                "coverage": archive.get("coverage"),
             }
         )
     atomic_write(output, figure_png(compare_figure(runs)))

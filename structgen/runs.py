@@ -34,7 +34,7 @@ from structgen import __version__
 from structgen.config import ConfigError
 from structgen.experiment import Experiment, load_experiment
 
-__all__ = ["Run", "default_run_dir", "elite_genome", "evolve", "load_run", "open_run", "resume", "run_summary"]
+__all__ = ["Run", "default_run_dir", "elite_genome", "evolve", "load_run", "open_run", "resume", "run_summary", "summary_of"]
 
 log = logging.getLogger(__name__)
 #: Libraries every run's manifest records; a domain adds its own (DomainSpec.libraries).
@@ -310,8 +310,12 @@ def run_summary(run_dir: str | Path) -> dict[str, Any]:
     """What a run is and how far it got, from its files alone (no problem is built): settings, progress, the best
     candidate and, for quality diversity, the archive's size, coverage and QD score."""
     folder, experiment = open_run(run_dir)
+    return summary_of(folder, experiment, folder.metrics())
+
+
+def summary_of(folder: RunFolder, experiment: Experiment, rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """:func:`run_summary` of a run already opened, with its metrics already read."""
     manifest = folder.manifest()
-    rows = folder.metrics()
     last = rows[-1] if rows else {}
     summary: dict[str, Any] = {
         "run": str(folder.path),
