@@ -163,6 +163,18 @@ def test_the_transient_evaluator_scores_with_the_transient_check():
     assert (result.fields["standing_height"][strengths < 1] == 0).all()
 
 
+def test_structures_below_the_height_floor_score_zero(batch):
+    problem, genomes, result = batch
+    floor = float(np.median(result.measures[:, 0]))
+    floored = StableStructures(replace(SMALL, min_height=floor)).evaluate(genomes, np.arange(6))
+    low = result.measures[:, 0] < floor
+    assert low.any() and (~low).any()
+    assert (floored.objective[low] == 0).all() and np.array_equal(floored.objective[~low], result.objective[~low])
+    assert np.array_equal(floored.measures, result.measures)
+    with pytest.raises(ValueError, match="min_height must be a number of lattice units from 0 to 1e6, got -1"):
+        StructuresSettings(min_height=-1)
+
+
 @pytest.mark.parametrize("window", [0, -1, "0.3", 1e9])
 def test_a_bad_transient_window_is_refused(window):
     with pytest.raises(ValueError, match="transient_window must be a number of seconds"):

@@ -10,7 +10,8 @@ The structure the NCA grows from one seed vertex (:mod:`structgen.nca`, settings
 ## Objective
 The paper's score Q = I + (Wh * H + Wc * C) * I from a PyBullet stability check (:mod:`physics`, settings in
 ``[problem.physics]``, fast preset by default), or from the static frame solve, or from the first moments of the
-simulation with joints that hold (``problem.evaluator``). Structures the check refuses (over its size caps) score 0.
+simulation with joints that hold (``problem.evaluator``). Structures the check refuses (over its size caps) score 0,
+as do those lower than ``problem.min_height``.
 
 ## Measures
 ``height`` (H, lattice units) and ``vertices`` (C), for quality-diversity archives. Their ranges are centred on
@@ -74,6 +75,10 @@ class StructuresSettings:
             structure (benchmarks/README.md, "Statics as a screen"). 1 screens on the prediction alone.
         transient_window: simulated seconds the transient evaluator runs (the spawn transient, where tall
             structures carry their largest loads, is over within the first 0.3 s).
+        min_height: structures lower than this (H, lattice units, as judged) score 0. For refining at a height: the
+            paper's Q lets a structure one level taller outrank a standing one only while its integrity (or strength
+            ratio) stays above about H/(H + 1), so a refinement of a near miss one level up drifts between the two;
+            the floor keeps it at the height it is after. 0 (default): no floor.
         also_grow: more growth lengths (steps) each NCA is grown for and judged at besides ``nca.iterations``, to
             train weights whose structures keep standing as they grow on ("train small, grow large"). The objective
             becomes Q at ``nca.iterations`` times the lowest integrity among these lengths; the field
@@ -90,6 +95,7 @@ class StructuresSettings:
     evaluator: str = "bullet"
     screen_margin: float = 1.5
     transient_window: float = 0.3
+    min_height: float = 0.0
     also_grow: tuple[int, ...] = ()
     nca: NCAConfig = field(default_factory=lambda: NCAConfig(max_vertices=64))
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
@@ -113,6 +119,9 @@ class StructuresSettings:
         window = self.transient_window
         if not (isinstance(window, (int, float)) and not isinstance(window, bool) and 0 < window <= 3600):
             raise ValueError(f"problem transient_window must be a number of seconds above 0 and at most 3600, got {window!r}")
+        floor = self.min_height
+        if not (isinstance(floor, (int, float)) and not isinstance(floor, bool) and 0 <= floor <= 1e6):
+            raise ValueError(f"problem min_height must be a number of lattice units from 0 to 1e6, got {floor!r}")
 
 
 class StableStructures(Problem):
@@ -166,7 +175,7 @@ class StableStructures(Problem):
             "evaluator": [_BY_STATICS if r.method == "statics" else _BY_BULLET for r in reports],
         }
         measures = np.array([[r.height, r.complexity] for r in reports], dtype=np.float64).reshape(-1, 2)
-        objective = np.array([r.score for r in reports])
+        objective = np.array([r.score if r.height >= self.settings.min_height else 0.0 for r in reports])
         if self.settings.evaluator == "transient":
             fields["peak_force"] = [r.peak_force for r in reports]
         if self.settings.also_grow:
