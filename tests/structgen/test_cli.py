@@ -336,6 +336,22 @@ def test_check_statics_predicts_without_simulating(capsys, column_4, square):
     assert code == 0 and "static frame solve" in out and "stands" in out
 
 
+def test_check_transient_rates_the_first_moments(capsys, column_4, square):
+    code, out, _ = run(capsys, "check", column_4, "--transient", "0.3", "--json", "--strict")
+    report = json.loads(out)
+    assert code == 1 and report["method"] == "transient" and report["sim_time"] == pytest.approx(0.3)
+    assert report["peak_force"] > 52.5 and report["integrity"] == pytest.approx(52.5 / report["peak_force"])
+    code, out, _ = run(capsys, "check", square, "--transient", "0.3", "--strict")
+    assert code == 0 and "holds in the first 0.3 s" in out and "peak force" in out
+    for options, message in [
+        (("--transient", "0.3", "--statics"), "not allowed with argument --transient"),
+        (("--transient", "-1"), "--transient: expected a number of seconds above 0"),
+    ]:
+        with pytest.raises(SystemExit) as exit_info:
+            main(["check", str(square), *options])
+        assert exit_info.value.code == 2 and message in capsys.readouterr().err
+
+
 def test_render_statics_writes_a_png(tmp_path, capsys, column_4):
     code, out, _ = run(capsys, "render", column_4, "--statics", "-o", tmp_path / "c.png", "--dpi", 40)
     assert code == 0 and "breaks" in out and (tmp_path / "c.png").read_bytes().startswith(b"\x89PNG")

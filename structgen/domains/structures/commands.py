@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -127,14 +128,32 @@ def _add_physics_options(parser: argparse.ArgumentParser) -> None:
         + f" (default {default}; --set physics.preset=NAME is the same)",
     )
     add_set_option(group, "the physics (physics.*)", "break_force=60 or physics.horizon=10")
-    group.add_argument(
+    judge = group.add_mutually_exclusive_group()
+    judge.add_argument(
         "--statics",
         action="store_true",
         help="predict with the static frame solve (milliseconds, no size cap) instead of simulating",
     )
+    judge.add_argument(
+        "--transient",
+        type=_seconds,
+        metavar="SECONDS",
+        help="simulate only the first SECONDS (0.3 covers the spawn transient) with joints that hold, and rate the "
+        "largest joint force against the break force: integrity becomes min(1, break force / peak force)",
+    )
 
 
 # -- helpers ------------------------------------------------------------------------------------------------------------
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0 < value <= 3600:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds above 0 and at most 3600, got {text!r}")
+    return value
+
+
 def _mesh_style(args: argparse.Namespace) -> Any:
     from structgen.mesh import MeshStyle
 
@@ -176,11 +195,13 @@ def _physics_config(args: argparse.Namespace) -> Any:
 def _checked(args: argparse.Namespace) -> tuple[Structure, Any]:
     """Load the file, judge it, and return (structure, report); size caps and bad files are input errors."""
     from physics import InputError as PhysicsInputError
-    from physics import check_stability, check_statics
+    from physics import check_stability, check_statics, check_transient
 
     config = _physics_config(args)
     structure = _load_structure(args.file)
     try:
+        if args.transient:
+            return structure, check_transient(structure, config, window=args.transient)
         return structure, (check_statics if args.statics else check_stability)(structure, config)
     except PhysicsInputError as err:
         raise InputError(f"{args.file}: {err}") from None
@@ -290,6 +311,13 @@ def cmd_info(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+_METHODS = {
+    "bullet": "simulation (PyBullet)",
+    "statics": "static frame solve",
+    "transient": "first moments simulated with joints that hold (PyBullet); integrity is the strength ratio",
+}
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     _, report = _checked(args)
     if args.json:
@@ -301,7 +329,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         preset = report.config.preset_name
         rows = [
             ("file", args.file),
-            ("method", "static frame solve" if statics else "simulation (PyBullet)"),
+            ("method", _METHODS[report.method]),
             # The static analysis reads only masses, sizes and the break force from the settings, not the preset's
             # time stepping.
             ("settings", f"{preset} preset" if preset else "customised (--json lists every setting)"),
@@ -318,6 +346,8 @@ def cmd_check(args: argparse.Namespace) -> int:
             ),
             ("cpu", f"{report.cpu_time:.3f} s"),
         ]
+        if report.method == "transient":
+            rows.insert(5, ("peak force", f"{report.peak_force:.1f} N (break force {report.config.break_force:g} N)"))
         for name, value in rows:
             print(f"{name:<11} {value}")
         limit = report.config.break_force
