@@ -162,12 +162,13 @@ class GeneticAlgorithm(Optimizer):
 
 
 # -- where a search starts ---------------------------------------------------------------------------------------------
-_START_WORDS = ("random", "zeros")
+#: Values of ``x0`` that name a way to start rather than a genome file.
+START_WORDS = ("random", "zeros")
 
 
 def _start_setting(settings: Any) -> None:
     x0 = settings.x0
-    if not isinstance(x0, str) or not (x0 in _START_WORDS or x0.lower().endswith((".npy", ".json"))):
+    if not isinstance(x0, str) or not (x0 in START_WORDS or x0.lower().endswith((".npy", ".json"))):
         raise ValueError(
             f"optimizer x0 must be 'random', 'zeros' or the path of a .npy or .json file holding a genome, got {x0!r}"
         )

@@ -30,6 +30,7 @@ import numpy as np
 
 from evolution import Archive, Problem, RunFolder, RunFolderError, RunState, advance, library_versions, make_evaluator
 from evolution.files import MAX_WEIGHTS_BYTES, atomic_write, read_bytes
+from evolution.optimizers import START_WORDS
 from structgen import __version__
 from structgen.config import ConfigError
 from structgen.experiment import Experiment, load_experiment
@@ -61,7 +62,7 @@ def _start_file(experiment: Experiment) -> tuple[str, bytes] | None:
     """(name of its copy in the run folder, contents) of the genome file the optimiser starts from, if it names one
     (``optimizer.x0``): the run keeps its own copy, so its start is known after the file moves or changes."""
     x0 = getattr(experiment.optimizer_settings, "x0", None)
-    if not isinstance(x0, str) or x0 in ("random", "zeros"):
+    if not isinstance(x0, str) or x0 in START_WORDS:
         return None
     return "x0" + Path(x0).suffix.lower(), read_bytes(x0, MAX_WEIGHTS_BYTES)
 
