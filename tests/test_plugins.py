@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,7 +15,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "dice-domain"
 
-pytestmark = pytest.mark.slow
+# One worker for the whole file under pytest -n (make test uses --dist loadgroup): the example installs once, and two
+# workers building it at the same time in one source folder broke each other's build.
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("plugin")]
 
 
 @pytest.fixture(scope="module")
@@ -22,6 +25,8 @@ def site(tmp_path_factory) -> Path:
     """The example installed as pip installs any package, into a folder of its own (the test's environment stays
     as it was)."""
     target = tmp_path_factory.mktemp("site")
+    # A copy, so that the build's leftovers (build/, egg-info) land in a scratch folder and not in the repository.
+    source = shutil.copytree(EXAMPLE, tmp_path_factory.mktemp("source") / EXAMPLE.name)
     subprocess.run(
         [
             sys.executable,
@@ -33,7 +38,7 @@ def site(tmp_path_factory) -> Path:
             "--no-build-isolation",
             "--target",
             str(target),
-            str(EXAMPLE),
+            str(source),
         ],
         check=True,
         capture_output=True,

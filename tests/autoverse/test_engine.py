@@ -31,34 +31,54 @@ def _games(rng: np.random.Generator, count: int) -> list[dict]:
     return games
 
 
-@pytest.mark.parametrize(
-    "mechanics, backend",
-    [
-        *((m, b) for m in (Mechanics(), Mechanics.original()) for b in ("torch", "numba")),
-        # torch.compile (the fast GPU path) once: compiling costs about a minute on 2 cores with a cold cache
-        pytest.param(Mechanics(), "torch-compiled", marks=pytest.mark.slow),
-    ],
-    ids=["default-torch", "default-numba", "original-torch", "original-numba", "default-torch-compiled"],
-)
-def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics, backend):
-    rng = np.random.default_rng(11)
-    games = _games(rng, 12)
-    compiled = backend == "torch-compiled"
-    engine = Engine(games, mechanics=mechanics, backend="torch" if compiled else backend, compile=compiled)
-    state = engine.reset()
+def _episode(games: list[dict], seed: int = 11) -> np.ndarray:
+    """One episode's actions for ``games``: 101 steps, every action drawn."""
+    return np.random.default_rng(seed).integers(0, 5, size=(101, len(games)))
+
+
+def _play(engine: Engine, actions: np.ndarray) -> list[tuple]:
+    """Every step's (multi-hot map, rotation, position, reward, done) of each game, as plain arrays."""
+    state, trace = engine.reset(), []
+    for step in actions:
+        state, reward, done = engine.step(state, torch.as_tensor(step))
+        grid, rot, pos = state.multi_hot().numpy(), state.rot.numpy().copy(), state.pos.numpy().copy()
+        trace.append((grid, rot, pos, reward.numpy(), done.numpy()))
+    return trace
+
+
+@pytest.mark.parametrize("mechanics", [Mechanics(), Mechanics.original()], ids=["default", "original"])
+def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics):
+    # The plain reference costs about twenty times the engines, so it plays once and both backends are held to it.
+    games = _games(np.random.default_rng(11), 12)
+    actions = _episode(games)
+    traces = {backend: _play(Engine(games, mechanics=mechanics, backend=backend), actions) for backend in ("torch", "numba")}
     refs = [ref.reset(g) for g in games]
     options = {"force_clear": mechanics.force_clear, "empty_rules_fire": mechanics.empty_rules_fire}
-    for _ in range(101):
-        actions = rng.integers(0, 5, size=len(games))
-        state, reward, done = engine.step(state, torch.as_tensor(actions))
+    for t, step in enumerate(actions):
         for i, game in enumerate(games):
-            refs[i], want_reward, want_done = ref.step(game, refs[i], int(actions[i]), **options)
-            assert np.array_equal(state.multi_hot()[i].numpy(), refs[i][0])
-            assert int(state.rot[i]) == refs[i][1]
-            assert tuple(state.pos[i].tolist()) == refs[i][2]
-            assert float(reward[i]) == want_reward
-            assert bool(done[i]) == want_done
-    assert bool(done.all()), "the 101st step ends the episode"
+            refs[i], want_reward, want_done = ref.step(game, refs[i], int(step[i]), **options)
+            for backend, trace in traces.items():
+                grid, rot, pos, reward, done = trace[t]
+                where = f"{backend}, step {t}, game {i}"
+                assert np.array_equal(grid[i], refs[i][0]), where
+                assert int(rot[i]) == refs[i][1], where
+                assert tuple(pos[i].tolist()) == refs[i][2], where
+                assert float(reward[i]) == want_reward, where
+                assert bool(done[i]) == want_done, where
+    assert all(bool(trace[-1][4].all()) for trace in traces.values()), "the 101st step ends the episode"
+
+
+@pytest.mark.slow
+def test_compiled_engine_equals_the_plain_torch_engine():
+    # torch.compile (the fast GPU path) once: compiling costs about a minute on 2 cores with a cold cache. The plain
+    # torch engine is held to the reference above, so matching it step for step holds the compiled one there too.
+    games = _games(np.random.default_rng(11), 12)
+    actions = _episode(games)
+    plain = _play(Engine(games, backend="torch"), actions)
+    compiled = _play(Engine(games, backend="torch", compile=True), actions)
+    for t, (want, got) in enumerate(zip(plain, compiled)):
+        for name, a, b in zip(("map", "rotation", "position", "reward", "done"), want, got):
+            assert np.array_equal(a, b), f"step {t}: {name}"
 
 
 @pytest.mark.parametrize("backend", ["torch", "numba"])

@@ -13,7 +13,7 @@ from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
 # configs/warehouse_cma_mae.toml in miniature: every optimiser setting of the paper's, a 6x8 floor, 4 robots.
 TINY_WAREHOUSE = """\
 [run]
-generations = 5
+generations = 4
 seed = 1
 workers = 0
 checkpoint_every = 1
@@ -61,7 +61,7 @@ def test_a_killed_warehouse_run_resumes_to_the_same_result(tmp_path, capsys):
     assert (whole / "best" / "layout.png").read_bytes()[:4] == b"\x89PNG"
     assert best["objective"] == pytest.approx(best["fields"]["throughput"] + 5 * best["fields"]["similarity"])
     rows = [json.loads(line) for line in (whole / "metrics.jsonl").read_text().splitlines()]
-    assert [r["generation"] for r in rows] == [1, 2, 3, 4, 5] and rows[-1]["num_elites"] >= 1
+    assert [r["generation"] for r in rows] == [1, 2, 3, 4] and rows[-1]["num_elites"] >= 1
 
     run = tmp_path / "killed"
     kill_during_evolve(config, run, 2, limit=300)
