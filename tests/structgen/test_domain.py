@@ -84,6 +84,19 @@ def test_artifacts_show_the_structure(tmp_path, batch):
     assert json.loads((tmp_path / "structure.json").read_text())["metadata"]["score"] == result.objective[best]
 
 
+def test_a_later_best_that_is_not_simulated_leaves_no_earlier_simulation_behind(tmp_path):
+    # The statics evaluator simulates the best for its picture only when statics says it stands; a run's best folder
+    # is rewritten as the best improves, and a simulation of an earlier best must not stay beside a later one.
+    problem = StableStructures(replace(SMALL, evaluator="statics"))
+    genomes = problem.initial_genomes(12, np.random.default_rng(0))
+    result = problem.evaluate(genomes, np.arange(12))
+    broken = int(np.argmin(result.fields["integrity"]))
+    assert result.fields["integrity"][broken] < 1
+    (tmp_path / "simulation.json").write_text("{}")  # what an earlier, standing best left
+    problem.write_artifacts(genomes[broken], tmp_path)
+    assert not (tmp_path / "simulation.json").exists() and (tmp_path / "report.json").exists()
+
+
 # -- evaluators: simulation, static solve, or both --------------------------------------------------------------------------
 def evaluate_with(evaluator: str, count: int = 8):
     problem = StableStructures(replace(SMALL, evaluator=evaluator))

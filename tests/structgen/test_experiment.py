@@ -21,7 +21,7 @@ def test_the_main_job_is_the_papers_setup_with_its_special_rules_scaled_down():
     assert settings.evaluator == "statics"  # judged in milliseconds; the best's picture is simulated
     ga = experiment.optimizer_settings
     assert (ga.population, ga.parents) == (40, 8)  # the paper keeps the best fifth (20 of 100)
-    assert experiment.run.generations == 300
+    assert experiment.run.generations == 200
 
 
 def test_resolved_configuration_round_trips_through_toml(tmp_path):

@@ -242,6 +242,8 @@ class StableStructures(Problem):
         structure = structure.with_metadata(score=report.score, integrity=report.integrity, height=report.height)
         paths = [structure.save(folder / "structure.json"), structure.export(folder / "structure.glb")]
         paths.append(atomic_write(folder / "report.json", json.dumps(report.to_dict(), indent=1) + "\n"))
+        # A best written earlier in the run may have left its simulation here; it would be taken for this one's.
+        (folder / "simulation.json").unlink(missing_ok=True)
         shown = report
         if report.method == "statics" and report.intact:
             # The static analysis chose this candidate and says it stands; the picture shows what the simulation
