@@ -41,8 +41,8 @@ def _play(engine: Engine, actions: np.ndarray) -> list[tuple]:
     state, trace = engine.reset(), []
     for step in actions:
         state, reward, done = engine.step(state, torch.as_tensor(step))
-        grid, rot, pos = state.multi_hot().numpy(), state.rot.numpy().copy(), state.pos.numpy().copy()
-        trace.append((grid, rot, pos, reward.numpy(), done.numpy()))
+        # Copies: an engine may update its tensors in place on the next step.
+        trace.append(tuple(t.numpy().copy() for t in (state.multi_hot(), state.rot, state.pos, reward, done)))
     return trace
 
 
