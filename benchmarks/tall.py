@@ -3,6 +3,7 @@ re-checked with PyBullet's faithful preset until one stands with no joint broken
 
     python benchmarks/tall.py RUN_DIR [RUN_DIR ...] [--candidates 10] [--save-best tall.json]
     python benchmarks/tall.py --blocks
+    python benchmarks/tall.py --rules
 
 Prints a markdown table, one row per run: optimiser, evaluator, generations and run time, and the tallest elite that
 the faithful simulation confirms (vertices tall = height + 1), with how many taller ones it broke.
@@ -10,6 +11,14 @@ the faithful simulation confirms (vertices tall = height + 1), with how many tal
 ``--blocks`` prints why dense growth cannot be tall under the paper's model: the largest joint force the static
 analysis finds in solid blocks (every lattice cell a vertex) of a given width and number of levels, with every
 neighbour joined or with edges along the axes only.
+
+``--rules`` does the same for the shapes a uniform local rule grows most easily: from a single top vertex, every
+vertex of a level reaches down along the same choice of neighbours (straight down, the four side diagonals, the four
+corner diagonals, outwards away from the axis), optionally with ties between neighbours on the lowest levels. A beam
+search from the top down (the best ``--beam`` designs of each height go on to the next) finds the rule of each
+height with the smallest largest static joint load (load factors applied, the larger of held and sliding ground, as
+``benchmarks/tall_design.py`` judges), and gives that design's largest joint force in the first 0.3 s of the faithful
+simulation with joints that cannot break (``physics.check_transient``), where tall structures carry most.
 """
 
 from __future__ import annotations
@@ -24,9 +33,11 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 import numpy as np  # noqa: E402
 
 from evolution import RunFolderError  # noqa: E402
-from physics import InputError, PhysicsConfig, check_stability, joint_forces  # noqa: E402
+from physics import InputError, PhysicsConfig, check_stability, check_transient, joint_forces  # noqa: E402
+from physics.statics import bounding_loads  # noqa: E402
 from structgen.lattice import OFFSETS  # noqa: E402
 from structgen.runs import load_run  # noqa: E402
+from structgen.samples import LEVEL_RULES, by_level_rules  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
 
 
@@ -34,14 +45,22 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("runs", nargs="*", metavar="RUN_DIR")
     parser.add_argument("--blocks", action="store_true", help="the solid-block table instead of runs")
+    parser.add_argument("--rules", action="store_true", help="the level-rule table instead of runs")
+    parser.add_argument("--beam", type=int, default=10, help="--rules: designs kept per height (default 10)")
+    parser.add_argument("--max-vertices", type=int, default=500, help="--rules: largest design tried (default 500)")
     parser.add_argument("--candidates", type=int, default=10, help="elites to try per run, tallest first (default 10)")
     parser.add_argument("--save-best", metavar="FILE.json", help="save the tallest confirmed structure of all runs")
     args = parser.parse_args()
     if args.blocks:
         print_blocks()
         return
+    if args.rules:
+        if args.beam < 1 or args.max_vertices < 1:
+            parser.error("--beam and --max-vertices must be at least 1")
+        print_rules(beam=args.beam, max_vertices=args.max_vertices)
+        return
     if not args.runs:
-        parser.error("give RUN_DIR or --blocks")
+        parser.error("give RUN_DIR, --blocks or --rules")
     print(
         "| run | optimizer | evaluator | generations | run time | tallest confirmed standing | vertices | taller ones that broke |"
     )
@@ -119,6 +138,43 @@ def print_blocks(widths: tuple[int | None, ...] = (1, 2, 3, 5, None), levels: ra
             marked = [f"{f:.0f}" if f <= physics.break_force else f"**{f:.0f}**" for f in forces]
             shape = "pyramid" if width is None else width
             print(f"| {name} | {shape} | " + " | ".join(marked) + " |", flush=True)
+
+
+def print_rules(levels: range = range(2, 9), beam: int = 10, max_vertices: int = 500) -> None:
+    physics = PhysicsConfig()
+    print(f"largest static joint load (N) of the best level-by-level rule; joints break above {physics.break_force:g} N")
+    print()
+    print("| levels | rules, top level first | tied levels | vertices | edges | largest static load | peak in the first 0.3 s |")
+    print("|---:|---|---:|---:|---:|---:|---:|")
+    # The best designs grow past the default joint cap; the transient check is only a first look, so let it through.
+    roomy = physics.replace(max_vertices=10_000, max_joints=20_000)
+    kept: list[tuple[str, ...]] = [()]
+    for n in levels:
+        scored, seen = [], set()
+        for rules in kept:
+            for rule in LEVEL_RULES:
+                for tied in (0, 1, 2):
+                    design = by_level_rules((*rules, rule), tied)
+                    if design is None or design.n_components != 1 or design.n_vertices > max_vertices:
+                        continue
+                    shape = (design.vertices.tobytes(), design.edges.tobytes())
+                    if shape in seen:  # different rules, same structure (an axis vertex has no outward direction)
+                        continue
+                    seen.add(shape)
+                    load = float(np.max(bounding_loads(design, physics)))  # NaN (a piece that cannot stand) sorts last
+                    scored.append((np.nan_to_num(load, nan=np.inf), (*rules, rule), tied, design))
+        if not scored:
+            print(f"| {n} | none within {max_vertices} vertices | | | | | |")
+            break
+        scored.sort(key=lambda row: row[0])
+        load, rules, tied, design = scored[0]
+        peak = check_transient(design, roomy, window=0.3).peak_force
+        shown = [f"{f:.1f} N" if f <= physics.break_force else f"**{f:.1f} N**" for f in (load, peak)]
+        print(
+            f"| {n} | {' '.join(rules)} | {tied} | {design.n_vertices} | {design.n_edges} | {shown[0]} | {shown[1]} |",
+            flush=True,
+        )
+        kept = list(dict.fromkeys(row[1] for row in scored))[:beam]
 
 
 if __name__ == "__main__":

@@ -12,11 +12,13 @@ from physics.statics import _local_stiffness, bounding_loads, joint_forces, pred
 from structgen import NCAConfig
 from structgen.samples import (
     braced,
+    by_level_rules,
     cantilever,
     column,
     five_level_pyramid,
     flat_edge,
     random_growth,
+    six_level_rule_design,
     sparse_pyramid,
     star_on_five_legs,
 )
@@ -272,6 +274,28 @@ def test_the_designed_seven_level_structure_takes_up_its_weight_without_breaking
         assert np.nanmax(predict(design, FAITHFUL, rounds=0, sliding_ground=sliding).first_loads) < FAITHFUL.break_force
     start = check_transient(design, FAITHFUL, window=0.5)  # intact: no joint loaded past the break force
     assert start.intact and start.peak_force < FAITHFUL.break_force and start.height > 5.9
+
+
+def test_level_rules_build_what_they_name_and_refuse_what_they_do_not():
+    star = by_level_rules(["S"])  # the top and its four side diagonals
+    assert sorted(map(tuple, star.vertices.tolist())) == [(-1, 0, 0), (0, -1, 0), (0, 0, 1), (0, 1, 0), (1, 0, 0)]
+    assert star.n_edges == 4
+    tied = by_level_rules(["SC"], tied_levels=1)  # a ring of eight under the top, joined around
+    assert (tied.n_vertices, tied.n_edges) == (9, 8 + 8)
+    assert by_level_rules(["O"]) is None  # the top is on the axis: it has no outward direction
+    with pytest.raises(ValueError, match="rules must be"):
+        by_level_rules(["X"])
+
+
+@pytest.mark.slow
+def test_one_rule_per_level_grows_six_levels_that_take_up_their_weight():
+    # benchmarks/tall.py --rules found it; the faithful preset's 30 s verdict (stands, height 5.00) takes minutes, and
+    # the first moments are where a tall structure breaks if it does.
+    design = six_level_rule_design()
+    assert design.height == 5 and (design.n_vertices, design.n_edges) == (153, 633)
+    assert np.nanmax(bounding_loads(design, FAITHFUL)) < 40
+    start = check_transient(design, FAITHFUL, window=0.3)
+    assert start.intact and start.peak_force < 40 and start.height > 4.9
 
 
 @pytest.mark.slow
