@@ -155,7 +155,7 @@ def print_rules(levels: range = range(2, 9), beam: int = 10, max_vertices: int =
             for rule in LEVEL_RULES:
                 for tied in (0, 1, 2):
                     design = by_level_rules((*rules, rule), tied)
-                    if design is None or design.n_components != 1 or design.n_vertices > max_vertices:
+                    if design is None or design.n_vertices > max_vertices:
                         continue
                     shape = (design.vertices.tobytes(), design.edges.tobytes())
                     if shape in seen:  # different rules, same structure (an axis vertex has no outward direction)

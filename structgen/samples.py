@@ -72,58 +72,6 @@ def cantilever(arm: int, n: int = 2) -> Structure:
     return Structure(vertices, edges, {"sample": f"cantilever({arm}, {n})"})
 
 
-def _from_cell_pairs(edges: list[tuple[tuple[int, int, int], tuple[int, int, int]]], metadata: dict) -> Structure:
-    """The structure whose edges join these pairs of lattice cells, vertices numbered in order of first appearance."""
-    index: dict[tuple[int, int, int], int] = {}
-    for pair in edges:
-        for point in pair:
-            index.setdefault(point, len(index))
-    return Structure(list(index), [[index[a], index[b]] for a, b in edges], metadata)
-
-
-def sparse_pyramid(levels: int) -> Structure:
-    """A sparse pyramid ``levels`` vertices tall, built by one rule per level from a single top vertex: every vertex
-    reaches down along the four side diagonals, and every vertex below the top also outwards (away from the axis,
-    corners included); the two lowest levels are braced by edges between neighbouring vertices, and from five levels
-    on, the vertices inside the outermost ring two levels up carry nothing down, so their load goes round a hollow
-    centre. Five levels is :func:`five_level_pyramid`; taller ones overload their lowest joints (six levels: 53 N by
-    statics, load factors applied, over the 52.5 N limit) and are where ``benchmarks/tall_design.py`` starts its
-    search for designs that stand.
-    """
-    if levels < 2:
-        raise ValueError(f"a pyramid needs at least 2 levels, got {levels}")
-    top, sides = levels - 1, [(1, 0), (-1, 0), (0, 1), (0, -1)]
-    level, edges = [(0, 0)], []
-    for z in range(top, 0, -1):
-        below: set[tuple[int, int]] = set()
-        reach = max(max(abs(x), abs(y)) for x, y in level)
-        for x, y in level:
-            if z == 2 and top >= 4 and max(abs(x), abs(y)) < reach - 1:  # the hollow centre
-                continue
-            steps = set(sides)
-            if z < top:
-                sx, sy = int(np.sign(x)), int(np.sign(y))
-                steps |= {(sx, 0), (0, sy), (sx, sy)} - {(0, 0)}
-            for dx, dy in sorted(steps):
-                below.add((x + dx, y + dy))
-                edges.append(((x, y, z), (x + dx, y + dy, z - 1)))
-        if z <= 2:  # brace the two lowest levels
-            ties = ((1, 0), (0, 1), (1, 1), (1, -1))
-            edges += [
-                ((x, y, z - 1), (x + dx, y + dy, z - 1)) for x, y in sorted(below) for dx, dy in ties if (x + dx, y + dy) in below
-            ]
-        level = sorted(below)
-    return _from_cell_pairs(edges, {"sample": f"sparse_pyramid({levels})"})
-
-
-def five_level_pyramid() -> Structure:
-    """:func:`sparse_pyramid` five levels tall (79 vertices, 296 edges): it stands under the faithful preset with no
-    joint broken, its largest static joint force 37 N of the 52.5 N limit. Found by a small search over level-by-level
-    rules with the static analysis; taller structures need designing vertex by vertex (``benchmarks/tall_design.py``).
-    """
-    return sparse_pyramid(5).with_metadata(sample="five_level_pyramid()")
-
-
 #: The rules :func:`by_level_rules` takes, one per level. Each letter adds down-neighbours that every vertex of the level
 #: reaches: V straight down, S the four side diagonals, C the four corner diagonals, O outwards (away from the vertical
 #: axis through the top, corners included), o outwards along the sides only. A vertex on the axis has no outward
@@ -147,6 +95,54 @@ def _reach(rule: str, x: int, y: int) -> set[tuple[int, int]]:
     return steps
 
 
+def _from_cell_pairs(edges: list[tuple[tuple[int, int, int], tuple[int, int, int]]], metadata: dict) -> Structure:
+    """The structure whose edges join these pairs of lattice cells, vertices numbered in order of first appearance."""
+    index: dict[tuple[int, int, int], int] = {}
+    for pair in edges:
+        for point in pair:
+            index.setdefault(point, len(index))
+    return Structure(list(index), [[index[a], index[b]] for a, b in edges], metadata)
+
+
+def sparse_pyramid(levels: int) -> Structure:
+    """A sparse pyramid ``levels`` vertices tall, built by one rule per level from a single top vertex: every vertex
+    reaches down along the four side diagonals, and every vertex below the top also outwards (away from the axis,
+    corners included); the two lowest levels are braced by edges between neighbouring vertices, and from five levels
+    on, the vertices inside the outermost ring two levels up carry nothing down, so their load goes round a hollow
+    centre. Five levels is :func:`five_level_pyramid`; taller ones overload their lowest joints (six levels: 53 N by
+    statics, load factors applied, over the 52.5 N limit) and are where ``benchmarks/tall_design.py`` starts its
+    search for designs that stand.
+    """
+    if levels < 2:
+        raise ValueError(f"a pyramid needs at least 2 levels, got {levels}")
+    top = levels - 1
+    level, edges = [(0, 0)], []
+    for z in range(top, 0, -1):
+        below: set[tuple[int, int]] = set()
+        reach = max(max(abs(x), abs(y)) for x, y in level)
+        for x, y in level:
+            if z == 2 and top >= 4 and max(abs(x), abs(y)) < reach - 1:  # the hollow centre
+                continue
+            for dx, dy in sorted(_reach("SO" if z < top else "S", x, y)):
+                below.add((x + dx, y + dy))
+                edges.append(((x, y, z), (x + dx, y + dy, z - 1)))
+        if z <= 2:  # brace the two lowest levels
+            ties = ((1, 0), (0, 1), (1, 1), (1, -1))
+            edges += [
+                ((x, y, z - 1), (x + dx, y + dy, z - 1)) for x, y in sorted(below) for dx, dy in ties if (x + dx, y + dy) in below
+            ]
+        level = sorted(below)
+    return _from_cell_pairs(edges, {"sample": f"sparse_pyramid({levels})"})
+
+
+def five_level_pyramid() -> Structure:
+    """:func:`sparse_pyramid` five levels tall (79 vertices, 296 edges): it stands under the faithful preset with no
+    joint broken, its largest static joint force 37 N of the 52.5 N limit. Found by a small search over level-by-level
+    rules with the static analysis; taller structures need designing vertex by vertex (``benchmarks/tall_design.py``).
+    """
+    return sparse_pyramid(5).with_metadata(sample="five_level_pyramid()")
+
+
 def by_level_rules(rules: tuple[str, ...] | list[str], tied_levels: int = 0) -> Structure | None:
     """A structure grown down from one top vertex, one rule per level (top first; letters as in :data:`LEVEL_RULES`):
     ``len(rules) + 1`` vertices tall, its lowest ``tied_levels`` levels also joined to their side neighbours. None when
@@ -157,6 +153,8 @@ def by_level_rules(rules: tuple[str, ...] | list[str], tied_levels: int = 0) -> 
     """
     if not rules or any(rule not in LEVEL_RULES for rule in rules):
         raise ValueError(f"rules must be a non-empty sequence of {', '.join(LEVEL_RULES)}; got {list(rules)!r}")
+    if not isinstance(tied_levels, int) or isinstance(tied_levels, bool) or tied_levels < 0:
+        raise ValueError(f"tied_levels must be a non-negative integer, got {tied_levels!r}")
     top = len(rules)
     level, edges = [(0, 0)], []
     for z, rule in zip(range(top, 0, -1), rules):

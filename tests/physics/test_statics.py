@@ -285,6 +285,8 @@ def test_level_rules_build_what_they_name_and_refuse_what_they_do_not():
     assert by_level_rules(["O"]) is None  # the top is on the axis: it has no outward direction
     with pytest.raises(ValueError, match="rules must be"):
         by_level_rules(["X"])
+    with pytest.raises(ValueError, match="tied_levels must be"):
+        by_level_rules(["S"], tied_levels=-1)
 
 
 @pytest.mark.slow
