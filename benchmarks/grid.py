@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from structgen.conv_nca import ConvNCA
+from structgen.domains.warehouse.commands import AUTO_YES_NO
 from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
 from structgen.domains.warehouse.measures import violations
 from structgen.domains.warehouse.repair import repair
@@ -132,7 +133,7 @@ def growth(device: str | None) -> list[str]:
     return rows
 
 
-def repairs() -> Iterator[str]:
+def repairs(round_relaxation: bool | None) -> Iterator[str]:
     """Table rows, one as each repair finishes (the whole table takes about ten minutes)."""
     for kind_name, name, repaired_name, limit, agents in REPAIRS:
         kind = WAREHOUSE if kind_name == "warehouse" else MANUFACTURING
@@ -145,7 +146,7 @@ def repairs() -> Iterator[str]:
             kwargs = {"shelves": int((recorded.tiles == kind.vocabulary.index("@")).sum())}
         else:
             kwargs = {"agents": agents}
-        result = repair(unrepaired.tiles, kind, time_limit=limit, **kwargs)
+        result = repair(unrepaired.tiles, kind, time_limit=limit, round_relaxation=round_relaxation, **kwargs)
         assert not violations(result.tiles, kind, fixed=unrepaired.tiles if kind is WAREHOUSE else None, **kwargs)
         original = recorded.metadata.get("milp_runtime")
         original_time = f"{original:.0f} s" if original else "time not recorded"
@@ -159,7 +160,7 @@ def repairs() -> Iterator[str]:
     genome = np.random.default_rng(1).normal(0, 0.2, nca.n_params)
     size = WAREHOUSE.size("101x102")
     tiles = WAREHOUSE.complete(nca.grow(genome, WAREHOUSE.seed(size.grown), size.iterations))
-    result = repair(tiles, WAREHOUSE, shelves=2500, time_limit=120)
+    result = repair(tiles, WAREHOUSE, shelves=2500, time_limit=120, round_relaxation=round_relaxation)
     assert not violations(result.tiles, WAREHOUSE, shelves=2500, fixed=tiles)
     yield (
         f"| repair warehouse, random NCA layout | 101x102 | original 70-3,326 s (CPLEX, 28 threads) | ours "
@@ -175,6 +176,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--device", default=None, help="torch device for growth (default: the CPU)")
     parser.add_argument("--skip-repair", action="store_true", help="time growth only")
+    parser.add_argument(
+        "--round-relaxation",
+        choices=tuple(AUTO_YES_NO),
+        default="auto",
+        help="round the linear relaxation before each repair's full search: auto (the repair's default), yes, no",
+    )
     args = parser.parse_args()
     print(f"machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}; Python {platform.python_version()}")
     print("| what | size | work / original | device / ours | time |")
@@ -184,7 +191,7 @@ def main() -> None:
     if not args.skip_repair:
         if not MAPS.is_dir():
             parser.error("the repair rows need the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
-        for row in repairs():
+        for row in repairs(AUTO_YES_NO[args.round_relaxation]):
             print(row, flush=True)
 
 

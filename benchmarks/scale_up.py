@@ -23,6 +23,7 @@ from throughput_vs_agents import sweep  # the script beside this one
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
+from structgen.domains.warehouse.commands import AUTO_YES_NO
 from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
 from structgen.domains.warehouse.measures import similarity
 from structgen.domains.warehouse.repair import repair
@@ -64,6 +65,12 @@ def main() -> None:
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a warehouse training run")
     parser.add_argument("--seeds", type=int, default=3, help="simulations per point (seeds 0, 1, ...; default 3)")
     parser.add_argument("--repair-time-limit", type=float, default=120.0, help="seconds per repair (default 120)")
+    parser.add_argument(
+        "--round-relaxation",
+        choices=tuple(AUTO_YES_NO),
+        default="auto",
+        help="round the linear relaxation before each repair's full search: auto (the repair's default), yes, no",
+    )
     parser.add_argument("--sizes", default=",".join(HUMAN), help="comma-separated sizes (default: all seven)")
     parser.add_argument("--layouts", type=Path, default=None, metavar="DIR", help="also save every layout here")
     parser.add_argument("--output", type=Path, default=Path("docs/scale_up.png"), help="the plot to write")
@@ -89,7 +96,14 @@ def main() -> None:
         shape = WAREHOUSE.size(size)
         steps = problem.iterations if size == experiment.problem_settings.size else 200
         grown = WAREHOUSE.complete(problem.nca.grow(genome, WAREHOUSE.seed(shape.grown), steps))
-        fixed = repair(grown, WAREHOUSE, shelves=shape.shelves, time_limit=args.repair_time_limit, seed=0)
+        fixed = repair(
+            grown,
+            WAREHOUSE,
+            shelves=shape.shelves,
+            time_limit=args.repair_time_limit,
+            seed=0,
+            round_relaxation=AUTO_YES_NO[args.round_relaxation],
+        )
         changed, score = similarity(grown, fixed.tiles, WAREHOUSE)
         ours[size] = fixed.tiles
         if args.layouts is not None:

@@ -18,6 +18,8 @@ from structgen.grid import Grid
 
 EXIT_OK = 0
 MAX_SEED = 2**63 - 1
+#: The repair's three-way choices as its keyword arguments take them (None: the repair decides by the map's size).
+AUTO_YES_NO = {"auto": None, "yes": True, "no": False}
 
 
 def _kind(args: argparse.Namespace) -> LayoutKind:
@@ -103,7 +105,8 @@ def cmd_repair(args: argparse.Namespace) -> int:
         time_limit=args.time_limit,
         seed=args.seed,
         threads=args.threads,
-        greedy_first={"auto": None, "yes": True, "no": False}[args.greedy],
+        greedy_first=AUTO_YES_NO[args.greedy],
+        round_relaxation=AUTO_YES_NO[args.round_relaxation],
     )
     hamming, score = similarity(grid.tiles, result.tiles, kind)
     metadata = {
@@ -308,6 +311,14 @@ def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
         choices=("auto", "yes", "no"),
         default="auto",
         help="start HiGHS from the greedy repair: auto (above 4,000 cells), yes, no",
+    )
+    p.add_argument(
+        "--round-relaxation",
+        choices=("auto", "yes", "no"),
+        default="auto",
+        help="before the full search, solve the linear relaxation and the smaller MILP left by holding the tiles it "
+        "decided; its answer ends the repair when it meets the relaxation's bound: auto (warehouses of 1,000 to "
+        "4,000 cells with a time limit of 30 s or more), yes, no",
     )
     if kind.name == "warehouse":
         p.add_argument(

@@ -13,14 +13,19 @@ The model follows the original's (research notes 1.4), written from its descript
   HiGHS proves it on the original's 33x36 map in about a second instead of stopping at 159 changes after a minute;
 - objective: the number of changed cells (the original weighs each change 40, which moves no optimum).
 
-At large sizes (more than :data:`GREEDY_FIRST_CELLS` cells, by default) a cheap greedy repair runs first and is
-given to HiGHS as its starting solution, so a valid answer exists whatever the time limit. A layout that the rules
+Before the full search of a warehouse map (by default from :data:`ROUNDING_MIN_CELLS` to
+:data:`GREEDY_FIRST_CELLS` cells, with at least :data:`ROUNDING_MIN_SECONDS`), the linear relaxation is solved and the tiles it leaves whole are held while HiGHS
+solves the much smaller rest: on the original's harder 33x36 maps that finds the optimum in seconds, where HiGHS's
+own search spent most of the original's minute in cut rounds before finding it. At large sizes (more than
+:data:`GREEDY_FIRST_CELLS` cells, by default) a cheap greedy repair runs first and, if better, is given to HiGHS as
+its starting solution, so a valid answer exists whatever the time limit. A layout that the rules
 cannot satisfy raises :class:`RepairError`; a repair never returns an invalid layout (every result is checked by the
 independent :func:`~structgen.domains.warehouse.measures.violations`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -31,7 +36,7 @@ from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, Layout
 from structgen.domains.warehouse.measures import violations
 from structgen.errors import InputError
 
-__all__ = ["GREEDY_FIRST_CELLS", "RepairError", "RepairResult", "greedy_repair", "repair"]
+__all__ = ["GREEDY_FIRST_CELLS", "ROUNDING_MIN_CELLS", "ROUNDING_MIN_SECONDS", "RepairError", "RepairResult", "greedy_repair", "repair"]
 
 #: Above this many cells the greedy repair runs first and seeds the MILP.
 GREEDY_FIRST_CELLS = 4000
@@ -51,8 +56,10 @@ class RepairResult:
         optimal: whether HiGHS proved no repair changes fewer cells.
         gap: relative MIP gap at the end (0 when optimal).
         seconds: wall time of the whole repair.
-        method: ``"milp"``, ``"milp from greedy"`` or ``"greedy"`` (the MILP found nothing, or nothing better, in
-            time; random NCAs' 33x36 layouts, nearly all shelves, can leave HiGHS without a layout after 60 s).
+        method: ``"rounded relaxation"`` (optimal without the full search), ``"milp"``, ``"milp from rounded
+            relaxation"``, ``"milp from greedy"`` (the full search from that start) or ``"greedy"`` (the MILP found
+            nothing, or nothing better, in time; random NCAs' 33x36 layouts, nearly all shelves, can leave HiGHS
+            without a layout after 60 s).
         status: HiGHS's model status, in its words.
     """
 
@@ -105,15 +112,29 @@ class _Model:
         self.row_upper.append(np.broadcast_to(np.asarray(upper, dtype=np.float64), (count,)))
         self.n_rows += count
 
-    def solve(self, time_limit: float, seed: int, threads: int, start: np.ndarray | None, node_limit: int | None = None):
+    def solve(
+        self,
+        time_limit: float,
+        seed: int,
+        threads: int,
+        start: np.ndarray | None = None,
+        node_limit: int | None = None,
+        *,
+        relax: bool = False,
+        fix: np.ndarray | None = None,
+        fixed_values: np.ndarray | None = None,
+    ) -> _Solution:
+        """Solve the model (``relax``: its linear relaxation) with the columns in ``fix`` held at ``fixed_values``."""
         import highspy
 
         inf = highspy.kHighsInf
         lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = self.n_cols, self.n_rows
         lp.col_cost_ = self.cost
-        lp.col_lower_ = np.concatenate(self.lower)
-        lp.col_upper_ = np.concatenate(self.upper)
+        lower, upper = np.concatenate(self.lower), np.concatenate(self.upper)
+        if fix is not None:
+            lower[fix] = upper[fix] = fixed_values[fix]
+        lp.col_lower_, lp.col_upper_ = lower, upper
         lp.row_lower_ = np.where(np.isinf(np.concatenate(self.row_lower)), -inf, np.concatenate(self.row_lower))
         lp.row_upper_ = np.where(np.isinf(np.concatenate(self.row_upper)), inf, np.concatenate(self.row_upper))
         row = np.concatenate([r for r, _, _ in self.rows])
@@ -124,7 +145,8 @@ class _Model:
         lp.a_matrix_.start_ = matrix.indptr
         lp.a_matrix_.index_ = matrix.indices
         lp.a_matrix_.value_ = matrix.data
-        lp.integrality_ = [highspy.HighsVarType(int(i)) for i in np.concatenate(self.integer)]
+        if not relax:
+            lp.integrality_ = [highspy.HighsVarType(int(i)) for i in np.concatenate(self.integer)]
         h = highspy.Highs()
         h.setOptionValue("output_flag", False)
         h.setOptionValue("time_limit", float(time_limit))
@@ -143,7 +165,25 @@ class _Model:
         status = h.getModelStatus()
         info = h.getInfo()
         values = np.asarray(h.getSolution().col_value) if info.primal_solution_status == 2 else None
-        return values, h.modelStatusToString(status), status == highspy.HighsModelStatus.kOptimal, float(info.mip_gap)
+        return _Solution(
+            values,
+            h.modelStatusToString(status),
+            status == highspy.HighsModelStatus.kOptimal,
+            float(info.mip_gap) if not relax else 0.0,
+            float(info.objective_function_value) if values is not None else np.inf,
+        )
+
+    def integer_columns(self) -> np.ndarray:
+        return np.concatenate(self.integer).astype(bool)
+
+
+@dataclass(frozen=True)
+class _Solution:
+    values: np.ndarray | None  # None: HiGHS found no feasible point
+    status: str
+    optimal: bool
+    gap: float
+    objective: float
 
 
 def repair(
@@ -157,6 +197,7 @@ def repair(
     threads: int = 1,
     greedy_first: bool | None = None,
     node_limit: int | None = None,
+    round_relaxation: bool | None = None,
 ) -> RepairResult:
     """Repair a whole map (for warehouses, with its workstation columns).
 
@@ -172,6 +213,11 @@ def repair(
         greedy_first: run the greedy repair first and start HiGHS from it; None: above :data:`GREEDY_FIRST_CELLS`.
         node_limit: stop HiGHS after this many branch-and-bound nodes. A repair stopped by the time limit depends
             on the machine's speed; one stopped by a node limit does not, so runs that must repeat exactly use it.
+        round_relaxation: first solve the linear relaxation and the smaller MILP left by holding the tiles it
+            decided (see :func:`_round_the_relaxation`); that answer ends the repair when it meets the relaxation's
+            bound and starts HiGHS's full search otherwise. None: for warehouses from :data:`ROUNDING_MIN_CELLS`
+            to :data:`GREEDY_FIRST_CELLS` cells given at least :data:`ROUNDING_MIN_SECONDS`, where it was
+            measured to help.
 
     Raises:
         RepairError: no valid layout exists under the rules, or neither HiGHS within the time limit nor the greedy
@@ -190,37 +236,101 @@ def repair(
     if not time_limit > 0:
         raise ValueError(f"time_limit must be positive, got {time_limit!r}")
     model, decode, encode = build(tiles, shelves=shelves, agents=agents)
+    # HiGHS checks its clock between steps, and at 101x102 one presolve step can run 1 to 2.5 s past its limit
+    # (measured): keep a margin so that a repair of two minutes ends within its limit.
+    deadline = began + time_limit - min(0.05 * time_limit, 5.0)
+
+    def seconds_left(share: float = 1.0) -> float:
+        return max(share * (deadline - time.perf_counter()), 0.01)
+
     greedy = None
     if greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS:
         greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
     start = None if greedy is None else encode(greedy)
-    # HiGHS checks its clock between steps, and at 101x102 one presolve step can run 1 to 2.5 s past its limit
-    # (measured): keep a margin so that a repair of two minutes ends within its limit.
-    margin = min(0.05 * time_limit, 5.0)
-    solver_seconds = max(time_limit - margin - (time.perf_counter() - began), 0.01)
-    values, status, optimal, gap = model.solve(solver_seconds, seed, threads, start, node_limit)
-    if values is None:
+    method = "milp" if greedy is None else "milp from greedy"
+    if round_relaxation is None:
+        round_relaxation = (
+            kind.name == "warehouse"
+            and ROUNDING_MIN_CELLS <= tiles.size <= GREEDY_FIRST_CELLS
+            and time_limit >= ROUNDING_MIN_SECONDS
+        )
+    rounded = _round_the_relaxation(model, seconds_left, seed, threads, node_limit) if round_relaxation else None
+    if rounded is not None:
+        if rounded.optimal:  # the rounding met the relaxation's bound: no layout changes fewer cells
+            solution, method = rounded, "rounded relaxation"
+        elif start is None or rounded.objective < float(model.cost @ start):
+            start, method = rounded.values, "milp from rounded relaxation"
+    if rounded is None or not rounded.optimal:
+        solution = model.solve(seconds_left(), seed, threads, start, node_limit)
+    if solution.values is None:
         if greedy is not None:
             result, method = greedy, "greedy"
-        elif status == "Infeasible":
+        elif solution.status == "Infeasible":
             raise RepairError(f"no {kind.name} layout of this size satisfies the rules ({_rules(kind, shelves, agents)})")
         else:  # HiGHS ran out of time without a layout: the greedy repair still gives a valid one
             try:
                 result, method = greedy_repair(tiles, kind, shelves=shelves, agents=agents), "greedy"
             except RepairError:
                 raise RepairError(
-                    f"the repair found no valid layout within {time_limit:g} s ({status}); allow more time"
+                    f"the repair found no valid layout within {time_limit:g} s ({solution.status}); allow more time"
                 ) from None
     else:
-        result = decode(values)
-        method = "milp" if greedy is None else "milp from greedy"
+        result = decode(solution.values)
     broken = violations(result, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
     if broken:  # the model and the checker disagree: never hand out an invalid layout
         raise RepairError(f"the repaired {kind.name} layout is invalid: {'; '.join(broken)}")
     hamming = int((result != tiles).sum())
+    optimal = solution.optimal
     return RepairResult(
-        result.astype(np.uint8), hamming, optimal, 0.0 if optimal else gap, time.perf_counter() - began, method, status
+        result.astype(np.uint8),
+        hamming,
+        optimal,
+        0.0 if optimal else solution.gap,
+        time.perf_counter() - began,
+        method,
+        solution.status,
     )
+
+
+#: Share of the time left that the linear relaxation, and then the rounding's smaller MILP, may use.
+ROUNDING_SHARE = 0.25
+#: Where :func:`repair` rounds the relaxation by default: warehouses of at least this many cells (and at most
+#: :data:`GREEDY_FIRST_CELLS`) given at least this many seconds. Below 1,000 cells (9x16) the full search proves the
+#: optimum in seconds and the rounding only added its own 1 to 3 s; under 30 s the relaxation's 0.6 to 3 s at 33x36
+#: leave too little for the search; above 4,000 cells the relaxation alone outlasted its share of two minutes; and
+#: on the original's manufacturing maps the full search did as well without it (all measured, benchmarks/README.md).
+ROUNDING_MIN_CELLS = 1000
+ROUNDING_MIN_SECONDS = 30.0
+#: Branch-and-bound nodes the rounding's smaller MILP may use: its answers came from the root on the maps measured,
+#: and a rounding that needs a long search is better left to the full one.
+ROUNDING_NODES = 100
+
+
+def _round_the_relaxation(model: _Model, seconds_left, seed: int, threads: int, node_limit: int | None) -> _Solution | None:
+    """A layout from the linear relaxation: hold each tile variable the relaxation left whole, solve for the rest.
+
+    On the original's harder 33x36 maps the relaxation's bound is already the optimum or close to it, while HiGHS's
+    own search spent 40 to 50 s in cut rounds at the root before its heuristics found that layout (measured). Fixing
+    the variables the relaxation decided leaves a MILP a quarter the size that HiGHS solves in seconds; when its
+    answer meets the bound it is optimal, and otherwise it starts the full search. None when either step found
+    nothing in its share of the time.
+    """
+    relaxed = model.solve(seconds_left(ROUNDING_SHARE), seed, threads, relax=True)
+    if relaxed.values is None or not relaxed.optimal:
+        return None
+    integer = model.integer_columns()
+    decided = integer & (np.abs(relaxed.values - np.round(relaxed.values)) <= 1e-6)
+    nodes = ROUNDING_NODES if node_limit is None else min(node_limit, ROUNDING_NODES)
+    rounded = model.solve(
+        seconds_left(ROUNDING_SHARE), seed, threads, node_limit=nodes, fix=decided, fixed_values=np.round(relaxed.values)
+    )
+    if rounded.values is None:
+        return None
+    # Where only integer variables cost anything, and in whole units (changed cells), no layout beats the
+    # relaxation's bound rounded up.
+    whole = np.array_equal(model.cost, np.round(model.cost)) and not model.cost[~integer].any()
+    bound = np.ceil(relaxed.objective - 1e-6) if whole else relaxed.objective
+    return dataclasses.replace(rounded, optimal=bool(rounded.objective <= bound + 1e-6), gap=0.0)
 
 
 def _rules(kind: LayoutKind, shelves: int | None, agents: int) -> str:
