@@ -14,12 +14,13 @@ The model follows the original's (research notes 1.4), written from its descript
 - objective: the number of changed cells (the original weighs each change 40, which moves no optimum).
 
 Before the full search of a warehouse map (by default from :data:`ROUNDING_MIN_CELLS` to
-:data:`GREEDY_FIRST_CELLS` cells, with at least :data:`ROUNDING_MIN_SECONDS`), the linear relaxation is solved and the tiles it leaves whole are held while HiGHS
-solves the much smaller rest: on the original's harder 33x36 maps that finds the optimum in seconds, where HiGHS's
-own search spent most of the original's minute in cut rounds before finding it. At large sizes (more than
-:data:`GREEDY_FIRST_CELLS` cells, by default) a cheap greedy repair runs first and, if better, is given to HiGHS as
-its starting solution, so a valid answer exists whatever the time limit. A layout that the rules
-cannot satisfy raises :class:`RepairError`; a repair never returns an invalid layout (every result is checked by the
+:data:`GREEDY_FIRST_CELLS` cells, with at least :data:`ROUNDING_MIN_SECONDS`), the linear relaxation is solved
+and the tiles it leaves whole are held while HiGHS solves the much smaller rest: on the original's harder 33x36
+maps that finds the optimum in seconds, where HiGHS's own search spent most of the original's minute in cut rounds
+before finding it. At large sizes (more than :data:`GREEDY_FIRST_CELLS` cells, by default) a cheap greedy repair
+runs first and, if better, is given to HiGHS as its starting solution, so a valid answer exists whatever the time
+limit. A layout that the rules cannot satisfy raises :class:`RepairError`; a repair never returns an invalid
+layout (every result is checked by the
 independent :func:`~structgen.domains.warehouse.measures.violations`).
 """
 
@@ -36,7 +37,15 @@ from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, Layout
 from structgen.domains.warehouse.measures import violations
 from structgen.errors import InputError
 
-__all__ = ["GREEDY_FIRST_CELLS", "ROUNDING_MIN_CELLS", "ROUNDING_MIN_SECONDS", "RepairError", "RepairResult", "greedy_repair", "repair"]
+__all__ = [
+    "GREEDY_FIRST_CELLS",
+    "ROUNDING_MIN_CELLS",
+    "ROUNDING_MIN_SECONDS",
+    "RepairError",
+    "RepairResult",
+    "greedy_repair",
+    "repair",
+]
 
 #: Above this many cells the greedy repair runs first and seeds the MILP.
 GREEDY_FIRST_CELLS = 4000
