@@ -95,6 +95,14 @@ def _reach(rule: str, x: int, y: int) -> set[tuple[int, int]]:
     return steps
 
 
+def _ties(
+    cells: set[tuple[int, int]], z: int, offsets: tuple[tuple[int, int], ...]
+) -> list[tuple[tuple[int, int, int], tuple[int, int, int]]]:
+    """Edges at height ``z`` between each of ``cells`` and the ones at ``offsets`` from it (each pair once when the
+    offsets hold no two opposite directions)."""
+    return [((x, y, z), (x + dx, y + dy, z)) for x, y in sorted(cells) for dx, dy in offsets if (x + dx, y + dy) in cells]
+
+
 def _from_cell_pairs(edges: list[tuple[tuple[int, int, int], tuple[int, int, int]]], metadata: dict) -> Structure:
     """The structure whose edges join these pairs of lattice cells, vertices numbered in order of first appearance."""
     index: dict[tuple[int, int, int], int] = {}
@@ -127,10 +135,7 @@ def sparse_pyramid(levels: int) -> Structure:
                 below.add((x + dx, y + dy))
                 edges.append(((x, y, z), (x + dx, y + dy, z - 1)))
         if z <= 2:  # brace the two lowest levels
-            ties = ((1, 0), (0, 1), (1, 1), (1, -1))
-            edges += [
-                ((x, y, z - 1), (x + dx, y + dy, z - 1)) for x, y in sorted(below) for dx, dy in ties if (x + dx, y + dy) in below
-            ]
+            edges += _ties(below, z - 1, ((1, 0), (0, 1), (1, 1), (1, -1)))
         level = sorted(below)
     return _from_cell_pairs(edges, {"sample": f"sparse_pyramid({levels})"})
 
@@ -164,12 +169,7 @@ def by_level_rules(rules: tuple[str, ...] | list[str], tied_levels: int = 0) -> 
                 below.add((x + dx, y + dy))
                 edges.append(((x, y, z), (x + dx, y + dy, z - 1)))
         if z <= tied_levels:
-            edges += [
-                ((x, y, z - 1), (x + dx, y + dy, z - 1))
-                for x, y in sorted(below)
-                for dx, dy in ((1, 0), (0, 1))
-                if (x + dx, y + dy) in below
-            ]
+            edges += _ties(below, z - 1, ((1, 0), (0, 1)))
         level = sorted(below)
         if not level:
             return None

@@ -308,13 +308,13 @@ def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
     p.add_argument("--seed", type=whole_number(0, 2**31 - 1), default=0, metavar="N", help="HiGHS random seed (default 0)")
     p.add_argument(
         "--greedy",
-        choices=("auto", "yes", "no"),
+        choices=tuple(AUTO_YES_NO),
         default="auto",
         help="start HiGHS from the greedy repair: auto (above 4,000 cells), yes, no",
     )
     p.add_argument(
         "--round-relaxation",
-        choices=("auto", "yes", "no"),
+        choices=tuple(AUTO_YES_NO),
         default="auto",
         help="before the full search, solve the linear relaxation and the smaller MILP left by holding the tiles it "
         "decided; its answer ends the repair when it meets the relaxation's bound: auto (warehouses of 1,000 to "

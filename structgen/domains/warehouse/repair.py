@@ -155,7 +155,7 @@ class _Model:
         lp.a_matrix_.index_ = matrix.indices
         lp.a_matrix_.value_ = matrix.data
         if not relax:
-            lp.integrality_ = [highspy.HighsVarType(int(i)) for i in np.concatenate(self.integer)]
+            lp.integrality_ = [highspy.HighsVarType(int(i)) for i in self.integer_columns()]
         h = highspy.Highs()
         h.setOptionValue("output_flag", False)
         h.setOptionValue("time_limit", float(time_limit))
