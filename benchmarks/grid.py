@@ -169,7 +169,9 @@ def repairs(round_relaxation: bool | None) -> Iterator[str]:
 
 
 def _proof(result) -> str:
-    return "optimal" if result.optimal else f"gap {result.gap:.1%}"
+    if result.optimal:
+        return "optimal"
+    return f"gap {result.gap:.1%}" if np.isfinite(result.gap) else "no bound"
 
 
 def main() -> None:

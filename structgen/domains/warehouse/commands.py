@@ -107,6 +107,7 @@ def cmd_repair(args: argparse.Namespace) -> int:
         threads=args.threads,
         greedy_first=AUTO_YES_NO[args.greedy],
         round_relaxation=AUTO_YES_NO[args.round_relaxation],
+        good_enough=args.good_enough,
     )
     hamming, score = similarity(grid.tiles, result.tiles, kind)
     metadata = {
@@ -117,11 +118,13 @@ def cmd_repair(args: argparse.Namespace) -> int:
         "sim_score": score,
         "milp_runtime": result.seconds,
         "optimal": result.optimal,
-        "gap": result.gap,
+        "gap": result.gap if np.isfinite(result.gap) else None,  # JSON has no infinity: null is "no bound known"
         "repair_method": result.method,
     }
     Grid(result.tiles, kind.vocabulary, metadata).save(args.output)
-    proof = "proven optimal" if result.optimal else f"gap {result.gap:.1%}, not proven optimal"
+    proof = "proven optimal" if result.optimal else "not proven optimal"
+    if not result.optimal:
+        proof = f"gap {result.gap:.1%}, {proof}" if np.isfinite(result.gap) else f"no bound known, {proof}"
     print(f"{args.output}: {hamming} cells changed ({proof}; {result.method}, {result.seconds:.1f} s), similarity {score:.4f}")
     return EXIT_OK
 
@@ -319,6 +322,14 @@ def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
         help="before the full search, solve the linear relaxation and the smaller MILP left by holding the tiles it "
         "decided; its answer ends the repair when it meets the relaxation's bound: auto (warehouses of 1,000 to "
         "4,000 cells with a time limit of 30 s or more), yes, no",
+    )
+    p.add_argument(
+        "--good-enough",
+        type=whole_number(0, 10**7),
+        default=None,
+        metavar="N",
+        help="stop at the first valid layout that changes at most N cells, proven optimal or not (default: search "
+        "for the fewest changes until the time limit)",
     )
     if kind.name == "warehouse":
         p.add_argument(

@@ -63,7 +63,8 @@ class RepairResult:
         tiles: the whole repaired map.
         hamming: cells changed.
         optimal: whether HiGHS proved no repair changes fewer cells.
-        gap: relative MIP gap at the end (0 when optimal).
+        gap: relative MIP gap at the end (0 when optimal; infinite when no bound is known, as when the greedy
+            repair stood in for HiGHS).
         seconds: wall time of the whole repair.
         method: ``"rounded relaxation"`` (optimal without the full search), ``"milp"``, ``"milp from rounded
             relaxation"``, ``"milp from greedy"`` (the full search from that start) or ``"greedy"`` (the MILP found
@@ -105,6 +106,7 @@ class _Model:
         self.row_upper: list[np.ndarray] = []
         self.n_rows = 0
         self.cost: np.ndarray | None = None
+        self.changes_offset = 0.0  # changed cells = cost @ values + changes_offset
 
     def columns(self, count: int, lower: float, upper: float, integer: bool) -> np.ndarray:
         ids = np.arange(self.n_cols, self.n_cols + count)
@@ -132,8 +134,10 @@ class _Model:
         relax: bool = False,
         fix: np.ndarray | None = None,
         fixed_values: np.ndarray | None = None,
+        good_enough: int | None = None,
     ) -> _Solution:
-        """Solve the model (``relax``: its linear relaxation) with the columns in ``fix`` held at ``fixed_values``."""
+        """Solve the model (``relax``: its linear relaxation) with the columns in ``fix`` held at ``fixed_values``,
+        stopping at the first layout of at most ``good_enough`` changes when that is given."""
         import highspy
 
         inf = highspy.kHighsInf
@@ -164,6 +168,8 @@ class _Model:
         h.setOptionValue("mip_rel_gap", 0.0)
         if node_limit is not None:  # unlike the time limit, a node limit stops at the same answer on every machine
             h.setOptionValue("mip_max_nodes", int(node_limit))
+        if good_enough is not None:  # changes are whole: half a change of slack makes the target safe from rounding
+            h.setOptionValue("objective_target", good_enough - self.changes_offset + 0.5)
         h.passModel(lp)
         if start is not None:
             solution = highspy.HighsSolution()
@@ -207,6 +213,7 @@ def repair(
     greedy_first: bool | None = None,
     node_limit: int | None = None,
     round_relaxation: bool | None = None,
+    good_enough: int | None = None,
 ) -> RepairResult:
     """Repair a whole map (for warehouses, with its workstation columns).
 
@@ -227,6 +234,8 @@ def repair(
             bound and starts HiGHS's full search otherwise. None: for warehouses from :data:`ROUNDING_MIN_CELLS`
             to :data:`GREEDY_FIRST_CELLS` cells given at least :data:`ROUNDING_MIN_SECONDS`, where it was
             measured to help.
+        good_enough: end the repair at the first valid layout that changes at most this many cells, proven optimal
+            or not (``optimal`` says which). None: search for the fewest changes until the time limit.
 
     Raises:
         RepairError: no valid layout exists under the rules, or neither HiGHS within the time limit nor the greedy
@@ -244,6 +253,8 @@ def repair(
         raise ValueError(f"{kind.name} layouts have no repair")
     if not time_limit > 0:
         raise ValueError(f"time_limit must be positive, got {time_limit!r}")
+    if good_enough is not None and not (isinstance(good_enough, (int, np.integer)) and good_enough >= 0):
+        raise ValueError(f"good_enough must be a whole number of changed cells, 0 or more, got {good_enough!r}")
     model, decode, encode = build(tiles, shelves=shelves, agents=agents)
     # HiGHS checks its clock between steps, and at 101x102 one presolve step can run 1 to 2.5 s past its limit
     # (measured): keep a margin so that a repair of two minutes ends within its limit.
@@ -263,14 +274,19 @@ def repair(
             and ROUNDING_MIN_CELLS <= tiles.size <= GREEDY_FIRST_CELLS
             and time_limit >= ROUNDING_MIN_SECONDS
         )
+
+    def enough(objective: float) -> bool:
+        return good_enough is not None and objective + model.changes_offset <= good_enough + 0.5
+
+    solution = None
     rounded = _round_the_relaxation(model, seconds_left, seed, threads, node_limit) if round_relaxation else None
     if rounded is not None:
-        if rounded.optimal:  # the rounding met the relaxation's bound: no layout changes fewer cells
+        if rounded.optimal or enough(rounded.objective):  # no layout changes fewer cells, or none need to
             solution, method = rounded, "rounded relaxation"
         elif start is None or rounded.objective < float(model.cost @ start):
             start, method = rounded.values, "milp from rounded relaxation"
-    if rounded is None or not rounded.optimal:
-        solution = model.solve(seconds_left(), seed, threads, start, node_limit)
+    if solution is None:
+        solution = model.solve(seconds_left(), seed, threads, start, node_limit, good_enough=good_enough)
     if solution.values is None:
         if greedy is not None:
             result, method = greedy, "greedy"
@@ -339,7 +355,9 @@ def _round_the_relaxation(model: _Model, seconds_left, seed: int, threads: int, 
     # relaxation's bound rounded up.
     whole = np.array_equal(model.cost, np.round(model.cost)) and not model.cost[~integer].any()
     bound = np.ceil(relaxed.objective - 1e-6) if whole else relaxed.objective
-    return dataclasses.replace(rounded, optimal=bool(rounded.objective <= bound + 1e-6), gap=0.0)
+    optimal = bool(rounded.objective <= bound + 1e-6)
+    gap = 0.0 if optimal else (rounded.objective - bound) / max(abs(rounded.objective), 1.0)  # HiGHS's definition
+    return dataclasses.replace(rounded, optimal=optimal, gap=gap)
 
 
 def _rules(kind: LayoutKind, shelves: int | None, agents: int) -> str:
@@ -426,7 +444,7 @@ def _warehouse_model(tiles: np.ndarray, *, shelves: int | None, agents: int):
     storage_tiles = tiles.ravel()[storage.ravel()]
     channel = np.select([storage_tiles == code("."), storage_tiles == code("@")], [0, 1], 2)
     cost[x[channel, k]] = -1.0
-    model.cost = cost
+    model.cost, model.changes_offset = cost, float(len(storage_tiles))
     channels = np.array([code("."), code("@"), code("e")])
 
     def decode(values: np.ndarray) -> np.ndarray:
@@ -550,7 +568,7 @@ def _manufacturing_model(tiles: np.ndarray, *, shelves: int | None, agents: int)
     cost[x[3, k[flat == code("e")]]] = -1.0  # an endpoint chosen as the source is not a change
     for kind in range(3):
         cost[witness[kind, (station_kind >= 0) & (station_kind != kind)]] = 1.0
-    model.cost = cost
+    model.cost, model.changes_offset = cost, float(n)
     station_codes = np.array([code(c) for c in "012"])
 
     def decode(values: np.ndarray) -> np.ndarray:
