@@ -159,6 +159,7 @@ class StaticsResult:
     first_loads: np.ndarray  # (J,) the same with the load factors applied, as compared with the break force
     broken: np.ndarray  # (J,) bool
     broken_round: np.ndarray  # (J,) int: the failure round in which a joint broke (-1: intact)
+    break_loads: np.ndarray  # (J,) the load (factors applied) that broke each overloaded joint (NaN: intact or fell)
     fell: np.ndarray  # (J,) bool: broke because its piece fell (lost support or tipped), not overloaded
     standing: np.ndarray  # (V,) bool: the vertex is still held up at the end
     rounds: int
@@ -330,6 +331,7 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
     ground = np.isclose(bodies.sphere_positions[:, 2], config.sphere_radius, atol=1e-9)
     broken = np.zeros(2 * n_edges, dtype=bool)
     broken_round = np.full(2 * n_edges, -1)
+    break_loads = np.full(2 * n_edges, np.nan)
     fell = np.zeros(2 * n_edges, dtype=bool)
     first_forces = np.full(2 * n_edges, np.nan)
     first_loads = np.full(2 * n_edges, np.nan)
@@ -396,16 +398,19 @@ def _progressive_failure(bodies: Bodies, config: PhysicsConfig, rounds: int | No
             break
         fell |= newly & ~overloaded
         broken_round[newly] = round_number
+        break_loads[overloaded] = loads[overloaded]
         broken |= newly
         round_number += 1
-    return StaticsResult(first_forces, first_loads, broken, broken_round, fell, standing, round_number)
+    return StaticsResult(first_forces, first_loads, broken, broken_round, break_loads, fell, standing, round_number)
 
 
 def check_statics(structure: Any, config: PhysicsConfig | None = None) -> StabilityReport:
     """A :class:`StabilityReport` predicted by the static analysis instead of a simulation (``method="statics"``).
 
-    Broken joints carry the failure round in ``time`` (0 for joints overloaded in the intact structure) and their
-    static force; final positions are the initial ones for vertices still held up and on the ground for the rest.
+    Broken joints carry the failure round in ``time`` (0 for joints overloaded in the intact structure) and in
+    ``force`` the load that broke them, load factors applied, as compared with the break force (for joints that
+    fell with their piece, the intact structure's static force, within the limit). Final positions are the initial
+    ones for vertices still held up and on the ground for the rest.
     """
     return check_statics_with_loads(structure, config)[0]
 
@@ -426,7 +431,7 @@ def check_statics_with_loads(structure: Any, config: PhysicsConfig | None = None
             edge=int(j // 2),
             vertex=int(edges[j // 2, j % 2]),
             time=float(result.broken_round[j]),
-            force=float(forces[j]),
+            force=float(forces[j] if result.fell[j] else result.break_loads[j]),
             torque=0.0,
             fell=bool(result.fell[j]),
         )

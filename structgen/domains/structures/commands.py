@@ -353,7 +353,10 @@ def cmd_check(args: argparse.Namespace) -> int:
         limit = report.config.break_force
         fell = sum(joint.fell for joint in report.broken_joints)
         if statics and broken:
-            print(f"{'overloaded':<11} {broken - fell} joints (listed first), then {fell} fell with their pieces")
+            print(
+                f"{'overloaded':<11} {broken - fell} joints (listed first, each with the load that broke it, the load "
+                f"factors applied), then {fell} fell with their pieces"
+            )
         # The overloaded joints are the cause; those that fell with their pieces follow.
         for joint in sorted(report.broken_joints, key=lambda j: (j.fell, j.time))[:10]:
             when = f"in round {joint.time:.0f}" if statics else f"at {joint.time:.3f} s"
