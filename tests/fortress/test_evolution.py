@@ -158,6 +158,16 @@ def test_run_prints_the_final_map_and_the_population_of_each_class(capsys):
 
 
 @needs_data
+def test_running_an_entity_file_says_that_it_places_no_entities(capsys):
+    # The original's ENT/*.txt define one class each and place nothing: an empty world, and the command says why.
+    code, out, err = cli(capsys, "fortress", "run", DATA / "ENT" / "boko.txt", "--steps", "5")
+    assert code == 0 and "0 entities" in out
+    assert "places no entities (no -- INIT ENT POS -- or -- INIT FORT -- block)" in err
+    code, out, err = cli(capsys, "fortress", "run", DATA / "FORTS" / "LOCK_N_KEY.txt", "--steps", "5")
+    assert code == 0 and "places no entities" not in err
+
+
+@needs_data
 def test_replay_and_show_write_their_pictures(tmp_path, capsys):
     path = DATA / "FORTS" / "HYRULE.txt"
     gif, strip = tmp_path / "h.gif", tmp_path / "h.png"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -60,7 +61,12 @@ def load_world(args: argparse.Namespace) -> tuple[Any, str]:
         return elite_genome(folder, FortressProblem(), args.elite), f"{path} ({args.elite})"
     if not path.is_file():
         raise InputError(f"{path}: no such fortress file or run folder")
-    return read_fortress_file(path), str(path)
+    world = read_fortress_file(path)
+    if not world.initial:  # an entity file (the original's ENT/*.txt) defines classes and places nothing
+        logging.getLogger("structgen").warning(
+            "%s places no entities (no -- INIT ENT POS -- or -- INIT FORT -- block): the world starts empty", path
+        )
+    return world, str(path)
 
 
 def _simulate(args: argparse.Namespace, world: Any, label: str) -> Any:
