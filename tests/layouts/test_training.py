@@ -69,3 +69,34 @@ def test_a_killed_warehouse_run_resumes_to_the_same_result(tmp_path, capsys):
     assert code == 0, err
     assert outcome(run) == outcome(whole)
     assert (run / "best" / "layout.json").read_bytes() == (whole / "best" / "layout.json").read_bytes()
+
+
+def test_the_best_layout_written_is_the_one_that_was_scored(tmp_path, monkeypatch):
+    """A run's best/layout.json is the repaired layout its score came from, not a new repair: with a time limit a
+    second repair can end elsewhere (a 33x36 best was scored on 204 changed cells and written with 518)."""
+    import numpy as np
+
+    from evolution.problem import Evaluation
+    from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
+
+    settings = WarehouseSettings(size="6x8", shelves=6, iterations=5, hidden=8, repair_node_limit=50, agents=4, simulations=1)
+    problem = LayoutProblem(settings)
+    genomes = problem.initial_genomes(3, np.random.default_rng(0))
+    scored = problem.evaluate(genomes, np.arange(3))
+    top = int(np.argmax(scored.objective))
+    # Stand-ins for what a second repair might give, told apart from the scored layouts by their shelves' places.
+    moved = [(np.roll(tiles, 1, axis=1), optimal) for tiles, optimal in scored.extras]
+    assert not (moved[top][0] == scored.extras[top][0]).all()
+    problem.record(tmp_path, 1, genomes, Evaluation(scored.objective, scored.measures, scored.fields, extras=moved))
+    repairs = []
+    monkeypatch.setattr(problem, "_repair", lambda tiles, seed: repairs.append(seed) or pytest.fail("repaired again"))
+    problem.write_artifacts(genomes[top], tmp_path)
+    assert repairs == [] and (Grid.load(tmp_path / "layout.json").tiles == moved[top][0]).all()
+    # A lower score later does not displace it; any other genome is repaired afresh (seed 0).
+    worse = Evaluation(scored.objective - 1.0, scored.measures, scored.fields, extras=scored.extras)
+    problem.record(tmp_path, 2, genomes[::-1], worse)
+    problem.write_artifacts(genomes[top], tmp_path)
+    assert (Grid.load(tmp_path / "layout.json").tiles == moved[top][0]).all()
+    with pytest.raises(pytest.fail.Exception, match="repaired again"):
+        problem.write_artifacts(genomes[(top + 1) % 3], tmp_path)
+    assert repairs == [0]
