@@ -169,9 +169,7 @@ def repairs(round_relaxation: bool | None) -> Iterator[str]:
 
 
 def _proof(result) -> str:
-    if result.optimal:
-        return "optimal"
-    return f"gap {result.gap:.1%}" if np.isfinite(result.gap) else "no bound"
+    return "optimal" if result.optimal else result.gap_text
 
 
 def main() -> None:

@@ -122,9 +122,7 @@ def cmd_repair(args: argparse.Namespace) -> int:
         "repair_method": result.method,
     }
     Grid(result.tiles, kind.vocabulary, metadata).save(args.output)
-    proof = "proven optimal" if result.optimal else "not proven optimal"
-    if not result.optimal:
-        proof = f"gap {result.gap:.1%}, {proof}" if np.isfinite(result.gap) else f"no bound known, {proof}"
+    proof = "proven optimal" if result.optimal else f"{result.gap_text}, not proven optimal"
     print(f"{args.output}: {hamming} cells changed ({proof}; {result.method}, {result.seconds:.1f} s), similarity {score:.4f}")
     return EXIT_OK
 

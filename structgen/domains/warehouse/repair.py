@@ -81,6 +81,11 @@ class RepairResult:
     method: str
     status: str
 
+    @property
+    def gap_text(self) -> str:
+        """The gap in words: ``"gap 0.9%"``, or ``"no bound known"`` where the gap is infinite."""
+        return f"gap {self.gap:.1%}" if np.isfinite(self.gap) else "no bound known"
+
 
 def _grid_edges(rows: int, cols: int) -> np.ndarray:
     """Directed 4-neighbour edges (from, to) between flat cell indices."""
@@ -134,10 +139,10 @@ class _Model:
         relax: bool = False,
         fix: np.ndarray | None = None,
         fixed_values: np.ndarray | None = None,
-        good_enough: int | None = None,
+        target: float | None = None,
     ) -> _Solution:
         """Solve the model (``relax``: its linear relaxation) with the columns in ``fix`` held at ``fixed_values``,
-        stopping at the first layout of at most ``good_enough`` changes when that is given."""
+        stopping at the first layout whose objective is at most ``target`` when that is given."""
         import highspy
 
         inf = highspy.kHighsInf
@@ -168,8 +173,8 @@ class _Model:
         h.setOptionValue("mip_rel_gap", 0.0)
         if node_limit is not None:  # unlike the time limit, a node limit stops at the same answer on every machine
             h.setOptionValue("mip_max_nodes", int(node_limit))
-        if good_enough is not None:  # changes are whole: half a change of slack makes the target safe from rounding
-            h.setOptionValue("objective_target", good_enough - self.changes_offset + 0.5)
+        if target is not None:
+            h.setOptionValue("objective_target", float(target))
         h.passModel(lp)
         if start is not None:
             solution = highspy.HighsSolution()
@@ -274,19 +279,17 @@ def repair(
             and ROUNDING_MIN_CELLS <= tiles.size <= GREEDY_FIRST_CELLS
             and time_limit >= ROUNDING_MIN_SECONDS
         )
-
-    def enough(objective: float) -> bool:
-        return good_enough is not None and objective + model.changes_offset <= good_enough + 0.5
-
+    # good_enough as an objective value; changes are whole, so half a change of slack is safe from rounding.
+    target = None if good_enough is None else good_enough - model.changes_offset + 0.5
     solution = None
     rounded = _round_the_relaxation(model, seconds_left, seed, threads, node_limit) if round_relaxation else None
     if rounded is not None:
-        if rounded.optimal or enough(rounded.objective):  # no layout changes fewer cells, or none need to
+        if rounded.optimal or (target is not None and rounded.objective <= target):  # none changes fewer, or need to
             solution, method = rounded, "rounded relaxation"
         elif start is None or rounded.objective < float(model.cost @ start):
             start, method = rounded.values, "milp from rounded relaxation"
     if solution is None:
-        solution = model.solve(seconds_left(), seed, threads, start, node_limit, good_enough=good_enough)
+        solution = model.solve(seconds_left(), seed, threads, start, node_limit, target=target)
     if solution.values is None:
         if greedy is not None:
             result, method = greedy, "greedy"
