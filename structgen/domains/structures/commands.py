@@ -462,8 +462,75 @@ def _add_render(subparsers: Any) -> None:
     render.set_defaults(handler=cmd_render)
 
 
+def _seed_vertex(text: str) -> int | str:
+    if text == "top":
+        return text
+    try:
+        return whole_number(0, 2**31 - 1)(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give 'top' or a vertex index (0, 1, ...)") from None
+
+
+def cmd_teach(args: argparse.Namespace) -> int:
+    from structgen.nca import NCAConfig, save_weights
+    from structgen.teach import teach
+
+    target = _load_structure(args.file)
+    started = time.perf_counter()
+    try:
+        taught = teach(target, seed_vertex=args.seed_vertex, hidden=args.hidden, cutoff=args.cutoff, margin=args.margin)
+    except ValueError as err:  # TeachError, or an NCA setting out of range
+        raise InputError(f"{args.file}: {err}") from None
+    path = save_weights(args.output, taught.weights)
+    config, default = taught.config, NCAConfig()
+    options = [f"--max-extent {config.max_extent}", f"--iterations {config.iterations}"]
+    options += [f"--hidden {config.hidden}"] * (config.hidden != default.hidden)
+    options += [f"--cutoff {config.cutoff:g}"] * (config.cutoff != default.cutoff)
+    print(
+        f"{path}: taught {taught.n_rules} rules in {time.perf_counter() - started:.1f} s (every output at least "
+        f"{taught.margin:.2f} logits from its threshold); the weights grow {_describe(taught.grown)} in "
+        f"{taught.steps} steps, then nothing changes"
+    )
+    print(f"grow it: structgen grow --weights {path} {' '.join(options)} -o grown.json")
+    return EXIT_OK
+
+
+def _add_teach(subparsers: Any) -> None:
+    teach = subparsers.add_parser(
+        "teach",
+        help="fit NCA weights that grow a given structure",
+        description="Fit the paper's local NCA (52 inputs, a hidden ReLU layer, 26 outputs) so that it grows FILE "
+        "from one of its vertices, then stops: vertices appear in order of their distance from the seed, each step "
+        "one layer. Refused, naming two vertices, when the NCA's shared rule cannot do it (two vertices see the "
+        "same neighbourhood but must act differently). Prints the 'structgen grow' command that grows it.",
+    )
+    teach.add_argument("file", metavar="FILE", help="structure JSON file to grow")
+    teach.add_argument(
+        "-o", "--output", required=True, type=output_path, metavar="OUT.npy", help="weights to write (.npy or .json)"
+    )
+    teach.add_argument(
+        "--seed-vertex",
+        type=_seed_vertex,
+        default="top",
+        metavar="top|INDEX",
+        help="the vertex growth starts from: 'top' (the single highest vertex, the default) or its index in FILE",
+    )
+    teach.add_argument("--hidden", type=whole_number(1, 100_000), default=60, help="hidden layer size (default 60)")
+    teach.add_argument(
+        "--cutoff", type=float, default=0.5, metavar="X", help="an output fires above this sigmoid value (default 0.5)"
+    )
+    teach.add_argument(
+        "--margin",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="how far (in logits) every output must clear its threshold (default 1.0)",
+    )
+    teach.set_defaults(handler=cmd_teach)
+
+
 class StructureCommands(DomainCommands):
-    adders = {"grow": _add_grow, "check": _add_check, "render": _add_render, "info": _add_info}
+    adders = {"grow": _add_grow, "check": _add_check, "render": _add_render, "info": _add_info, "teach": _add_teach}
 
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         _add_mesh_options(parser, "structures: mesh dimensions (mesh formats only; defaults match the physics model)")

@@ -1,0 +1,98 @@
+"""Teaching the local NCA a design: the weights grow exactly the target, then stop; designs no local rule grows are
+refused with the two vertices that clash."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from structgen import NCAConfig, Structure, grow
+from structgen.cli import main
+from structgen.nca import load_weights
+from structgen.samples import by_level_rules, flat_edge, six_level_rule_design
+from structgen.teach import TeachError, growth_schedule, teach
+
+
+def cells_of(structure: Structure, origin=(0, 0, 0)) -> tuple[set, set]:
+    points = [tuple(int(c) for c in p) for p in (structure.vertices - np.asarray(origin)).tolist()]
+    return set(points), {frozenset((points[i], points[j])) for i, j in structure.edges.tolist()}
+
+
+def relative_to_top(structure: Structure) -> tuple[set, set]:
+    return cells_of(structure, structure.vertices[np.argmax(structure.vertices[:, 2])])
+
+
+def test_the_schedule_adds_one_distance_a_step_and_edges_within_a_step_one_step_later():
+    # a top vertex on two feet that are joined to each other
+    target = Structure([[0, 0, 1], [0, 0, 0], [1, 0, 0]], [[0, 1], [0, 2], [1, 2]])
+    states = growth_schedule(target)
+    top, left, right = (0, 0, 0), (0, 0, -1), (1, 0, -1)
+    assert states == [
+        (frozenset({top}), frozenset()),
+        (frozenset({top, left, right}), frozenset({frozenset((top, left)), frozenset((top, right))})),
+        (
+            frozenset({top, left, right}),
+            frozenset({frozenset((top, left)), frozenset((top, right)), frozenset((left, right))}),
+        ),
+    ]
+
+
+def test_taught_weights_grow_the_target_and_then_change_nothing():
+    target = by_level_rules(("S", "SC"), tied_levels=1)  # the feet are tied a step after they appear
+    taught = teach(target)
+    assert taught.steps == 3 and taught.margin >= 1.0
+    assert cells_of(taught.grown) == relative_to_top(target)
+    longer = grow(taught.weights, NCAConfig(iterations=40, max_extent=taught.config.max_extent))
+    assert cells_of(longer) == cells_of(taught.grown)
+    assert longer.metadata["growth"]["reached_fixed_point"]
+    assert not longer.metadata["growth"]["hit_max_extent"]  # no wish left the box: growth stopped by itself
+
+
+def test_teaching_is_repeatable():
+    target = by_level_rules(("S",), tied_levels=0)
+    assert np.array_equal(teach(target).weights, teach(target).weights)
+
+
+def test_a_design_no_local_rule_grows_is_refused_naming_the_two_vertices():
+    # its levels 3 and 4 look alike from close by but must act differently
+    with pytest.raises(TeachError, match=r"no local rule grows this target: the vertex at \(.*\) \(step 3\) and the one at"):
+        teach(six_level_rule_design())
+
+
+def test_the_seed_must_be_one_vertex_of_one_piece():
+    with pytest.raises(TeachError, match="2 vertices at its top level"):
+        teach(flat_edge())
+    assert cells_of(teach(flat_edge(), seed_vertex=1).grown) == (
+        {(0, 0, 0), (-1, 0, 0)},
+        {frozenset(((0, 0, 0), (-1, 0, 0)))},
+    )
+    with pytest.raises(TeachError, match="seed_vertex 5 is not a vertex"):
+        teach(flat_edge(), seed_vertex=5)
+    with pytest.raises(TeachError, match="2 pieces"):
+        teach(Structure([[0, 0, 0], [1, 0, 0], [5, 0, 0], [5, 0, 1]], [[0, 1], [2, 3]]), seed_vertex=0)
+
+
+def test_a_network_too_small_for_the_rules_is_refused():
+    with pytest.raises(TeachError, match="1-unit hidden layer did not learn"):
+        teach(by_level_rules(("S", "SC"), tied_levels=1), hidden=1, max_steps=50)
+
+
+def test_the_command_writes_weights_that_grow_the_file(tmp_path, capsys):
+    target = by_level_rules(("S", "SC"), tied_levels=1)
+    target.save(tmp_path / "design.json")
+    weights = tmp_path / "nca.npy"
+    assert main(["teach", str(tmp_path / "design.json"), "-o", str(weights)]) == 0
+    out = capsys.readouterr().out
+    assert "grow it: structgen grow --weights" in out and "--max-extent 2 --iterations 3" in out
+    grown_file = tmp_path / "grown.json"
+    assert main(["grow", "--weights", str(weights), "--max-extent", "2", "--iterations", "3", "-o", str(grown_file)]) == 0
+    assert cells_of(Structure.load(grown_file)) == relative_to_top(target)
+    assert load_weights(weights).shape == (4766,)
+
+
+def test_the_command_refuses_an_unteachable_file_and_writes_nothing(tmp_path, capsys):
+    six_level_rule_design().save(tmp_path / "six.json")
+    assert main(["teach", str(tmp_path / "six.json"), "-o", str(tmp_path / "six.npy")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("structgen: error: ") and "six.json: no local rule grows this target" in err
+    assert not (tmp_path / "six.npy").exists()
