@@ -20,6 +20,7 @@ the rules taught and the teaching time, and whether the weights grow the design 
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 import time
 from multiprocessing import Pool
@@ -87,7 +88,7 @@ def search(max_levels: int, beam: int, candidates: int, max_vertices: int, pool:
             break
         scored.sort(key=lambda row: row[0])
         kept = list(dict.fromkeys((row[1], row[2]) for row in scored))[:beam]
-        whole = [row for row in scored if teachable(row[3], whole=True)][:candidates]
+        whole = list(itertools.islice((row for row in scored if teachable(row[3], whole=True)), candidates))
         if not whole:
             continue
         peaks = pool.map(transient_peak, [row[3] for row in whole])
