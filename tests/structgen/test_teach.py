@@ -100,6 +100,8 @@ def test_the_command_refuses_an_unteachable_file_and_writes_nothing(tmp_path, ca
     err = capsys.readouterr().err
     assert err.startswith("structgen: error: ") and "six.json: no local rule grows this target" in err
     assert not (tmp_path / "six.npy").exists()
+    assert main(["teach", str(tmp_path / "six.json"), "-o", str(tmp_path / "six.txt")]) == 2
+    assert "six.txt: weights are written as .npy or .json" in capsys.readouterr().err
 
 
 def test_the_committed_seven_level_nca_grows_its_design_and_holds_through_the_spawn_transient():

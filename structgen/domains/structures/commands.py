@@ -475,6 +475,8 @@ def cmd_teach(args: argparse.Namespace) -> int:
     from structgen.nca import NCAConfig, save_weights
     from structgen.teach import teach
 
+    if args.output.suffix.lower() not in (".npy", ".json"):
+        raise InputError(f"{args.output}: weights are written as .npy or .json, not {args.output.suffix or 'no suffix'!r}")
     target = _load_structure(args.file)
     started = time.perf_counter()
     try:
