@@ -104,14 +104,19 @@ def test_the_command_refuses_an_unteachable_file_and_writes_nothing(tmp_path, ca
     assert "six.txt: weights are written as .npy or .json" in capsys.readouterr().err
 
 
-def test_the_committed_seven_level_nca_grows_its_design_and_holds_through_the_spawn_transient():
+@pytest.mark.parametrize(
+    ("levels", "rules"),
+    [(7, ("V", "S", "C", "SO", "SC", "SC")), (8, ("V", "S", "V", "C", "SC", "S", "SC"))],
+)
+def test_the_committed_tall_ncas_grow_their_designs_and_hold_through_the_spawn_transient(levels, rules):
     from physics import PhysicsConfig, check_transient
 
-    weights = load_weights(ROOT / "docs" / "tall_grown_7.npy")
-    grown = grow(weights, NCAConfig(max_extent=6, iterations=50))
-    assert grown.metadata["growth"]["reached_fixed_point"] and grown.metadata["growth"]["iterations_run"] == 6
-    assert cells_of(grown) == relative_to_top(by_level_rules(("V", "S", "C", "SO", "SC", "SC"), tied_levels=0))
-    # the full 30 s faithful verdict takes minutes (benchmarks/tall_grown.py --verdict 7); the first 0.3 s is where
+    weights = load_weights(ROOT / "docs" / f"tall_grown_{levels}.npy")
+    grown = grow(weights, NCAConfig(max_extent=levels - 1, iterations=50))
+    growth = grown.metadata["growth"]
+    assert growth["reached_fixed_point"] and growth["iterations_run"] == levels - 1
+    assert cells_of(grown) == relative_to_top(by_level_rules(rules, tied_levels=0))
+    # the full 30 s faithful verdict takes minutes (benchmarks/tall_grown.py --verdict N); the first 0.3 s is where
     # these designs carry most
     report = check_transient(grown, PhysicsConfig(max_joints=5000), window=0.3)
     assert report.peak_force < PhysicsConfig().break_force
