@@ -222,6 +222,8 @@ def teach(
     result's ``config``. Raises :class:`TeachError` when no local rule grows the target (see :func:`local_rules`) or
     the network cannot hold the rules within ``max_steps`` (a larger ``hidden`` helps).
     """
+    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin > 0):
+        raise TeachError(f"margin must be a positive number of logits, got {margin!r}")
     states = growth_schedule(target, seed_vertex)
     cells = np.array(sorted(states[-1][0]), dtype=np.int64)
     extent = max(1, int(np.abs(cells).max()))

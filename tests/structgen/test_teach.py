@@ -76,6 +76,11 @@ def test_the_seed_must_be_one_vertex_of_one_piece():
         teach(Structure([[0, 0, 0], [1, 0, 0], [5, 0, 0], [5, 0, 1]], [[0, 1], [2, 3]]), seed_vertex=0)
 
 
+def test_a_margin_that_is_not_positive_is_refused():
+    with pytest.raises(TeachError, match="margin must be a positive number"):
+        teach(by_level_rules(("S",), tied_levels=0), margin=0)
+
+
 def test_a_network_too_small_for_the_rules_is_refused():
     with pytest.raises(TeachError, match="1-unit hidden layer did not learn"):
         teach(by_level_rules(("S", "SC"), tied_levels=1), hidden=1, max_steps=50)

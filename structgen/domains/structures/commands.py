@@ -517,7 +517,7 @@ def _add_teach(subparsers: Any) -> None:
         metavar="top|INDEX",
         help="the vertex growth starts from: 'top' (the single highest vertex, the default) or its index in FILE",
     )
-    teach.add_argument("--hidden", type=whole_number(1, 100_000), default=60, help="hidden layer size (default 60)")
+    teach.add_argument("--hidden", type=whole_number(1, 100_000), default=60, metavar="N", help="hidden layer size (default 60)")
     teach.add_argument(
         "--cutoff", type=float, default=0.5, metavar="X", help="an output fires above this sigmoid value (default 0.5)"
     )
