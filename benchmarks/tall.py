@@ -37,7 +37,7 @@ from physics import InputError, PhysicsConfig, check_stability, check_transient,
 from physics.statics import bounding_loads  # noqa: E402
 from structgen.lattice import OFFSETS  # noqa: E402
 from structgen.runs import load_run  # noqa: E402
-from structgen.samples import LEVEL_RULES, by_level_rules  # noqa: E402
+from structgen.samples import by_level_rules_one_taller  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
 
 
@@ -150,19 +150,10 @@ def print_rules(levels: range = range(2, 9), beam: int = 10, max_vertices: int =
     roomy = physics.replace(max_vertices=10_000, max_joints=20_000)
     kept: list[tuple[str, ...]] = [()]
     for n in levels:
-        scored, seen = [], set()
-        for rules in kept:
-            for rule in LEVEL_RULES:
-                for tied in (0, 1, 2):
-                    design = by_level_rules((*rules, rule), tied)
-                    if design is None or design.n_vertices > max_vertices:
-                        continue
-                    shape = (design.vertices.tobytes(), design.edges.tobytes())
-                    if shape in seen:  # different rules, same structure (an axis vertex has no outward direction)
-                        continue
-                    seen.add(shape)
-                    load = float(np.max(bounding_loads(design, physics)))  # NaN (a piece that cannot stand) sorts last
-                    scored.append((np.nan_to_num(load, nan=np.inf), (*rules, rule), tied, design))
+        scored = []
+        for rules, tied, design in by_level_rules_one_taller(kept, max_vertices):
+            load = float(np.max(bounding_loads(design, physics)))  # NaN (a piece that cannot stand) sorts last
+            scored.append((np.nan_to_num(load, nan=np.inf), rules, tied, design))
         if not scored:
             print(f"| {n} | none within {max_vertices} vertices | | | | | |")
             break

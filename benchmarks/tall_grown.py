@@ -23,6 +23,7 @@ teaching time (``teach`` grows the weights and checks they give the design exact
 from __future__ import annotations
 
 import argparse
+import functools
 import itertools
 import sys
 import time
@@ -36,19 +37,14 @@ import numpy as np  # noqa: E402
 
 from physics import PhysicsConfig, check_stability, check_transient  # noqa: E402
 from physics.statics import bounding_loads  # noqa: E402
-from structgen.nca import NCAConfig, save_weights  # noqa: E402
-from structgen.samples import LEVEL_RULES, by_level_rules  # noqa: E402
+from structgen.nca import save_weights  # noqa: E402
+from structgen.samples import LEVEL_RULES, by_level_rules, by_level_rules_one_taller  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
-from structgen.teach import TeachError, growth_schedule, local_rules, teach  # noqa: E402
+from structgen.teach import TeachError, growth_config, growth_schedule, local_rules, teach  # noqa: E402
 
 PHYSICS = PhysicsConfig()
 # These designs pass the default joint cap from seven levels on; the transient is only a first look, so let them in.
 ROOMY = PHYSICS.replace(max_vertices=10_000, max_joints=20_000)
-
-
-def _box(design: Structure) -> NCAConfig:
-    top = design.vertices[np.argmax(design.vertices[:, 2])]
-    return NCAConfig(max_extent=max(1, int(np.abs(design.vertices - top).max())))
 
 
 def teachable(design: Structure, *, whole: bool) -> bool:
@@ -57,9 +53,9 @@ def teachable(design: Structure, *, whole: bool) -> bool:
     states = growth_schedule(design)
     try:
         if whole:
-            local_rules(states, _box(design))
+            local_rules(states, growth_config(states))
         else:  # state t holds the levels down to t, so the lowest level first acts in the step after state `height`
-            local_rules(states[: design.height + 1], _box(design), fixed_point=False)
+            local_rules(states[: design.height + 1], growth_config(states), fixed_point=False)
     except TeachError:
         return False
     return True
@@ -74,19 +70,11 @@ def search(max_levels: int, beam: int, candidates: int, max_vertices: int, pool:
     best: dict[int, tuple] = {}
     kept: list[tuple[tuple[str, ...], int]] = [((), 0)]
     for levels in range(2, max_levels + 1):
-        scored, seen = [], set()
-        for rules, _ in kept:
-            for rule in LEVEL_RULES:
-                for tied in (0, 1, 2):
-                    design = by_level_rules((*rules, rule), tied)
-                    if design is None or design.n_vertices > max_vertices:
-                        continue
-                    shape = (design.vertices.tobytes(), design.edges.tobytes())
-                    if shape in seen or not teachable(design, whole=False):
-                        continue
-                    seen.add(shape)
-                    load = float(np.nan_to_num(np.max(bounding_loads(design, PHYSICS)), nan=np.inf))
-                    scored.append((load, (*rules, rule), tied, design))
+        scored = []
+        for rules, tied, design in by_level_rules_one_taller([rules for rules, _ in kept], max_vertices):
+            if teachable(design, whole=False):
+                load = float(np.nan_to_num(np.max(bounding_loads(design, PHYSICS)), nan=np.inf))
+                scored.append((load, rules, tied, design))
         if not scored:
             break
         scored.sort(key=lambda row: row[0])
@@ -100,9 +88,9 @@ def search(max_levels: int, beam: int, candidates: int, max_vertices: int, pool:
     return best
 
 
-def _static_if_teachable(candidate: tuple[tuple[str, ...], int]) -> float:
+def _static_if_teachable(candidate: tuple[tuple[str, ...], int], max_vertices: int) -> float:
     design = by_level_rules(*candidate)
-    if design is None or not teachable(design, whole=True):
+    if design is None or design.n_vertices > max_vertices or not teachable(design, whole=True):
         return np.inf
     return float(np.nan_to_num(np.max(bounding_loads(design, PHYSICS)), nan=np.inf))
 
@@ -118,10 +106,8 @@ def refine(found: tuple, candidates: int, max_vertices: int, pool: Pool) -> tupl
         for rule_b in LEVEL_RULES
     } - {(rules, tied)}
     variants = sorted(variants)
-    loads = pool.map(_static_if_teachable, variants, chunksize=16)
-    ranked = [(load, variant) for load, variant in sorted(zip(loads, variants)) if np.isfinite(load)]
-    ranked = [(load, variant) for load, variant in ranked if by_level_rules(*variant).n_vertices <= max_vertices]
-    ranked = ranked[:candidates]
+    loads = pool.map(functools.partial(_static_if_teachable, max_vertices=max_vertices), variants, chunksize=16)
+    ranked = [(load, variant) for load, variant in sorted(zip(loads, variants)) if np.isfinite(load)][:candidates]
     peaks = pool.map(transient_peak, [by_level_rules(*variant) for _, variant in ranked])
     if peaks and min(peaks) < peak:
         k = int(np.argmin(peaks))

@@ -11,6 +11,8 @@ medium structures.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
+
 import numpy as np
 
 from structgen.lattice import OFFSETS, are_neighbours
@@ -20,6 +22,7 @@ __all__ = [
     "LEVEL_RULES",
     "braced",
     "by_level_rules",
+    "by_level_rules_one_taller",
     "cantilever",
     "column",
     "five_level_pyramid",
@@ -174,6 +177,27 @@ def by_level_rules(rules: tuple[str, ...] | list[str], tied_levels: int = 0) -> 
         if not level:
             return None
     return _from_cell_pairs(edges, {"sample": f"by_level_rules({list(rules)!r}, tied_levels={tied_levels})"})
+
+
+def by_level_rules_one_taller(
+    prefixes: Iterable[tuple[str, ...]], max_vertices: int
+) -> Iterator[tuple[tuple[str, ...], int, Structure]]:
+    """``(rules, tied_levels, design)`` for every :func:`by_level_rules` design one level taller than one of
+    ``prefixes`` (each rule of :data:`LEVEL_RULES` added below, with 0, 1 or 2 of the lowest levels tied), in that
+    order, each distinct structure once (different rules can give the same one: an axis vertex has no outward
+    direction). Designs that do not reach the ground or have more than ``max_vertices`` vertices are left out. The
+    step of the beam searches in ``benchmarks/tall.py`` and ``benchmarks/tall_grown.py``."""
+    seen: set[tuple[bytes, bytes]] = set()
+    for rules in prefixes:
+        for rule in LEVEL_RULES:
+            for tied in (0, 1, 2):
+                design = by_level_rules((*rules, rule), tied)
+                if design is None or design.n_vertices > max_vertices:
+                    continue
+                shape = (design.vertices.tobytes(), design.edges.tobytes())
+                if shape not in seen:
+                    seen.add(shape)
+                    yield (*rules, rule), tied, design
 
 
 def six_level_rule_design() -> Structure:

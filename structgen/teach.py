@@ -32,7 +32,7 @@ from structgen.nca import INIT_SCALE, NCAConfig, grow
 from structgen.nca_config import N_INPUTS, N_OUTPUTS
 from structgen.structure import Structure
 
-__all__ = ["TeachError", "TeachResult", "growth_schedule", "local_rules", "teach"]
+__all__ = ["TeachError", "TeachResult", "growth_config", "growth_schedule", "local_rules", "teach"]
 
 Cell = tuple[int, int, int]
 State = tuple[frozenset[Cell], frozenset[frozenset[Cell]]]
@@ -67,8 +67,8 @@ class TeachResult:
     fit_steps: int
 
 
-def _cells(structure: Structure) -> list[Cell]:
-    return [(int(x), int(y), int(z)) for x, y, z in structure.vertices.tolist()]
+def _cells(points: np.ndarray) -> list[Cell]:
+    return [(int(x), int(y), int(z)) for x, y, z in points.tolist()]
 
 
 def seed_index(structure: Structure, seed_vertex: int | str = "top") -> int:
@@ -98,8 +98,7 @@ def growth_schedule(target: Structure, seed_vertex: int | str = "top") -> list[S
     seed = seed_index(target, seed_vertex)
     if target.n_components != 1:
         raise TeachError(f"growth from one seed makes a connected structure; the target has {target.n_components} pieces")
-    origin = target.vertices[seed]
-    cells = [(int(x), int(y), int(z)) for x, y, z in (target.vertices - origin).tolist()]
+    cells = _cells(target.vertices - target.vertices[seed])
     neighbours: list[list[int]] = [[] for _ in cells]
     for i, j in target.edges.tolist():
         neighbours[i].append(j)
@@ -128,6 +127,19 @@ def growth_schedule(target: Structure, seed_vertex: int | str = "top") -> list[S
     if len(states) > 1 and states[-1] == states[-2]:
         states.pop()  # no edge joins two vertices of the last distance: the target is reached a step earlier
     return states
+
+
+def growth_config(states: Sequence[State], *, hidden: int = 60, cutoff: float = 0.5) -> NCAConfig:
+    """The NCA settings that grow through ``states``: the smallest growth box around the seed that holds the last
+    state, and one iteration per step."""
+    extent = max(1, max(max(abs(c) for c in cell) for cell in states[-1][0]))
+    return NCAConfig(
+        hidden=hidden,
+        iterations=len(states) - 1,
+        cutoff=cutoff,
+        max_extent=extent,
+        max_vertices=max(NCAConfig().max_vertices, len(states[-1][0])),
+    )
 
 
 def _in_box(cell: Cell, config: NCAConfig) -> bool:
@@ -219,21 +231,13 @@ def teach(
 
     The growth box is the smallest that holds the target around the seed, and growth needs as many steps as the
     target's farthest vertex is from the seed (one more for edges between the farthest vertices); both are in the
-    result's ``config``. Raises :class:`TeachError` when no local rule grows the target (see :func:`local_rules`) or
-    the network cannot hold the rules within ``max_steps`` (a larger ``hidden`` helps).
+    result's ``config`` (:func:`growth_config`). Raises :class:`TeachError` when no local rule grows the target (see
+    :func:`local_rules`) or the network cannot hold the rules within ``max_steps`` (a larger ``hidden`` helps).
     """
     if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin > 0):
         raise TeachError(f"margin must be a positive number of logits, got {margin!r}")
     states = growth_schedule(target, seed_vertex)
-    cells = np.array(sorted(states[-1][0]), dtype=np.int64)
-    extent = max(1, int(np.abs(cells).max()))
-    config = NCAConfig(
-        hidden=hidden,
-        iterations=len(states) - 1,
-        cutoff=cutoff,
-        max_extent=extent,
-        max_vertices=max(NCAConfig().max_vertices, target.n_vertices),
-    )
+    config = growth_config(states, hidden=hidden, cutoff=cutoff)
     rules = local_rules(states, config)
     weights, worst, fit_steps = _fit(rules, config, margin, seed, max_steps)
     if worst < margin * 0.5:
@@ -243,7 +247,7 @@ def teach(
         )
     grown = grow(weights, config)
     vertices, edges = states[-1]
-    got = _cells(grown)
+    got = _cells(grown.vertices)
     if set(got) != vertices or {frozenset((got[i], got[j])) for i, j in grown.edges.tolist()} != edges:
         raise AssertionError("the taught weights do not grow the target; every rule cleared its margin, so this is a bug")
     return TeachResult(weights, config, grown, len(states) - 1, len(rules), worst, fit_steps)

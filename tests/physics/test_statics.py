@@ -11,8 +11,10 @@ from physics import InputError, PhysicsConfig, check_stability, check_statics, c
 from physics.statics import _local_stiffness, bounding_loads, joint_forces, predict
 from structgen import NCAConfig
 from structgen.samples import (
+    LEVEL_RULES,
     braced,
     by_level_rules,
+    by_level_rules_one_taller,
     cantilever,
     column,
     five_level_pyramid,
@@ -301,6 +303,17 @@ def test_level_rules_build_what_they_name_and_refuse_what_they_do_not():
         by_level_rules(["X"])
     with pytest.raises(ValueError, match="tied_levels must be"):
         by_level_rules(["S"], tied_levels=-1)
+
+
+def test_one_level_taller_gives_each_distinct_design_once_within_the_cap():
+    found = list(by_level_rules_one_taller([("S",), ("S",)], max_vertices=30))
+    shapes = [(d.vertices.tobytes(), d.edges.tobytes()) for _, _, d in found]
+    assert len(shapes) == len(set(shapes))  # the repeated prefix and rules that give one structure add nothing
+    assert all(d.n_vertices <= 30 and rules[0] == "S" and len(rules) == 2 for rules, _, d in found)
+    every = {(rules, tied) for rules, tied, _ in by_level_rules_one_taller([("S",)], max_vertices=10**6)}
+    assert len(every) < len(LEVEL_RULES) * 3  # some outward rules repeat another's structure from this prefix
+    for rules, tied, design in found:
+        assert design == by_level_rules(rules, tied)
 
 
 @pytest.mark.slow
