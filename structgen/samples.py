@@ -157,7 +157,8 @@ def by_level_rules(rules: tuple[str, ...] | list[str], tied_levels: int = 0) -> 
     the rules do not reach the ground (an outward-only rule on the axis reaches nowhere).
 
     Every vertex of a level does the same thing, the kind of regularity an NCA's shared local rule can express.
-    ``benchmarks/tall.py --rules`` searches these rules for the tallest design that stands.
+    :mod:`structgen.tall` searches them for the tallest design an NCA can grow that stands (``benchmarks/tall.py --rules``
+    for the tallest that stands at all).
     """
     if not rules or any(rule not in LEVEL_RULES for rule in rules):
         raise ValueError(f"rules must be a non-empty sequence of {', '.join(LEVEL_RULES)}; got {list(rules)!r}")
@@ -186,7 +187,7 @@ def by_level_rules_one_taller(
     ``prefixes`` (each rule of :data:`LEVEL_RULES` added below, with 0, 1 or 2 of the lowest levels tied), in that
     order, each distinct structure once (different rules can give the same one: an axis vertex has no outward
     direction). Designs that do not reach the ground or have more than ``max_vertices`` vertices are left out. The
-    step of the beam searches in ``benchmarks/tall.py`` and ``benchmarks/tall_grown.py``."""
+    step of the beam searches in :mod:`structgen.tall` and ``benchmarks/tall.py``."""
     seen: set[tuple[bytes, bytes]] = set()
     for rules in prefixes:
         for rule in LEVEL_RULES:

@@ -13,7 +13,7 @@ only if no two vertices (at any steps) see the same neighbourhood while having t
 (:func:`local_rules` finds the first such pair and says where). Wishes towards cells outside the growth box are
 dropped by growth, so they are free: that is how growth stops at the box's edge without a rule of its own.
 
-A design is teachable when its levels look different from close by; ``benchmarks/tall_grown.py`` searches
+A design is teachable when its levels look different from close by; :func:`structgen.tall.find_tallest` searches
 level-by-level designs (:func:`structgen.samples.by_level_rules`) for tall ones that are, and teaches them.
 """
 

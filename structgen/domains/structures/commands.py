@@ -284,8 +284,14 @@ def _run_nca(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    if Path(args.file).is_dir():  # a run folder, of any domain
+    if Path(args.file).is_dir():  # a run folder, of any domain, or a tall search
         from structgen.runs import describe_run, run_summary
+        from structgen.tall import describe_search, is_search_folder, search_summary
+
+        if is_search_folder(args.file):
+            summary = search_summary(args.file)
+            print(json.dumps(summary) if args.json else describe_search(summary))
+            return EXIT_OK
 
         summary = run_summary(args.file)
         print(json.dumps(summary) if args.json else describe_run(summary))
@@ -531,8 +537,98 @@ def _add_teach(subparsers: Any) -> None:
     teach.set_defaults(handler=cmd_teach)
 
 
+def cmd_tall(args: argparse.Namespace) -> int:
+    from physics import PhysicsConfig
+    from structgen.tall import TallSettings, find_tallest
+
+    settings = TallSettings(
+        levels=args.levels, beam=args.beam, candidates=args.candidates, max_vertices=args.max_vertices, refine=args.refine
+    )
+    run_dir = Path(args.run_dir or f"runs/tall-{args.levels}")
+    result = find_tallest(settings, run_dir, workers=args.workers, progress=True, log=lambda line: print(line, flush=True))
+    tallest = result.tallest
+    grown, config = result.taught[tallest].grown, result.taught[tallest].config
+    print(
+        f"{run_dir}: taught {len(result.taught)} heights ({sum(result.teach_seconds.values()):.1f} s); the tallest, "
+        f"{tallest} levels, is {run_dir / f'tall_{tallest}.npy'} and grows {_describe(grown)}"
+    )
+    print(f"table: {run_dir / 'designs.csv'}; picture: {run_dir / 'tallest.png'}")
+    print(
+        f"grow it: structgen grow --weights {run_dir / f'tall_{tallest}.npy'} --max-extent {config.max_extent} "
+        f"--iterations {config.iterations} -o tall.json"
+    )
+    limits = PhysicsConfig()
+    roomier = [f"max_vertices={grown.n_vertices}"] * (grown.n_vertices > limits.max_vertices)
+    roomier += [f"max_joints={2 * grown.n_edges}"] * (2 * grown.n_edges > limits.max_joints)
+    print(
+        f"its faithful 30 s verdict (minutes): structgen check {run_dir / f'tall_{tallest}.json'}"
+        + "".join(f" --set {setting}" for setting in roomier)
+    )
+    return EXIT_OK
+
+
+def _add_tall(subparsers: Any) -> None:
+    tall = subparsers.add_parser(
+        "tall",
+        help="find the tallest tower an NCA can grow that stands, and teach it",
+        description="Search level-by-level designs (one rule per level from a top vertex) for the tallest whose "
+        "levels the NCA's shared local rule can tell apart: a beam search from the top ranked by static joint load, "
+        "the best of each height simulated for the faithful preset's first 0.3 s (the lowest peak force wins), then "
+        "every change of two levels' rules of the tallest tried. Each height's design is taught to the paper's "
+        "52-60-26 network. Writes, in the run folder: designs.csv (a row per height), tall_<levels>.npy (weights), "
+        "tall_<levels>.json (what they grow), tallest.png, and search.json (a checkpoint after each height: the same "
+        "command resumes an interrupted search). The defaults reach eight levels in about 8 minutes on 2 cores.",
+    )
+    tall.add_argument(
+        "--run-dir",
+        metavar="DIR",
+        help="run folder: new, empty, or one a search with the same settings started (it resumes; default runs/tall-<levels>)",
+    )
+    tall.add_argument(
+        "--levels", type=whole_number(2, 50), default=8, metavar="N", help="tallest design to look for, in vertices (default 8)"
+    )
+    tall.add_argument(
+        "--beam",
+        type=whole_number(1, 10_000),
+        default=30,
+        metavar="N",
+        help="designs of each height kept to grow the next (default 30)",
+    )
+    tall.add_argument(
+        "--candidates",
+        type=whole_number(1, 10_000),
+        default=12,
+        metavar="N",
+        help="designs of each height simulated, and of the refinement (default 12)",
+    )
+    tall.add_argument(
+        "--max-vertices", type=whole_number(2, 100_000), default=700, metavar="N", help="largest design tried (default 700)"
+    )
+    tall.add_argument(
+        "--refine",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="try every change of two levels' rules of the tallest design (default on; a few minutes at eight levels)",
+    )
+    tall.add_argument(
+        "--workers",
+        type=whole_number(1, 256),
+        default=2,
+        metavar="N",
+        help="processes for the simulations; results do not depend on it (default 2)",
+    )
+    tall.set_defaults(handler=cmd_tall)
+
+
 class StructureCommands(DomainCommands):
-    adders = {"grow": _add_grow, "check": _add_check, "render": _add_render, "info": _add_info, "teach": _add_teach}
+    adders = {
+        "grow": _add_grow,
+        "check": _add_check,
+        "render": _add_render,
+        "info": _add_info,
+        "teach": _add_teach,
+        "tall": _add_tall,
+    }
 
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         _add_mesh_options(parser, "structures: mesh dimensions (mesh formats only; defaults match the physics model)")

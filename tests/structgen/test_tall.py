@@ -1,0 +1,151 @@
+"""The tall search (``structgen tall``): each height's design is one an NCA grows exactly; the run folder holds what
+the command says and resumes an interrupted search to the same answer; folders it does not own are left alone."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import structgen.tall as tall
+from structgen import NCAConfig, Structure, grow
+from structgen.cli import main
+from structgen.errors import InputError
+from structgen.nca import load_weights
+from structgen.tall import TallDesign, TallSettings, find_tallest, refine
+
+# Small enough to run in seconds; three levels still go through every stage (beam, transient, refinement, teaching).
+SMALL = TallSettings(levels=3, beam=3, candidates=2, max_vertices=100)
+SMALL_OPTIONS = ["--levels", "3", "--beam", "3", "--candidates", "2", "--max-vertices", "100", "--workers", "1"]
+
+
+def shape(structure: Structure) -> tuple[set, set]:
+    """Vertex cells and edges relative to the top vertex, so a design and its grown copy compare equal."""
+    points = structure.vertices - structure.vertices[np.argmax(structure.vertices[:, 2])]
+    cells = [tuple(int(c) for c in p) for p in points.tolist()]
+    return set(cells), {frozenset((cells[i], cells[j])) for i, j in structure.edges.tolist()}
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("tall") / "run"
+    return run_dir, find_tallest(SMALL, run_dir)
+
+
+def test_every_height_is_a_design_the_taught_weights_grow_exactly(small_run):
+    run_dir, result = small_run
+    assert sorted(result.designs) == [2, 3] and result.tallest == 3
+    for levels, design in result.designs.items():
+        assert design.structure.height == levels - 1
+        assert design.peak < tall.PHYSICS.break_force  # these small towers hold in the transient
+        taught = result.taught[levels]
+        grown = grow(load_weights(run_dir / f"tall_{levels}.npy"), NCAConfig(max_extent=levels - 1, iterations=30))
+        assert grown.metadata["growth"]["reached_fixed_point"]
+        assert shape(grown) == shape(design.structure) == shape(taught.grown)
+        assert shape(Structure.load(run_dir / f"tall_{levels}.json")) == shape(design.structure)
+
+
+def test_the_table_has_a_row_per_height_matching_the_designs(small_run):
+    run_dir, result = small_run
+    rows = list(csv.DictReader((run_dir / "designs.csv").open()))
+    assert [int(row["levels"]) for row in rows] == [2, 3]
+    for row in rows:
+        design = result.designs[int(row["levels"])]
+        assert row["rules"] == " ".join(design.rules) and int(row["tied_levels"]) == design.tied
+        assert int(row["vertices"]) == design.structure.n_vertices and int(row["edges"]) == design.structure.n_edges
+        assert float(row["transient_peak_n"]) == pytest.approx(design.peak, abs=0.01)
+    assert (run_dir / "tallest.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_same_settings_give_the_same_designs_with_any_number_of_workers(small_run):
+    _, result = small_run
+    assert find_tallest(SMALL, workers=2).designs == result.designs
+
+
+def test_an_interrupted_search_resumes_after_its_last_height_to_the_same_answer(small_run, tmp_path, monkeypatch):
+    _, uninterrupted = small_run
+    one_height = tall._one_height
+    calls = []
+
+    def stop_at_the_third_level(kept, settings, simulate):
+        calls.append(len(calls))
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return one_height(kept, settings, simulate)
+
+    monkeypatch.setattr(tall, "_one_height", stop_at_the_third_level)
+    run_dir = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        find_tallest(SMALL, run_dir)
+    assert json.loads((run_dir / "search.json").read_text())["levels_done"] == 2
+    assert not (run_dir / "designs.csv").exists()
+    lines = []
+    resumed = find_tallest(SMALL, run_dir, log=lines.append)
+    assert len(calls) == 3  # only the third level was searched again
+    assert lines[0].endswith("resuming after 2 levels (1 heights found so far)")
+    assert resumed.designs == uninterrupted.designs
+
+
+def test_refinement_keeps_the_lowest_peak_of_the_design_and_its_two_level_changes():
+    found = TallDesign(("S", "SC"), 1, static_load=0.0, peak=np.inf)  # any variant that grows beats an infinite peak
+    better = refine(found, SMALL, lambda function, items: [function(item) for item in items])
+    assert better.peak < np.inf and better.rules != found.rules and better.tied == 1
+    assert refine(better, SMALL, lambda function, items: [function(item) for item in items]).peak <= better.peak
+
+
+def test_a_folder_it_does_not_own_or_another_search_is_refused_and_left_as_it_was(small_run, tmp_path):
+    run_dir, _ = small_run
+    before = {path.name: path.read_bytes() for path in run_dir.iterdir()}
+    with pytest.raises(InputError, match=r"settings.json: this folder holds a search with beam = 3, not 4"):
+        find_tallest(TallSettings(levels=3, beam=4, candidates=2, max_vertices=100), run_dir)
+    assert {path.name: path.read_bytes() for path in run_dir.iterdir()} == before
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="is not empty and holds no tall search"):
+        find_tallest(SMALL, tmp_path)
+    assert [path.name for path in tmp_path.iterdir()] == ["notes.txt"]
+    with pytest.raises(InputError, match="is a file, expected a run folder"):
+        find_tallest(SMALL, tmp_path / "notes.txt")
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [({"levels": 1}, "levels must be a whole number of at least 2, got 1"), ({"refine": "yes"}, "refine must be true or false")],
+)
+def test_settings_out_of_range_are_refused(changes, message):
+    with pytest.raises(InputError, match=message):
+        TallSettings(**changes)
+
+
+def test_the_command_writes_the_run_folder_and_prints_how_to_grow_and_check_the_tallest(tmp_path, capsys):
+    run_dir = tmp_path / "run"
+    assert main(["tall", "--run-dir", str(run_dir), *SMALL_OPTIONS]) == 0
+    out = capsys.readouterr().out
+    assert f"grow it: structgen grow --weights {run_dir / 'tall_3.npy'} --max-extent 2 --iterations 3 -o tall.json" in out
+    assert f"structgen check {run_dir / 'tall_3.json'}\n" in out  # within the default limits: nothing to --set
+    grown_file = tmp_path / "tall.json"
+    assert (
+        main(["grow", "--weights", str(run_dir / "tall_3.npy"), "--max-extent", "2", "--iterations", "3", "-o", str(grown_file)])
+        == 0
+    )
+    assert shape(Structure.load(grown_file)) == shape(Structure.load(run_dir / "tall_3.json"))
+    # another search in the same folder: exit 2, the reason on stderr
+    assert main(["tall", "--run-dir", str(run_dir), *SMALL_OPTIONS[:-2], "--no-refine"]) == 2
+    assert "this folder holds a search with refine = True, not False" in capsys.readouterr().err
+
+
+def test_info_on_a_search_folder_lists_each_height_and_says_how_far_it_got(small_run, tmp_path, capsys):
+    run_dir, result = small_run
+    assert main(["info", str(run_dir)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"{run_dir}: a tall search (structgen tall), finished")
+    design = result.designs[3]
+    assert f"3 levels    {' '.join(design.rules)} (tied {design.tied}): {design.structure.n_vertices} vertices" in out
+    assert main(["info", str(run_dir), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert [row["levels"] for row in summary["designs"]] == [2, 3] and summary["refined"] and summary["finished"]
+    (tmp_path / "settings.json").write_text(json.dumps({"levels": 3}))
+    (tmp_path / "search.json").write_text("[1, 2]")
+    assert main(["info", str(tmp_path)]) == 2
+    assert "search.json: not a tall search checkpoint" in capsys.readouterr().err
