@@ -15,7 +15,9 @@ express. The search:
    faithful preset's first 0.3 s with joints that hold (:func:`physics.check_transient`), when such towers carry
    most; the lowest peak is that height's design.
 3. **Refinement.** Static load misses designs that carry less in the transient, so every design that differs from the
-   tallest in two levels' rules is ranked the same way and the ``candidates`` best simulated (``refine``).
+   tallest in two levels' rules is ranked the same way and the ``candidates`` best simulated (``refine``). While the
+   refined design still carries more than the break force, the next height down is refined too, so a search asked
+   for more levels than can stand ends with the tallest design that holds.
 4. **Teaching.** Each height's design is taught to the paper's 52-60-26 network; the weights are grown and checked
    against the design.
 
@@ -80,7 +82,8 @@ class TallSettings:
         beam: designs of each height kept to grow the next.
         candidates: designs of each height (and of the refinement) simulated.
         max_vertices: the largest design tried.
-        refine: whether to try every change of two levels' rules of the tallest design.
+        refine: whether to try every change of two levels' rules of the tallest design (and of lower ones while none
+            above holds in the transient).
     """
 
     levels: int = 8
@@ -117,6 +120,11 @@ class TallDesign:
         assert design is not None, "a chosen design reaches the ground"
         return design
 
+    @property
+    def holds(self) -> bool:
+        """Whether no joint carries more than the break force in the transient, so none breaks there."""
+        return self.peak <= PHYSICS.break_force
+
     def to_json(self) -> dict[str, Any]:
         return {"rules": list(self.rules), "tied": self.tied, "static_load": self.static_load, "peak": self.peak}
 
@@ -134,19 +142,24 @@ class TallResult:
         taught: each height's taught network (its weights, growth settings and grown structure).
         teach_seconds: how long each teaching took.
         search_seconds: time spent searching in this call (a resumed search counts only its own part).
-        refined_from: the tallest design's transient peak before refinement (None when refinement did not run or
-            found nothing better).
+        refined_from: the transient peak before refinement of each height the refinement improved.
     """
 
     designs: dict[int, TallDesign]
     taught: dict[int, TeachResult]
     teach_seconds: dict[int, float]
     search_seconds: float
-    refined_from: float | None
+    refined_from: dict[int, float]
 
     @property
     def tallest(self) -> int:
+        """The most levels of any design found."""
         return max(self.designs)
+
+    @property
+    def tallest_holding(self) -> int | None:
+        """The most levels of a design that holds in the transient (None when none does)."""
+        return max((levels for levels, design in self.designs.items() if design.holds), default=None)
 
 
 def teachable(design: Structure, *, whole: bool) -> bool:
@@ -268,23 +281,38 @@ def _checkpoint(run_dir: Path | None, state: dict[str, Any]) -> None:
         _write_json(run_dir / CHECKPOINT_FILE, state)
 
 
-def _restore(state: dict[str, Any], where: Path) -> tuple[int, list, dict[int, TallDesign]]:
+def _restore(state: dict[str, Any], where: Path) -> tuple[int, list, dict[int, TallDesign], list[int], dict[int, float]]:
+    """From a checkpoint: the levels searched, the beam, each height's design, the heights refined and the peaks
+    refinement improved on."""
     if not isinstance(state, dict):
         raise InputError(f"{where / CHECKPOINT_FILE}: not a tall search checkpoint (expected an object)")
     try:
         done = int(state.get("levels_done", 1))
         kept = [(tuple(rules), int(tied)) for rules, tied in state.get("kept", [[[], 0]])]
         designs = {int(levels): TallDesign.from_json(row) for levels, row in state.get("designs", {}).items()}
-    except (TypeError, ValueError, KeyError) as err:
+        refined = [int(levels) for levels in state.get("refined", [])]
+        refined_from = {int(levels): float(peak) for levels, peak in state.get("refined_from", {}).items()}
+    except (TypeError, ValueError, KeyError, AttributeError) as err:
         raise InputError(f"{where / CHECKPOINT_FILE}: not a tall search checkpoint ({err})") from None
-    return done, kept, designs
+    return done, kept, designs, refined, refined_from
 
 
 def _table_text(result: TallResult) -> str:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(
-        ["levels", "rules", "tied_levels", "vertices", "edges", "static_load_n", "transient_peak_n", "rules_taught", "weights"]
+        [
+            "levels",
+            "rules",
+            "tied_levels",
+            "vertices",
+            "edges",
+            "static_load_n",
+            "transient_peak_n",
+            "holds_in_transient",
+            "rules_taught",
+            "weights",
+        ]
     )
     for levels, design in sorted(result.designs.items()):
         taught = result.taught[levels]
@@ -297,6 +325,7 @@ def _table_text(result: TallResult) -> str:
                 design.structure.n_edges,
                 f"{design.static_load:.2f}",
                 f"{design.peak:.2f}",
+                "yes" if design.holds else "no",
                 taught.n_rules,
                 f"tall_{levels}.npy",
             ]
@@ -313,11 +342,13 @@ def _write_outputs(run_dir: Path, result: TallResult) -> None:
         save_weights(run_dir / f"tall_{levels}.npy", taught.weights)
         taught.grown.save(run_dir / f"tall_{levels}.json")
     atomic_write(run_dir / TABLE_FILE, _table_text(result))
-    tallest = result.taught[result.tallest].grown
+    levels = result.tallest_holding or result.tallest
+    grown = result.taught[levels].grown
+    holds = "that hold in the transient" if result.designs[levels].holds else "that break in the transient"
     render_structure(
-        tallest,
+        grown,
         run_dir / "tallest.png",
-        title=f"{result.tallest} levels grown by a taught NCA: {tallest.n_vertices} vertices, {tallest.n_edges} edges",
+        title=f"{levels} levels grown by a taught NCA, {holds}: {grown.n_vertices} vertices, {grown.n_edges} edges",
     )
 
 
@@ -331,9 +362,15 @@ def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
     folder = Path(run_dir)
     settings = _read_json(folder / SETTINGS_FILE)
     state = _read_json(folder / CHECKPOINT_FILE) if (folder / CHECKPOINT_FILE).exists() else {}
-    done, _, designs = _restore(state, folder)
+    done, _, designs, refined, _ = _restore(state, folder)
     rows = [
-        {**design.to_json(), "levels": levels, "vertices": design.structure.n_vertices, "edges": design.structure.n_edges}
+        {
+            **design.to_json(),
+            "levels": levels,
+            "vertices": design.structure.n_vertices,
+            "edges": design.structure.n_edges,
+            "holds_in_transient": design.holds,
+        }
         for levels, design in sorted(designs.items())
     ]
     return {
@@ -341,7 +378,7 @@ def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
         "kind": "tall search",
         "settings": settings,
         "levels_searched": done,
-        "refined": bool(state.get("refined")),
+        "refined": sorted(refined),
         "finished": (folder / TABLE_FILE).exists(),
         "designs": rows,
     }
@@ -360,10 +397,11 @@ def describe_search(summary: dict[str, Any]) -> str:
         lines.append(
             f"{row['levels']} levels    {' '.join(row['rules'])} (tied {row['tied']}): {row['vertices']} vertices, "
             f"{row['edges']} edges, static {row['static_load']:.1f} N, transient peak {row['peak']:.1f} N"
+            + ("" if row["holds_in_transient"] else f" (over the {PHYSICS.break_force:g} N break force)")
         )
-    if summary["finished"] and summary["designs"]:
-        tallest = summary["designs"][-1]["levels"]
-        lines.append(f"tallest     {Path(summary['run_dir']) / f'tall_{tallest}.npy'} grows {tallest} levels")
+    holding = [row["levels"] for row in summary["designs"] if row["holds_in_transient"]]
+    if summary["finished"] and holding:
+        lines.append(f"tallest     {Path(summary['run_dir']) / f'tall_{max(holding)}.npy'} grows {max(holding)} levels that hold")
     return "\n".join(lines)
 
 
@@ -403,7 +441,7 @@ def find_tallest(
         run_dir: a new or empty folder, or one a search with the same settings started (it resumes after the last
             finished height). It receives ``settings.json``, ``search.json`` (the checkpoint), ``designs.csv`` (a row
             per height), ``tall_<levels>.npy`` (the taught weights), ``tall_<levels>.json`` (what they grow) and
-            ``tallest.png``.
+            ``tallest.png`` (the tallest that holds in the transient).
         workers: processes for the simulations; results do not depend on it.
         progress: a progress bar on a terminal while candidates are simulated.
         log: called with a line per finished stage (``print`` shows the search as it goes).
@@ -417,12 +455,11 @@ def find_tallest(
     say = log or (lambda line: None)
     folder = Path(run_dir) if run_dir is not None else None
     state = _open_folder(folder, settings) if folder is not None else {}
-    done, kept, designs = _restore(state, folder or Path("."))
+    done, kept, designs, refined, refined_from = _restore(state, folder or Path("."))
     if done > 1:
         say(f"{folder}: resuming after {done} levels ({len(designs)} heights found so far)")
     else:
         say(f"searching designs of 2 to {settings.levels} levels; joints break above {PHYSICS.break_force:g} N")
-    refined_from = state.get("refined_from")
     started = time.perf_counter()
     simulate, pool = _pool_mapper(workers, progress)
     try:
@@ -444,28 +481,35 @@ def find_tallest(
                 "levels_done": levels,
                 "kept": [[list(r), t] for r, t in kept],
                 "designs": {str(k): v.to_json() for k, v in designs.items()},
-                "refined": False,
             }
             _checkpoint(folder, state)
         if not designs:
             raise InputError(f"no design of 2 to {settings.levels} levels within {settings.max_vertices} vertices can be grown")
-        tallest = max(designs)
-        if settings.refine and not state.get("refined"):
-            clock, before = time.perf_counter(), designs[tallest]
-            designs[tallest] = refine(before, settings, simulate)
-            refined_from = before.peak if designs[tallest] != before else None
-            outcome = f"peak {before.peak:.1f} N -> {designs[tallest].peak:.1f} N" if refined_from else "none carries less"
-            say(
-                f"refined the {tallest}-level design (every change of two levels' rules): {outcome} "
-                f"({time.perf_counter() - clock:.0f} s)"
-            )
-            state = {
-                **state,
-                "designs": {str(k): v.to_json() for k, v in designs.items()},
-                "refined": True,
-                "refined_from": refined_from,
-            }
-            _checkpoint(folder, state)
+        # The tallest design is always refined (a lower peak is more margin); lower ones only while none above holds,
+        # so a search past what can stand still ends with the tallest design that does.
+        for levels in sorted(designs, reverse=True):
+            if settings.refine and levels not in refined:
+                clock, before = time.perf_counter(), designs[levels]
+                designs[levels] = refine(before, settings, simulate)
+                if designs[levels] != before:
+                    refined_from[levels] = before.peak
+                refined.append(levels)
+                outcome = (
+                    f"peak {before.peak:.1f} N -> {designs[levels].peak:.1f} N" if levels in refined_from else "none carries less"
+                )
+                say(
+                    f"refined the {levels}-level design (every change of two levels' rules): {outcome} "
+                    f"({time.perf_counter() - clock:.0f} s)"
+                )
+                state = {
+                    **state,
+                    "designs": {str(k): v.to_json() for k, v in designs.items()},
+                    "refined": refined,
+                    "refined_from": {str(k): v for k, v in refined_from.items()},
+                }
+                _checkpoint(folder, state)
+            if designs[levels].holds:
+                break
     finally:
         if pool is not None:
             pool.terminate()

@@ -95,6 +95,29 @@ def test_refinement_keeps_the_lowest_peak_of_the_design_and_its_two_level_change
     assert refine(better, SMALL, lambda function, items: [function(item) for item in items]).peak <= better.peak
 
 
+def test_when_the_tallest_breaks_even_refined_the_next_height_down_is_refined_and_named_the_tallest_that_holds(
+    small_run, tmp_path, monkeypatch
+):
+    from physics import PhysicsConfig
+
+    _, result = small_run
+    # a break force between the two small heights' peaks: three levels cannot hold, two can
+    between = (result.designs[2].peak + result.designs[3].peak) / 2
+    monkeypatch.setattr(tall, "PHYSICS", PhysicsConfig(break_force=between))
+    run_dir = tmp_path / "run"
+    lines = []
+    weaker = find_tallest(SMALL, run_dir, log=lines.append)
+    assert weaker.designs == result.designs  # the loads do not depend on the break force
+    assert weaker.tallest == 3 and weaker.tallest_holding == 2
+    assert [line.split(" (")[0] for line in lines if line.startswith("refined")] == [
+        "refined the 3-level design",
+        "refined the 2-level design",
+    ]
+    assert json.loads((run_dir / "search.json").read_text())["refined"] == [3, 2]
+    rows = {row["levels"]: row["holds_in_transient"] for row in csv.DictReader((run_dir / "designs.csv").open())}
+    assert rows == {"2": "yes", "3": "no"}
+
+
 def test_a_folder_it_does_not_own_or_another_search_is_refused_and_left_as_it_was(small_run, tmp_path):
     run_dir, _ = small_run
     before = {path.name: path.read_bytes() for path in run_dir.iterdir()}
@@ -122,6 +145,7 @@ def test_the_command_writes_the_run_folder_and_prints_how_to_grow_and_check_the_
     run_dir = tmp_path / "run"
     assert main(["tall", "--run-dir", str(run_dir), *SMALL_OPTIONS]) == 0
     out = capsys.readouterr().out
+    assert "the tallest that holds: 3 levels" in out and "over the" not in out
     assert f"grow it: structgen grow --weights {run_dir / 'tall_3.npy'} --max-extent 2 --iterations 3 -o tall.json" in out
     assert f"structgen check {run_dir / 'tall_3.json'}\n" in out  # within the default limits: nothing to --set
     grown_file = tmp_path / "tall.json"
@@ -144,7 +168,7 @@ def test_info_on_a_search_folder_lists_each_height_and_says_how_far_it_got(small
     assert f"3 levels    {' '.join(design.rules)} (tied {design.tied}): {design.structure.n_vertices} vertices" in out
     assert main(["info", str(run_dir), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert [row["levels"] for row in summary["designs"]] == [2, 3] and summary["refined"] and summary["finished"]
+    assert [row["levels"] for row in summary["designs"]] == [2, 3] and summary["refined"] == [3] and summary["finished"]
     (tmp_path / "settings.json").write_text(json.dumps({"levels": 3}))
     (tmp_path / "search.json").write_text("[1, 2]")
     assert main(["info", str(tmp_path)]) == 2

@@ -539,29 +539,38 @@ def _add_teach(subparsers: Any) -> None:
 
 def cmd_tall(args: argparse.Namespace) -> int:
     from physics import PhysicsConfig
-    from structgen.tall import TallSettings, find_tallest
+    from structgen.tall import TRANSIENT_WINDOW, TallSettings, find_tallest
 
     settings = TallSettings(
         levels=args.levels, beam=args.beam, candidates=args.candidates, max_vertices=args.max_vertices, refine=args.refine
     )
     run_dir = Path(args.run_dir or f"runs/tall-{args.levels}")
     result = find_tallest(settings, run_dir, workers=args.workers, progress=True, log=lambda line: print(line, flush=True))
-    tallest = result.tallest
-    grown, config = result.taught[tallest].grown, result.taught[tallest].config
+    limits = PhysicsConfig()
+    seconds = sum(result.teach_seconds.values())
+    print(f"{run_dir}: taught {len(result.taught)} heights ({seconds:.1f} s); table: {run_dir / 'designs.csv'}")
+    if result.tallest_holding != result.tallest:
+        print(
+            f"the {result.tallest}-level design peaks at {result.designs[result.tallest].peak:.1f} N in the first "
+            f"{TRANSIENT_WINDOW:g} s, over the {limits.break_force:g} N break force: it breaks"
+        )
+    levels = result.tallest_holding
+    if levels is None:
+        print("no height holds in the transient")
+        return EXIT_FAILURE
+    grown, config = result.taught[levels].grown, result.taught[levels].config
     print(
-        f"{run_dir}: taught {len(result.taught)} heights ({sum(result.teach_seconds.values()):.1f} s); the tallest, "
-        f"{tallest} levels, is {run_dir / f'tall_{tallest}.npy'} and grows {_describe(grown)}"
+        f"the tallest that holds: {levels} levels, {run_dir / f'tall_{levels}.npy'}, growing {_describe(grown)} "
+        f"(peak {result.designs[levels].peak:.1f} N); picture: {run_dir / 'tallest.png'}"
     )
-    print(f"table: {run_dir / 'designs.csv'}; picture: {run_dir / 'tallest.png'}")
     print(
-        f"grow it: structgen grow --weights {run_dir / f'tall_{tallest}.npy'} --max-extent {config.max_extent} "
+        f"grow it: structgen grow --weights {run_dir / f'tall_{levels}.npy'} --max-extent {config.max_extent} "
         f"--iterations {config.iterations} -o tall.json"
     )
-    limits = PhysicsConfig()
     roomier = [f"max_vertices={grown.n_vertices}"] * (grown.n_vertices > limits.max_vertices)
     roomier += [f"max_joints={2 * grown.n_edges}"] * (2 * grown.n_edges > limits.max_joints)
     print(
-        f"its faithful 30 s verdict (minutes): structgen check {run_dir / f'tall_{tallest}.json'}"
+        f"its faithful 30 s verdict (minutes): structgen check {run_dir / f'tall_{levels}.json'}"
         + "".join(f" --set {setting}" for setting in roomier)
     )
     return EXIT_OK
@@ -574,7 +583,8 @@ def _add_tall(subparsers: Any) -> None:
         description="Search level-by-level designs (one rule per level from a top vertex) for the tallest whose "
         "levels the NCA's shared local rule can tell apart: a beam search from the top ranked by static joint load, "
         "the best of each height simulated for the faithful preset's first 0.3 s (the lowest peak force wins), then "
-        "every change of two levels' rules of the tallest tried. Each height's design is taught to the paper's "
+        "every change of two levels' rules of the tallest tried (and of the next lower while none above holds). "
+        "Each height's design is taught to the paper's "
         "52-60-26 network. Writes, in the run folder: designs.csv (a row per height), tall_<levels>.npy (weights), "
         "tall_<levels>.json (what they grow), tallest.png, and search.json (a checkpoint after each height: the same "
         "command resumes an interrupted search). The defaults reach eight levels in about 8 minutes on 2 cores.",
