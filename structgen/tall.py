@@ -405,12 +405,20 @@ def describe_search(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _ignore_interrupts() -> None:
+    # Ctrl-C reaches every process of the terminal's group; the parent alone stops the search (and ends the pool), so
+    # the workers do not each print a traceback.
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _pool_mapper(workers: int, progress: bool) -> tuple[Mapper, Any]:
     pool = None
     if workers > 1:
         from multiprocessing import Pool
 
-        pool = Pool(workers)
+        pool = Pool(workers, initializer=_ignore_interrupts)
 
     def simulate(function: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
         results: Iterable[Any] = (
