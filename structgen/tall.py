@@ -253,8 +253,9 @@ def _read_json(path: Path) -> Any:
 
 
 def _open_folder(run_dir: Path, settings: TallSettings) -> dict[str, Any]:
-    """Start or reopen a run folder; the saved search so far ({} for a new one). A folder that holds anything else,
-    or a search with other settings, is refused, so nothing in it is overwritten."""
+    """Start or reopen a run folder; the saved search so far ({} for a new one). A search with the same settings
+    resumes, and one with more ``levels`` goes on from where it stopped (keeping its heights, refinements included). A
+    folder that holds anything else, or a search with other settings, is refused, so nothing in it is overwritten."""
     settings_path = run_dir / SETTINGS_FILE
     if run_dir.exists() and not run_dir.is_dir():
         raise InputError(f"{run_dir}: is a file, expected a run folder")
@@ -263,13 +264,20 @@ def _open_folder(run_dir: Path, settings: TallSettings) -> dict[str, Any]:
         if not isinstance(saved, dict):
             raise InputError(f"{settings_path}: expected an object of settings")
         for field in fields(TallSettings):
-            if saved.get(field.name) != getattr(settings, field.name):
+            before, now = saved.get(field.name), getattr(settings, field.name)
+            taller = field.name == "levels" and isinstance(before, int) and now > before
+            if before != now and not taller:
                 raise InputError(
-                    f"{settings_path}: this folder holds a search with {field.name} = {saved.get(field.name)!r}, not "
-                    f"{getattr(settings, field.name)!r}; give the same settings to resume it, or another folder"
+                    f"{settings_path}: this folder holds a search with {field.name} = {before!r}, not {now!r}; give the "
+                    "same settings to resume it (or more levels to go on), or another folder"
                 )
         checkpoint = run_dir / CHECKPOINT_FILE
-        return _read_json(checkpoint) if checkpoint.exists() else {}
+        state = _read_json(checkpoint) if checkpoint.exists() else {}
+        if saved["levels"] != settings.levels:
+            _write_json(settings_path, asdict(settings))
+            if isinstance(state, dict):
+                state.pop("complete", None)
+        return state
     if run_dir.is_dir() and any(run_dir.iterdir()):
         raise InputError(f"{run_dir}: is not empty and holds no tall search ({SETTINGS_FILE}); choose another folder")
     _write_json(settings_path, asdict(settings))
@@ -379,7 +387,7 @@ def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
         "settings": settings,
         "levels_searched": done,
         "refined": sorted(refined),
-        "finished": (folder / TABLE_FILE).exists(),
+        "finished": bool(state.get("complete")),
         "designs": rows,
     }
 
@@ -465,7 +473,7 @@ def find_tallest(
     state = _open_folder(folder, settings) if folder is not None else {}
     done, kept, designs, refined, refined_from = _restore(state, folder or Path("."))
     if done > 1:
-        say(f"{folder}: resuming after {done} levels ({len(designs)} heights found so far)")
+        say(f"{folder}: resuming after {done} of {settings.levels} levels ({len(designs)} heights found so far)")
     else:
         say(f"searching designs of 2 to {settings.levels} levels; joints break above {PHYSICS.break_force:g} N")
     started = time.perf_counter()
@@ -530,4 +538,5 @@ def find_tallest(
     result = TallResult(designs, taught, teach_seconds, search_seconds, refined_from)
     if folder is not None:
         _write_outputs(folder, result)
+        _checkpoint(folder, {**state, "complete": True})  # for `structgen info`: every output is written
     return result

@@ -84,8 +84,21 @@ def test_an_interrupted_search_resumes_after_its_last_height_to_the_same_answer(
     lines = []
     resumed = find_tallest(SMALL, run_dir, log=lines.append)
     assert len(calls) == 3  # only the third level was searched again
-    assert lines[0].endswith("resuming after 2 levels (1 heights found so far)")
+    assert lines[0] == f"{run_dir}: resuming after 2 of 3 levels (1 heights found so far)"
     assert resumed.designs == uninterrupted.designs
+
+
+def test_a_search_asked_for_more_levels_goes_on_from_its_folder_to_the_answer_of_a_new_search(small_run, tmp_path):
+    _, fresh = small_run
+    run_dir = tmp_path / "run"
+    find_tallest(TallSettings(levels=2, beam=3, candidates=2, max_vertices=100), run_dir)
+    lines = []
+    taller = find_tallest(SMALL, run_dir, log=lines.append)
+    assert lines[0] == f"{run_dir}: resuming after 2 of 3 levels (1 heights found so far)"
+    assert taller.designs == fresh.designs
+    assert json.loads((run_dir / "settings.json").read_text())["levels"] == 3
+    with pytest.raises(InputError, match="holds a search with levels = 3, not 2; give the same settings to resume it"):
+        find_tallest(TallSettings(levels=2, beam=3, candidates=2, max_vertices=100), run_dir)
 
 
 def test_refinement_keeps_the_lowest_peak_of_the_design_and_its_two_level_changes():

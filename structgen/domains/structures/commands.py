@@ -592,7 +592,8 @@ def _add_tall(subparsers: Any) -> None:
     tall.add_argument(
         "--run-dir",
         metavar="DIR",
-        help="run folder: new, empty, or one a search with the same settings started (it resumes; default runs/tall-<levels>)",
+        help="run folder: new, empty, or one a search with the same settings started (it resumes; with more --levels "
+        "it goes on from there); default runs/tall-<levels>",
     )
     tall.add_argument(
         "--levels", type=whole_number(2, 50), default=8, metavar="N", help="tallest design to look for, in vertices (default 8)"
