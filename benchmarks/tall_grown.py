@@ -71,7 +71,7 @@ def main() -> None:
             parser.error(f"--verdict {args.verdict}: no teachable design of that height was found")
         clock = time.perf_counter()
         grown = result.taught[args.verdict].grown
-        report = check_stability(grown, PHYSICS.replace(max_joints=max(PHYSICS.max_joints, 2 * grown.n_edges)))
+        report = check_stability(grown, PHYSICS.replace(**PHYSICS.room_for(grown.n_vertices, grown.n_edges)))
         verdict = "stands, no joint broken" if report.stands else f"{len(report.broken_joints)} joints break"
         print(
             f"\nfaithful 30 s, the grown {args.verdict}-level structure: {verdict}, height {report.height:.3f} "

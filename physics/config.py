@@ -174,6 +174,13 @@ class PhysicsConfig:
             raise ValueError(f"unknown physics preset {name!r}; choose one of {', '.join(PRESETS)}")
         return replace(self, **{field: getattr(PRESETS[name], field) for field in _STEPPING})
 
+    def room_for(self, n_vertices: int, n_edges: int) -> dict[str, int]:
+        """The cap settings a structure of this size needs beyond this configuration's, raised to its own size
+        (``max_vertices``, and ``max_joints`` at two joints per edge); empty when it fits.
+        ``config.replace(**config.room_for(v, e))`` simulates it."""
+        needs = {"max_vertices": n_vertices, "max_joints": 2 * n_edges}
+        return {name: need for name, need in needs.items() if need > getattr(self, name)}
+
     @property
     def preset_name(self) -> str | None:
         """Name of the preset this configuration equals, or None if it was customised."""

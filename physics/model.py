@@ -117,12 +117,13 @@ def place(vertices: np.ndarray, edges: np.ndarray, config: PhysicsConfig, *, enf
         "judge it with the static analysis instead (check --statics: milliseconds, no cap), raise the cap if the "
         "simulation is worth its time (--set {name}=N), or grow a smaller structure (grow --max-vertices N)"
     )
-    if enforce_caps and len(vertices) > config.max_vertices:
+    over = config.room_for(len(vertices), len(edges)) if enforce_caps else {}
+    if "max_vertices" in over:
         raise InputError(
             f"structure has {len(vertices)} vertices, more than max_vertices = {config.max_vertices}; "
             + remedy.format(name="max_vertices")
         )
-    if enforce_caps and 2 * len(edges) > config.max_joints:
+    if "max_joints" in over:
         raise InputError(
             f"structure has {len(edges)} edges ({2 * len(edges)} joints), more than max_joints = {config.max_joints}; "
             + remedy.format(name="max_joints")

@@ -63,8 +63,6 @@ __all__ = [
 
 #: The faithful preset: the loads of the search and the break force they are held to.
 PHYSICS = PhysicsConfig()
-# From seven levels on these designs pass the default joint cap; the transient is a first look, so let them in.
-_ROOMY = PHYSICS.replace(max_vertices=10_000, max_joints=20_000)
 #: Seconds of the faithful preset simulated per candidate: the tallest designs carry their largest loads in it.
 TRANSIENT_WINDOW = 0.3
 
@@ -126,11 +124,14 @@ class TallDesign:
         return self.peak <= PHYSICS.break_force
 
     def to_json(self) -> dict[str, Any]:
-        return {"rules": list(self.rules), "tied": self.tied, "static_load": self.static_load, "peak": self.peak}
+        # JSON has no infinity: a static solve without an answer (inf) is stored as null.
+        load = self.static_load if np.isfinite(self.static_load) else None
+        return {"rules": list(self.rules), "tied": self.tied, "static_load": load, "peak": self.peak}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> TallDesign:
-        return cls(tuple(data["rules"]), int(data["tied"]), float(data["static_load"]), float(data["peak"]))
+        load = np.inf if data["static_load"] is None else float(data["static_load"])
+        return cls(tuple(data["rules"]), int(data["tied"]), load, float(data["peak"]))
 
 
 @dataclass
@@ -142,14 +143,12 @@ class TallResult:
         taught: each height's taught network (its weights, growth settings and grown structure).
         teach_seconds: how long each teaching took.
         search_seconds: time spent searching in this call (a resumed search counts only its own part).
-        refined_from: the transient peak before refinement of each height the refinement improved.
     """
 
     designs: dict[int, TallDesign]
     taught: dict[int, TeachResult]
     teach_seconds: dict[int, float]
     search_seconds: float
-    refined_from: dict[int, float]
 
     @property
     def tallest(self) -> int:
@@ -176,14 +175,16 @@ def teachable(design: Structure, *, whole: bool) -> bool:
     return True
 
 
-def largest_static_load(design: Structure) -> float:
-    """The largest joint load of the static analysis under the faithful preset (inf where it has no answer)."""
-    return float(np.nan_to_num(np.max(bounding_loads(design, PHYSICS)), nan=np.inf))
+def largest_static_load(design: Structure, physics: PhysicsConfig = PHYSICS) -> float:
+    """The largest joint load of the static analysis (inf where it has no answer: a piece that cannot stand)."""
+    return float(np.nan_to_num(np.max(bounding_loads(design, physics)), nan=np.inf))
 
 
 def transient_peak(design: Structure) -> float:
-    """The largest joint force in the faithful preset's first :data:`TRANSIENT_WINDOW` seconds, joints unbreakable."""
-    return check_transient(design, _ROOMY, window=TRANSIENT_WINDOW).peak_force
+    """The largest joint force in the faithful preset's first :data:`TRANSIENT_WINDOW` seconds, joints unbreakable.
+    The tallest designs pass the default caps; the window is short, so they are let in."""
+    physics = PHYSICS.replace(**PHYSICS.room_for(design.n_vertices, design.n_edges))
+    return check_transient(design, physics, window=TRANSIENT_WINDOW).peak_force
 
 
 def _whole_static_load(candidate: tuple[tuple[str, ...], int], max_vertices: int) -> float:
@@ -246,10 +247,9 @@ def _write_json(path: Path, data: Any) -> None:
 
 
 def _read_json(path: Path) -> Any:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise InputError(f"{path}: cannot be read as JSON ({err})") from None
+    from evolution.files import MiB, read_json
+
+    return read_json(path, 16 * MiB)
 
 
 def _open_folder(run_dir: Path, settings: TallSettings) -> dict[str, Any]:
@@ -275,8 +275,6 @@ def _open_folder(run_dir: Path, settings: TallSettings) -> dict[str, Any]:
         state = _read_json(checkpoint) if checkpoint.exists() else {}
         if saved["levels"] != settings.levels:
             _write_json(settings_path, asdict(settings))
-            if isinstance(state, dict):
-                state.pop("complete", None)
         return state
     if run_dir.is_dir() and any(run_dir.iterdir()):
         raise InputError(f"{run_dir}: is not empty and holds no tall search ({SETTINGS_FILE}); choose another folder")
@@ -284,14 +282,29 @@ def _open_folder(run_dir: Path, settings: TallSettings) -> dict[str, Any]:
     return {}
 
 
-def _checkpoint(run_dir: Path | None, state: dict[str, Any]) -> None:
+def _checkpoint(
+    run_dir: Path | None,
+    done: int,
+    kept: list[tuple[tuple[str, ...], int]],
+    designs: dict[int, TallDesign],
+    refined: list[int],
+    *,
+    complete: bool = False,
+) -> None:
+    """Write what :func:`_restore` reads back; ``complete`` once every output is written (``structgen info``)."""
     if run_dir is not None:
+        state = {
+            "levels_done": done,
+            "kept": [[list(rules), tied] for rules, tied in kept],
+            "designs": {str(levels): design.to_json() for levels, design in designs.items()},
+            "refined": refined,
+            "complete": complete,
+        }
         _write_json(run_dir / CHECKPOINT_FILE, state)
 
 
-def _restore(state: dict[str, Any], where: Path) -> tuple[int, list, dict[int, TallDesign], list[int], dict[int, float]]:
-    """From a checkpoint: the levels searched, the beam, each height's design, the heights refined and the peaks
-    refinement improved on."""
+def _restore(state: Any, where: Path) -> tuple[int, list, dict[int, TallDesign], list[int]]:
+    """From a checkpoint: the levels searched, the beam, each height's design and the heights refined."""
     if not isinstance(state, dict):
         raise InputError(f"{where / CHECKPOINT_FILE}: not a tall search checkpoint (expected an object)")
     try:
@@ -299,10 +312,9 @@ def _restore(state: dict[str, Any], where: Path) -> tuple[int, list, dict[int, T
         kept = [(tuple(rules), int(tied)) for rules, tied in state.get("kept", [[[], 0]])]
         designs = {int(levels): TallDesign.from_json(row) for levels, row in state.get("designs", {}).items()}
         refined = [int(levels) for levels in state.get("refined", [])]
-        refined_from = {int(levels): float(peak) for levels, peak in state.get("refined_from", {}).items()}
     except (TypeError, ValueError, KeyError, AttributeError) as err:
         raise InputError(f"{where / CHECKPOINT_FILE}: not a tall search checkpoint ({err})") from None
-    return done, kept, designs, refined, refined_from
+    return done, kept, designs, refined
 
 
 def _table_text(result: TallResult) -> str:
@@ -362,7 +374,7 @@ def _write_outputs(run_dir: Path, result: TallResult) -> None:
 
 def is_search_folder(path: str | os.PathLike) -> bool:
     """Whether ``path`` is a folder a tall search wrote (``structgen info`` tells it from an evolution run)."""
-    return (Path(path) / SETTINGS_FILE).is_file() and not (Path(path) / "config.toml").exists()
+    return (Path(path) / SETTINGS_FILE).is_file()
 
 
 def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
@@ -370,7 +382,7 @@ def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
     folder = Path(run_dir)
     settings = _read_json(folder / SETTINGS_FILE)
     state = _read_json(folder / CHECKPOINT_FILE) if (folder / CHECKPOINT_FILE).exists() else {}
-    done, _, designs, refined, _ = _restore(state, folder)
+    done, _, designs, refined = _restore(state, folder)
     rows = [
         {
             **design.to_json(),
@@ -471,7 +483,8 @@ def find_tallest(
     say = log or (lambda line: None)
     folder = Path(run_dir) if run_dir is not None else None
     state = _open_folder(folder, settings) if folder is not None else {}
-    done, kept, designs, refined, refined_from = _restore(state, folder or Path("."))
+    done, kept, designs, refined = _restore(state, folder or Path("."))
+    _checkpoint(folder, done, kept, designs, refined)  # not complete until this call's outputs are written
     if done > 1:
         say(f"{folder}: resuming after {done} of {settings.levels} levels ({len(designs)} heights found so far)")
     else:
@@ -493,12 +506,8 @@ def find_tallest(
                 )
             else:
                 say(f"{levels} levels: no design an NCA can grow whole ({time.perf_counter() - clock:.0f} s)")
-            state = {
-                "levels_done": levels,
-                "kept": [[list(r), t] for r, t in kept],
-                "designs": {str(k): v.to_json() for k, v in designs.items()},
-            }
-            _checkpoint(folder, state)
+            done = levels
+            _checkpoint(folder, done, kept, designs, refined)
         if not designs:
             raise InputError(f"no design of 2 to {settings.levels} levels within {settings.max_vertices} vertices can be grown")
         # The tallest design is always refined (a lower peak is more margin); lower ones only while none above holds,
@@ -507,23 +516,17 @@ def find_tallest(
             if settings.refine and levels not in refined:
                 clock, before = time.perf_counter(), designs[levels]
                 designs[levels] = refine(before, settings, simulate)
-                if designs[levels] != before:
-                    refined_from[levels] = before.peak
                 refined.append(levels)
                 outcome = (
-                    f"peak {before.peak:.1f} N -> {designs[levels].peak:.1f} N" if levels in refined_from else "none carries less"
+                    f"peak {before.peak:.1f} N -> {designs[levels].peak:.1f} N"
+                    if designs[levels] != before
+                    else "none carries less"
                 )
                 say(
                     f"refined the {levels}-level design (every change of two levels' rules): {outcome} "
                     f"({time.perf_counter() - clock:.0f} s)"
                 )
-                state = {
-                    **state,
-                    "designs": {str(k): v.to_json() for k, v in designs.items()},
-                    "refined": refined,
-                    "refined_from": {str(k): v for k, v in refined_from.items()},
-                }
-                _checkpoint(folder, state)
+                _checkpoint(folder, done, kept, designs, refined)
             if designs[levels].holds:
                 break
     finally:
@@ -535,8 +538,8 @@ def find_tallest(
         clock = time.perf_counter()
         taught[levels] = teach(design.structure)
         teach_seconds[levels] = time.perf_counter() - clock
-    result = TallResult(designs, taught, teach_seconds, search_seconds, refined_from)
+    result = TallResult(designs, taught, teach_seconds, search_seconds)
     if folder is not None:
         _write_outputs(folder, result)
-        _checkpoint(folder, {**state, "complete": True})  # for `structgen info`: every output is written
+        _checkpoint(folder, done, kept, designs, refined, complete=True)
     return result

@@ -28,8 +28,8 @@ import torch
 
 from structgen.errors import InputError
 from structgen.lattice import OFFSETS
-from structgen.nca import INIT_SCALE, NCAConfig, grow
-from structgen.nca_config import N_INPUTS, N_OUTPUTS
+from structgen.nca import INIT_SCALE, NCAConfig, _split, grow
+from structgen.nca_config import N_OUTPUTS, n_params
 from structgen.structure import Structure
 
 __all__ = ["TeachError", "TeachResult", "growth_config", "growth_schedule", "local_rules", "teach"]
@@ -190,16 +190,12 @@ def _fit(rules: dict, config: NCAConfig, margin: float, seed: int, max_steps: in
     sign = torch.tensor([list(wish) for wish in rules.values()], dtype=torch.float64) * 2 - 1
     threshold = math.log(config.cutoff / (1 - config.cutoff))
     generator = torch.Generator().manual_seed(seed)
-
-    def uniform(*shape: int) -> torch.Tensor:
-        values = (torch.rand(*shape, dtype=torch.float64, generator=generator) * 2 - 1) * INIT_SCALE
-        return values.requires_grad_()
-
-    hidden = config.hidden
-    w1, b1, w2, b2 = uniform(N_INPUTS, hidden), uniform(hidden), uniform(hidden, N_OUTPUTS), uniform(N_OUTPUTS)
-    optimiser = torch.optim.Adam([w1, b1, w2, b2], lr=0.01)
+    # One flat vector in the layout growth reads (structgen.nca._split), so the result needs no repacking.
+    flat = ((torch.rand(n_params(config), dtype=torch.float64, generator=generator) * 2 - 1) * INIT_SCALE).requires_grad_()
+    optimiser = torch.optim.Adam([flat], lr=0.01)
 
     def clearance() -> torch.Tensor:
+        w1, b1, w2, b2 = _split(flat, config.hidden)
         return sign * (torch.relu(inputs @ w1 + b1) @ w2 + b2 - threshold)
 
     steps = 0
@@ -213,8 +209,7 @@ def _fit(rules: dict, config: NCAConfig, margin: float, seed: int, max_steps: in
         steps += 1
     with torch.no_grad():
         worst = float(clearance().min())
-    flat = torch.cat([w1.detach().flatten(), b1.detach(), w2.detach().flatten(), b2.detach()]).numpy()
-    return flat, worst, steps
+    return flat.detach().numpy(), worst, steps
 
 
 def teach(

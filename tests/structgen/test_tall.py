@@ -88,13 +88,25 @@ def test_an_interrupted_search_resumes_after_its_last_height_to_the_same_answer(
     assert resumed.designs == uninterrupted.designs
 
 
-def test_a_search_asked_for_more_levels_goes_on_from_its_folder_to_the_answer_of_a_new_search(small_run, tmp_path):
+def test_a_search_asked_for_more_levels_goes_on_from_its_folder_to_the_answer_of_a_new_search(small_run, tmp_path, monkeypatch):
     _, fresh = small_run
     run_dir = tmp_path / "run"
     find_tallest(TallSettings(levels=2, beam=3, candidates=2, max_vertices=100), run_dir)
+    refine = tall.refine
+
+    def stop(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tall, "refine", stop)
+    with pytest.raises(KeyboardInterrupt):  # stopped after the new height, before its refinement
+        find_tallest(SMALL, run_dir)
+    saved = json.loads((run_dir / "search.json").read_text())
+    assert saved["levels_done"] == 3 and saved["refined"] == [2] and not saved["complete"]
+    monkeypatch.setattr(tall, "refine", refine)
     lines = []
     taller = find_tallest(SMALL, run_dir, log=lines.append)
-    assert lines[0] == f"{run_dir}: resuming after 2 of 3 levels (1 heights found so far)"
+    assert lines[0] == f"{run_dir}: resuming after 3 of 3 levels (2 heights found so far)"
+    assert [line.split(" (")[0] for line in lines[1:]] == ["refined the 3-level design"]  # the 2-level one is kept
     assert taller.designs == fresh.designs
     assert json.loads((run_dir / "settings.json").read_text())["levels"] == 3
     with pytest.raises(InputError, match="holds a search with levels = 3, not 2; give the same settings to resume it"):

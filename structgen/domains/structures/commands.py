@@ -477,8 +477,19 @@ def _seed_vertex(text: str) -> int | str:
         raise argparse.ArgumentTypeError(f"{text!r}: give 'top' or a vertex index (0, 1, ...)") from None
 
 
+def _grow_command(weights: Path, config: Any, output: str) -> str:
+    """The 'structgen grow' line that grows taught ``weights`` with their growth settings (``config``)."""
+    from structgen.nca import NCAConfig
+
+    default = NCAConfig()
+    options = [f"--max-extent {config.max_extent}", f"--iterations {config.iterations}"]
+    options += [f"--hidden {config.hidden}"] * (config.hidden != default.hidden)
+    options += [f"--cutoff {config.cutoff:g}"] * (config.cutoff != default.cutoff)
+    return f"structgen grow --weights {weights} {' '.join(options)} -o {output}"
+
+
 def cmd_teach(args: argparse.Namespace) -> int:
-    from structgen.nca import NCAConfig, save_weights
+    from structgen.nca import save_weights
     from structgen.teach import teach
 
     if args.output.suffix.lower() not in (".npy", ".json"):
@@ -490,16 +501,12 @@ def cmd_teach(args: argparse.Namespace) -> int:
     except ValueError as err:  # TeachError, or an NCA setting out of range
         raise InputError(f"{args.file}: {err}") from None
     path = save_weights(args.output, taught.weights)
-    config, default = taught.config, NCAConfig()
-    options = [f"--max-extent {config.max_extent}", f"--iterations {config.iterations}"]
-    options += [f"--hidden {config.hidden}"] * (config.hidden != default.hidden)
-    options += [f"--cutoff {config.cutoff:g}"] * (config.cutoff != default.cutoff)
     print(
         f"{path}: taught {taught.n_rules} rules in {time.perf_counter() - started:.1f} s (every output at least "
         f"{taught.margin:.2f} logits from its threshold); the weights grow {_describe(taught.grown)} in "
         f"{taught.steps} steps, then nothing changes"
     )
-    print(f"grow it: structgen grow --weights {path} {' '.join(options)} -o grown.json")
+    print(f"grow it: {_grow_command(path, taught.config, 'grown.json')}")
     return EXIT_OK
 
 
@@ -558,20 +565,16 @@ def cmd_tall(args: argparse.Namespace) -> int:
     if levels is None:
         print("no height holds in the transient")
         return EXIT_FAILURE
-    grown, config = result.taught[levels].grown, result.taught[levels].config
+    grown = result.taught[levels].grown
     print(
         f"the tallest that holds: {levels} levels, {run_dir / f'tall_{levels}.npy'}, growing {_describe(grown)} "
         f"(peak {result.designs[levels].peak:.1f} N); picture: {run_dir / 'tallest.png'}"
     )
-    print(
-        f"grow it: structgen grow --weights {run_dir / f'tall_{levels}.npy'} --max-extent {config.max_extent} "
-        f"--iterations {config.iterations} -o tall.json"
-    )
-    roomier = [f"max_vertices={grown.n_vertices}"] * (grown.n_vertices > limits.max_vertices)
-    roomier += [f"max_joints={2 * grown.n_edges}"] * (2 * grown.n_edges > limits.max_joints)
+    print(f"grow it: {_grow_command(run_dir / f'tall_{levels}.npy', result.taught[levels].config, 'tall.json')}")
+    roomier = limits.room_for(grown.n_vertices, grown.n_edges)
     print(
         f"its faithful 30 s verdict (minutes): structgen check {run_dir / f'tall_{levels}.json'}"
-        + "".join(f" --set {setting}" for setting in roomier)
+        + "".join(f" --set {name}={value}" for name, value in roomier.items())
     )
     return EXIT_OK
 
