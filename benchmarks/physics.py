@@ -32,7 +32,7 @@ from scipy.stats import spearmanr  # noqa: E402
 
 from physics import PhysicsConfig, check_many, check_stability  # noqa: E402
 from structgen import NCAConfig, Structure, grow_population, random_weights  # noqa: E402
-from structgen.samples import random_growth  # noqa: E402
+from structgen.domains.structures.samples import random_growth  # noqa: E402
 
 FAST = PhysicsConfig.preset("fast")
 FAITHFUL = PhysicsConfig.preset("faithful")

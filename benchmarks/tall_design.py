@@ -3,7 +3,7 @@ a local search over lattice structures, judged first by the static analysis and 
 
     python benchmarks/tall_design.py [--levels 6 7 8] [--seeds 0 1] [--steps 6000] [--polish 400] [--save DIR]
 
-For each number of levels the search starts from ``structgen.samples.sparse_pyramid(levels)`` and anneals: each move
+For each number of levels the search starts from ``structgen.domains.structures.samples.sparse_pyramid(levels)`` and anneals: each move
 adds or removes a vertex or an edge together with its seven mirror images about the vertical axis through the top
 (the symmetries of the square), so every design stays symmetric. Moves that disconnect the structure or lower its
 top are refused. Two stages:
@@ -38,7 +38,7 @@ import numpy as np  # noqa: E402
 from physics import PhysicsConfig, check_stability, check_transient  # noqa: E402
 from physics.statics import bounding_loads  # noqa: E402
 from structgen.lattice import OFFSETS  # noqa: E402
-from structgen.samples import sparse_pyramid  # noqa: E402
+from structgen.domains.structures.samples import sparse_pyramid  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
 
 Cell = tuple[int, int, int]

@@ -1,11 +1,11 @@
-"""The tallest structures a local NCA can grow that stand: the table of ``structgen tall`` (``structgen.tall``), one row
+"""The tallest structures a local NCA can grow that stand: the table of ``structgen tall`` (``structgen.domains.structures.tall``), one row
 per height, with the teaching times.
 
     python benchmarks/tall_grown.py [--levels 8] [--beam 30] [--candidates 12] [--no-refine] [--save-weights DIR] [--verdict 8]
 
-Level-by-level designs (``structgen.samples.by_level_rules``) are searched from the top by static load, the best of
+Level-by-level designs (``structgen.domains.structures.samples.by_level_rules``) are searched from the top by static load, the best of
 each height simulated for the faithful preset's first 0.3 s, the tallest refined by every change of two levels'
-rules, and each height's design taught to the paper's 52-60-26 network (see ``structgen.tall`` for the steps).
+rules, and each height's design taught to the paper's 52-60-26 network (see ``structgen.domains.structures.tall`` for the steps).
 
 ``--verdict N`` also simulates the grown N-level structure for the faithful preset's full 30 s with breakable joints
 (minutes for a few hundred vertices). ``--save-weights DIR`` writes each height's weights to
@@ -24,7 +24,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 
 from physics import check_stability  # noqa: E402
 from structgen.nca import save_weights  # noqa: E402
-from structgen.tall import PHYSICS, TallSettings, find_tallest  # noqa: E402
+from structgen.domains.structures.tall import PHYSICS, TallSettings, find_tallest  # noqa: E402
 
 
 def main() -> None:

@@ -25,11 +25,12 @@ from __future__ import annotations
 import collections
 import io
 import pickle
+from collections.abc import Collection
 from typing import Any
 
 import numpy as np
 
-__all__ = ["UnsafeCheckpointError", "loads"]
+__all__ = ["UnsafeCheckpointError", "loads", "plain_dataclass"]
 
 
 class UnsafeCheckpointError(pickle.UnpicklingError):
@@ -93,17 +94,18 @@ _REFERENCES = {("cma.evolution_strategy", "_pass"), ("cma.options_parameters", "
 _ARRAY_MODULES = frozenset({"numpy", "array_api_compat.numpy"})
 
 
-def _domain_dataclass(module: str, found: type) -> bool:
-    return (
-        module.startswith("structgen.domains.")
-        and hasattr(found, "__dataclass_fields__")
-        and found.__new__ is object.__new__
-        and not hasattr(found, "__setstate__")
-    )
+def plain_dataclass(found: type) -> bool:
+    """Whether unpickling an instance of ``found`` only sets its fields: a dataclass made by ``object.__new__`` with
+    no ``__setstate__`` (genome types must be, see :func:`loads`)."""
+    return hasattr(found, "__dataclass_fields__") and found.__new__ is object.__new__ and not hasattr(found, "__setstate__")
 
 
 class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions can be checked one by one
     dispatch = pickle._Unpickler.dispatch.copy()
+
+    def __init__(self, file: io.BytesIO, genome_types: Collection[type]) -> None:
+        super().__init__(file)
+        self.genome_types = frozenset(genome_types)
 
     def find_class(self, module: str, name: str) -> Any:
         try:
@@ -117,7 +119,7 @@ class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions
                 return found
             if module.split(".")[0] in _PACKAGES and found.__new__ in _PLAIN_NEW:
                 return found
-            if _domain_dataclass(module, found):
+            if found in self.genome_types and plain_dataclass(found):
                 return found
         raise UnsafeCheckpointError(f"it names {module}.{name}, which a checkpoint never holds")
 
@@ -143,6 +145,9 @@ class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions
     del _code
 
 
-def loads(data: bytes) -> Any:
-    """The object pickled in ``data``, if it is made only of what checkpoints hold; else UnsafeCheckpointError."""
-    return _Unpickler(io.BytesIO(data)).load()
+def loads(data: bytes, genome_types: Collection[type] = ()) -> Any:
+    """The object pickled in ``data``, if it is made only of what checkpoints hold; else UnsafeCheckpointError.
+
+    ``genome_types`` are the classes the run's genomes are made of (the problem's ``genome_types``); each must be a
+    plain dataclass (:func:`plain_dataclass`), or it is refused like any other class."""
+    return _Unpickler(io.BytesIO(data), genome_types).load()

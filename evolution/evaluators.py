@@ -251,7 +251,7 @@ class DaskEvaluator(Evaluator):
         try:
             from distributed import Client
         except ImportError:
-            raise EvaluationError("--cluster needs the 'distributed' package: pip install 'structgen[cluster]'") from None
+            raise EvaluationError("a Dask cluster needs the 'distributed' package (pip install distributed)") from None
         try:
             self.client = Client(address, timeout=f"{timeout}s")
         except OSError as err:

@@ -102,6 +102,9 @@ class Problem:
         objective_floor: the lowest objective the problem gives. Quality-diversity archives start their acceptance
             thresholds just below it (so even the worst candidates are kept while nothing better exists) and
             measure their QD score from it.
+        genome_types: for object genomes, the classes they are made of beyond numbers, strings and containers
+            (a world and its entity classes). Checkpoints hold genomes, and loading one admits no class it is not
+            told of (:mod:`evolution.checkpoint`): each must be a plain dataclass, whose restore only sets fields.
     """
 
     name: str = "problem"
@@ -111,6 +114,7 @@ class Problem:
     field_names: tuple[str, ...] = ()
     plot_fields: tuple[str, ...] = ()
     objective_floor: float = 0.0
+    genome_types: tuple[type, ...] = ()
 
     @property
     def flat(self) -> bool:

@@ -31,7 +31,7 @@ import pickle
 import re
 import shutil
 import sys
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -217,9 +217,12 @@ class RunFolder:
         atomic_write(self / self.MANIFEST, json.dumps({**manifest, MARK: MARK_VALUE}, indent=2) + "\n")
 
     def is_marked(self) -> bool:
-        """Whether the manifest says this is a run folder (or is a manifest of structgen 0.1, which had no mark)."""
+        """Whether the manifest says this is a run folder (or is a manifest of the first format, which had no mark
+        but always these four keys)."""
         manifest = self.manifest()
-        legacy = manifest.get("schema") == 1 and isinstance(manifest.get("versions"), dict) and "structgen" in manifest
+        legacy = (
+            manifest.get("schema") == 1 and isinstance(manifest.get("versions"), dict) and {"created", "argv"} <= set(manifest)
+        )
         return manifest.get(MARK) == MARK_VALUE or (legacy and (self / self.CONFIG).is_file())
 
     def remove(self) -> None:
@@ -244,7 +247,7 @@ class RunFolder:
             except BlockingIOError:
                 holder = os.pread(descriptor, 64, 0).decode("ascii", "replace").strip() or "another process"
                 raise RunFolderError(
-                    f"{self.path}: another structgen process (pid {holder}) is writing this run; wait for it to end or stop it"
+                    f"{self.path}: another process (pid {holder}) is writing this run; wait for it to end or stop it"
                 ) from None
             os.ftruncate(descriptor, 0)
             os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)
@@ -293,12 +296,14 @@ class RunFolder:
     def save_checkpoint(self, state: RunState) -> None:
         atomic_write(self / self.CHECKPOINT, pickle.dumps({"schema": CHECKPOINT_SCHEMA, "state": state}))
 
-    def load_checkpoint(self) -> RunState:
+    def load_checkpoint(self, genome_types: Collection[type] = ()) -> RunState:
+        """The last checkpoint's state; ``genome_types`` are the problem's (:attr:`Problem.genome_types`), the only
+        classes beyond the engine's own that the checkpoint may hold."""
         path = self / self.CHECKPOINT
         if not path.exists() and not path.is_symlink():
             raise RunFolderError(f"{self.path}: no checkpoint yet (the run stopped before its first generation ended)")
         try:
-            data = checkpoint.loads(read_bytes(path, _MAX_STATE))
+            data = checkpoint.loads(read_bytes(path, _MAX_STATE), genome_types)
         except InputFileError:
             raise
         except checkpoint.UnsafeCheckpointError as err:

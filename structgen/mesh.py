@@ -1,7 +1,8 @@
 """Structures as triangle meshes: a sphere at every vertex, a cylinder along every edge.
 
-The default dimensions are read from the physics model's defaults (sphere radius 0.25 and cylinder radius 0.08 at
-lattice spacing 1, :class:`physics.PhysicsConfig`), and a cylinder runs from sphere surface to sphere surface as the
+The default dimensions are those of the simulated bodies (sphere radius 0.25 and cylinder radius 0.08 at lattice
+spacing 1, as :class:`physics.PhysicsConfig` has them; a test holds the two to the same numbers, so export needs no
+physics), and a cylinder runs from sphere surface to sphere surface as the
 simulated bodies do. The structure stands on the ground plane as it is simulated: its lowest spheres touch height 0.
 
 Every part is a copy of a few templates with vertex normals: one sphere, and one cylinder per edge direction (a
@@ -23,7 +24,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evolution.files import atomic_write
-from physics.config import PhysicsConfig
 from structgen.budget import check_memory
 from structgen.errors import StructureError
 
@@ -41,17 +41,14 @@ EXPORT_FORMATS = (".json", ".glb", ".obj", ".stl", ".ply")
 Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
 
-_MODEL = PhysicsConfig()
-
-
 @dataclass(frozen=True)
 class MeshStyle:
     """Dimensions (lattice units times ``spacing``) and look of an exported structure; the dimensions default to
     the physics model's."""
 
-    sphere_radius: float = _MODEL.sphere_radius
-    cylinder_radius: float = _MODEL.cylinder_radius
-    spacing: float = _MODEL.spacing
+    sphere_radius: float = 0.25
+    cylinder_radius: float = 0.08
+    spacing: float = 1.0
     sphere_subdivisions: int = 2
     cylinder_sections: int = 12
     vertex_color: tuple[int, int, int, int] = (214, 96, 60, 255)

@@ -11,8 +11,8 @@ registered domain; scripts can call them directly::
 
 Each builds the problem once and the optimiser once (a resumed run's optimiser comes from its checkpoint).
 
-:func:`load_run` opens a finished or running run for a look: its settings, metrics, best genome, archive and (for
-the structures domain) its best NCA; :func:`run_summary` is what ``structgen info RUN_DIR`` prints.
+:func:`load_run` opens a finished or running run for a look: its settings, metrics, best genome, archive and its
+problem; :func:`run_summary` is what ``structgen info RUN_DIR`` prints.
 """
 
 from __future__ import annotations
@@ -152,26 +152,27 @@ def resume(
     with folder.locked():
         for leftover in folder.remove_temporary_files():
             log.info("removed %s, left by a write that was cut short", leftover)
-        state = folder.load_checkpoint()
-        _warn_on_new_versions(folder)
-        experiment = _reconcile(folder, experiment, state)
-        if generations is not None:
-            if generations < state.generation:
-                raise ConfigError(f"--generations {generations} is fewer than the {state.generation} already run")
-            if generations != experiment.run.generations:
-                experiment = experiment.with_run(generations=generations)
-                folder.write_config(experiment.to_toml())
-                state.extra["config"] = experiment.to_mapping()
-        runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
-        if runtime:
-            experiment = experiment.with_run(**runtime)
-        folder.truncate_metrics(state.generation)
-        if state.generation >= experiment.run.generations:
-            log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)
-            return folder, state
-        log.info("%s: resuming after generation %d of %d", folder.path, state.generation, experiment.run.generations)
+        # The problem first: it says which genome classes its checkpoint may hold.
         problem = experiment.make_problem()
         try:
+            state = folder.load_checkpoint(problem.genome_types)
+            _warn_on_new_versions(folder)
+            experiment = _reconcile(folder, experiment, state)
+            if generations is not None:
+                if generations < state.generation:
+                    raise ConfigError(f"--generations {generations} is fewer than the {state.generation} already run")
+                if generations != experiment.run.generations:
+                    experiment = experiment.with_run(generations=generations)
+                    folder.write_config(experiment.to_toml())
+                    state.extra["config"] = experiment.to_mapping()
+            runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
+            if runtime:
+                experiment = experiment.with_run(**runtime)
+            folder.truncate_metrics(state.generation)
+            if state.generation >= experiment.run.generations:
+                log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)
+                return folder, state
+            log.info("%s: resuming after generation %d of %d", folder.path, state.generation, experiment.run.generations)
             state = _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
         finally:
             problem.close()
@@ -254,8 +255,8 @@ class Run:
     """A run folder opened for a look (nothing is resumed or written). The problem is built on first use (it may
     load torch or a physics engine); ``close()`` or a ``with`` block releases it.
 
-    >>> run = load_run("runs/structures")          # doctest: +SKIP
-    >>> archive, nca = run.archive(), run.best_nca()  # doctest: +SKIP
+    >>> run = load_run("runs/structures")                                # doctest: +SKIP
+    >>> archive, genome = run.archive(), run.best_genome()               # doctest: +SKIP
     """
 
     def __init__(self, run_dir: str | Path) -> None:
@@ -281,13 +282,18 @@ class Run:
         return self.folder.load_archive(self.problem if genomes else None)
 
     def best_nca(self) -> Any:
-        """The best candidate as a :class:`structgen.nca.LocalNCA` with the run's NCA settings (structures runs)."""
-        from structgen.nca import LocalNCA
+        """Deprecated (goes in structgen 0.4): ``run.problem.nca(run.best_genome())`` in the structures domain."""
+        import warnings
 
-        nca_config = getattr(self.experiment.problem_settings, "nca", None)
-        if nca_config is None or not hasattr(nca_config, "max_vertices"):
+        warnings.warn(
+            "Run.best_nca() is deprecated: use run.problem.nca(run.best_genome()) (structures runs)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        nca = getattr(self.problem, "nca", None)
+        if nca is None:
             raise RunFolderError(f"{self.path}: a run of the {self.experiment.domain} domain has no NCA of the structures kind")
-        return LocalNCA(self.best_genome(), nca_config)
+        return nca(self.best_genome())
 
     def close(self) -> None:
         problem = self.__dict__.pop("problem", None)
@@ -303,7 +309,8 @@ class Run:
 
 def load_run(run_dir: str | Path) -> Run:
     """Open the run in ``run_dir`` for a look: ``run.metrics()``, ``run.best_genome()``, ``run.archive()``,
-    ``run.best_nca()``. A folder that is not a run is a :class:`~evolution.RunFolderError`."""
+    and ``run.problem`` (the domain's problem, whose own methods decode a genome: ``run.problem.nca(genome)`` in the
+    structures domain). A folder that is not a run is a :class:`~evolution.RunFolderError`."""
     return Run(run_dir)
 
 

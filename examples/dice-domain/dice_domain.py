@@ -1,7 +1,8 @@
 """An example domain outside structgen: evolve the faces of a die towards a target mean with many distinct faces.
 
-It shows each part a domain can have: settings (a frozen dataclass), a problem with genomes that are not vectors
-and its own mutation, measures for quality diversity, a spec that registers it, a verb of its own
+It shows each part a domain can have: settings (a frozen dataclass), a problem whose genomes are objects of its own
+(a ``Die`` dataclass, declared in ``genome_types`` so that its runs' checkpoints may hold it) with its own mutation
+and JSON form, measures for quality diversity, a spec that registers it, a verb of its own
 (``structgen dice roll``) and an export of run elites (``structgen export RUN_DIR die.json``).
 """
 
@@ -39,11 +40,19 @@ class DiceSettings:
             raise ValueError(f"problem highest must be a positive integer, got {self.highest!r}")
 
 
+@dataclass(frozen=True)
+class Die:
+    """A genome: the number on each face."""
+
+    faces: tuple[int, ...]
+
+
 class Dice(Problem):
-    """A genome is a tuple of face values; the objective rewards a mean near the target and distinct faces."""
+    """A genome is a :class:`Die`; the objective rewards a mean near the target and distinct faces."""
 
     name = "dice"
     n_params = None
+    genome_types = (Die,)
     measure_names = ("mean", "distinct")
     field_names = ("mean", "distinct")
     plot_fields = ("mean",)
@@ -54,20 +63,24 @@ class Dice(Problem):
         self.measure_ranges = ((1.0, float(settings.highest)), (1.0, float(settings.faces)))
 
     def initial_genomes(self, count, rng):
-        return [tuple(int(v) for v in rng.integers(1, self.settings.highest + 1, self.settings.faces)) for _ in range(count)]
+        highest, faces = self.settings.highest + 1, self.settings.faces
+        return [Die(tuple(int(v) for v in rng.integers(1, highest, faces))) for _ in range(count)]
 
     def mutate(self, genome, rng):
-        faces = list(genome)
+        faces = list(genome.faces)
         faces[int(rng.integers(len(faces)))] = int(rng.integers(1, self.settings.highest + 1))
-        return tuple(faces)
+        return Die(tuple(faces))
+
+    def genome_to_json(self, genome):
+        return list(genome.faces)
 
     def genome_from_json(self, data):
-        return tuple(int(v) for v in data)
+        return Die(tuple(int(v) for v in data))
 
     def evaluate(self, genomes, seeds):
-        faces = np.array([list(g) for g in genomes], dtype=float).reshape(len(genomes), -1)
+        faces = np.array([list(g.faces) for g in genomes], dtype=float).reshape(len(genomes), -1)
         mean = faces.mean(axis=1)
-        distinct = np.array([len(set(g)) for g in genomes], dtype=float)
+        distinct = np.array([len(set(g.faces)) for g in genomes], dtype=float)
         objective = distinct - (mean - self.settings.target_mean) ** 2
         return Evaluation(objective, np.stack([mean, distinct], axis=1), {"mean": mean, "distinct": distinct})
 
@@ -94,8 +107,8 @@ class DiceCommands(DomainCommands):
     def export_elite(self, problem, genome, output: Path, args, origin) -> str:
         if output.suffix != ".json":
             raise InputError(f"{output}: a die is written as .json")
-        atomic_write(output, json.dumps({"faces": list(genome), **origin}) + "\n")
-        return f"{output}: faces {', '.join(map(str, genome))}"
+        atomic_write(output, json.dumps({"faces": list(genome.faces), **origin}) + "\n")
+        return f"{output}: faces {', '.join(map(str, genome.faces))}"
 
 
 COMMANDS = DiceCommands()

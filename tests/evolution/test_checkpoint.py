@@ -6,12 +6,24 @@ from __future__ import annotations
 import os
 import pickle
 import pickletools
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from evolution import RunFolder, RunFolderError, RunSettings, RunState, SerialEvaluator, advance, checkpoint, make_optimizer
+from evolution import (
+    Evaluation,
+    Problem,
+    RunFolder,
+    RunFolderError,
+    RunSettings,
+    RunState,
+    SerialEvaluator,
+    advance,
+    checkpoint,
+    make_optimizer,
+)
 from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
 from evolution.toys import Ones, Sphere
 
@@ -102,10 +114,62 @@ def test_checkpoints_of_structgen_0_1_load(run):
     assert np.isfinite(checkpoint.loads(data)["state"].best.objective)
 
 
-def test_a_domain_genome_dataclass_loads_but_cannot_be_called():
-    from structgen.domains.fortress.formats import EntityClass, FortressFile
+@dataclass(frozen=True)
+class Faces:
+    """A genome made of an object, as a plugin domain's would be (this module is no part of structgen)."""
 
-    world = FortressFile({"A": EntityClass("A", ["idle", "move"], {"0-1": "none"})}, [("A", 2, 3)], "pos")
-    assert checkpoint.loads(pickle.dumps(world)) == world
+    values: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Restoring:
+    values: tuple[int, ...]
+
+    def __setstate__(self, state):  # restoring would run this: never admitted
+        object.__setattr__(self, "values", state["values"])
+
+
+class FacesProblem(Problem):
+    name = "faces"
+    measure_names = ()
+    genome_types = (Faces,)
+
+    def initial_genomes(self, count, rng):
+        return [Faces(tuple(int(v) for v in rng.integers(0, 9, 4))) for _ in range(count)]
+
+    def mutate(self, genome, rng):
+        values = list(genome.values)
+        values[int(rng.integers(4))] = int(rng.integers(0, 9))
+        return Faces(tuple(values))
+
+    def genome_to_json(self, genome):
+        return list(genome.values)
+
+    def evaluate(self, genomes, seeds):
+        return Evaluation([float(sum(g.values)) for g in genomes], np.zeros((len(genomes), 0)))
+
+
+def test_genome_classes_load_only_when_the_problem_declares_them_and_cannot_be_called():
+    data = pickle.dumps([Faces((1, 2)), Faces((3, 4))])
+    assert checkpoint.loads(data, genome_types=(Faces,)) == [Faces((1, 2)), Faces((3, 4))]
+    with pytest.raises(checkpoint.UnsafeCheckpointError, match="test_checkpoint.Faces, which a checkpoint never holds"):
+        checkpoint.loads(data)
+    with pytest.raises(checkpoint.UnsafeCheckpointError, match="which a checkpoint never holds"):
+        checkpoint.loads(pickle.dumps(Restoring((1,))), genome_types=(Restoring,))  # not a plain dataclass
     with pytest.raises(checkpoint.UnsafeCheckpointError, match="it asks to call"):
-        checkpoint.loads(global_call("structgen.domains.fortress.formats", "EntityClass", "A", [], {}))
+        checkpoint.loads(global_call(__name__, "Faces", (1, 2)), genome_types=(Faces,))
+
+
+def test_a_run_of_dataclass_genomes_resumes_to_the_run_that_never_stopped(tmp_path):
+    problem, settings = FacesProblem(), GASettings(population=6, parents=2)
+
+    def run(folder: RunFolder, state: RunState, until: int) -> RunState:
+        return advance(folder, problem, state, RunSettings(generations=until, workers=0), SerialEvaluator(), progress=False)
+
+    straight = run(RunFolder.create(tmp_path / "straight", "", {}), RunState(make_optimizer("ga", problem, settings, 3)), 4)
+    folder = RunFolder.create(tmp_path / "stopped", "", {})
+    run(folder, RunState(make_optimizer("ga", problem, settings, 3)), 2)
+    with pytest.raises(RunFolderError, match="refusing to load this checkpoint"):
+        folder.load_checkpoint()  # a reader not told of the genome class
+    resumed = run(folder, folder.load_checkpoint(problem.genome_types), 4)
+    assert resumed.best.genome == straight.best.genome and resumed.best.objective == straight.best.objective

@@ -192,7 +192,7 @@ def test_existing_folders_are_refused_unless_overwriting_a_marked_run(tmp_path):
 def test_one_process_at_a_time_writes_a_run(tmp_path):
     folder = RunFolder.create(tmp_path / "run", "[run]\n", {})
     with folder.locked():
-        with pytest.raises(RunFolderError, match=rf"another structgen process \(pid {os.getpid()}\) is writing this run"):
+        with pytest.raises(RunFolderError, match=rf"another process \(pid {os.getpid()}\) is writing this run"):
             with RunFolder(folder.path).locked():
                 pass
         with pytest.raises(RunFolderError, match="is writing this run"):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from physics import CheckPool, InputError, PhysicsConfig, check_many, check_stability
-from structgen.samples import braced, cantilever, column, flat_edge, random_growth
+from structgen.domains.structures.samples import braced, cantilever, column, flat_edge, random_growth
 
 FAST = PhysicsConfig.preset("fast")
 

@@ -13,7 +13,7 @@ import pytest
 
 from physics import InputError, PhysicsConfig, check_stability, check_transient
 from physics._quiet import import_pybullet, silenced
-from structgen.samples import braced, cantilever, column, flat_edge
+from structgen.domains.structures.samples import braced, cantilever, column, flat_edge
 
 FAST = PhysicsConfig.preset("fast")
 # The faithful protocol with a short horizon: every break in the calibration set happens within the first second.

@@ -10,7 +10,7 @@ import pytest
 from physics import InputError, PhysicsConfig, check_stability, check_statics, check_transient
 from physics.statics import _local_stiffness, bounding_loads, joint_forces, predict
 from structgen import NCAConfig
-from structgen.samples import (
+from structgen.domains.structures.samples import (
     LEVEL_RULES,
     braced,
     by_level_rules,

@@ -138,7 +138,7 @@ def test_mixed_evaluation_does_not_depend_on_batching():
 
 def test_the_screen_simulates_a_star_statics_narrowly_breaks_and_it_stands():
     from physics import check_statics
-    from structgen.samples import star_on_five_legs
+    from structgen.domains.structures.samples import star_on_five_legs
 
     star = star_on_five_legs()
     problem = StableStructures(StructuresSettings(evaluator="statics+bullet"))

@@ -32,6 +32,14 @@ def test_mesh_has_one_sphere_per_vertex_and_one_cylinder_per_edge():
 
 
 def test_default_dimensions_match_the_physics_model_standing_on_the_ground():
+    from physics import PhysicsConfig
+
+    bodies, style = PhysicsConfig(), MeshStyle()
+    assert (style.sphere_radius, style.cylinder_radius, style.spacing) == (
+        bodies.sphere_radius,
+        bodies.cylinder_radius,
+        bodies.spacing,
+    )
     bounds = column(2).to_mesh().bounds
     np.testing.assert_allclose(bounds, [[-0.25, -0.25, 0.0], [0.25, 0.25, 1.5]], atol=1e-9)
     lifted = Structure([[0, 0, -3], [0, 0, -2]], [[0, 1]]).to_mesh().bounds

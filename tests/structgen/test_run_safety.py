@@ -67,7 +67,7 @@ def test_a_second_writer_is_refused_while_a_run_is_going(tmp_path, capsys):
             assert process.poll() is None and time.monotonic() < deadline, process.stderr.read().decode()
             time.sleep(0.1)
         code, err = cli(capsys, "resume", run)
-        assert code == 2 and f"another structgen process (pid {process.pid}) is writing this run" in err
+        assert code == 2 and f"another process (pid {process.pid}) is writing this run" in err
         code, err = cli(capsys, "evolve", slow, "--run-dir", run, "--overwrite")
         assert code == 2 and "is writing this run" in err
         assert run.exists() and process.poll() is None

@@ -9,12 +9,12 @@ import json
 import numpy as np
 import pytest
 
-import structgen.tall as tall
+import structgen.domains.structures.tall as tall
 from structgen import NCAConfig, Structure, grow
 from structgen.cli import main
+from structgen.domains.structures.tall import TallDesign, TallSettings, find_tallest, refine
 from structgen.errors import InputError
 from structgen.nca import load_weights
-from structgen.tall import TallDesign, TallSettings, find_tallest, refine
 
 # Small enough to run in seconds; three levels still go through every stage (beam, transient, refinement, teaching).
 SMALL = TallSettings(levels=3, beam=3, candidates=2, max_vertices=100)

@@ -10,9 +10,9 @@ import pytest
 
 from structgen import NCAConfig, Structure, grow
 from structgen.cli import main
+from structgen.domains.structures.samples import by_level_rules, flat_edge, six_level_rule_design
+from structgen.domains.structures.teach import TeachError, growth_schedule, teach
 from structgen.nca import load_weights
-from structgen.samples import by_level_rules, flat_edge, six_level_rule_design
-from structgen.teach import TeachError, growth_schedule, teach
 
 ROOT = Path(__file__).resolve().parents[2]
 

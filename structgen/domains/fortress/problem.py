@@ -24,7 +24,7 @@ import numpy as np
 from evolution.files import atomic_write
 from evolution.problem import Evaluation, Problem
 from structgen.domains.fortress.engine import POPULATION_CAP, Outcome, Rules, simulate
-from structgen.domains.fortress.formats import FortressFile, format_fortress, parse_fortress
+from structgen.domains.fortress.formats import EntityClass, FortressFile, format_fortress, parse_fortress
 from structgen.domains.fortress.world import (
     CHARACTERS,
     Variation,
@@ -113,6 +113,7 @@ class FortressProblem(Problem):
     field_names = ("nodes", "edges", "entities", "ticks", "visited_nodes", "visited_edges")
     plot_fields = ("nodes", "entities")
     objective_floor = 0.0
+    genome_types = (FortressFile, EntityClass)
 
     def __init__(self, settings: FortressSettings = FortressSettings()) -> None:
         self.settings = settings

@@ -230,8 +230,8 @@ def cmd_grow(args: argparse.Namespace) -> int:
         raise InputError(str(err)) from None
     started = time.perf_counter()
     if args.frames or args.gif:
+        from structgen.domains.structures.render import render_growth
         from structgen.nca import grow_steps
-        from structgen.render import render_growth
 
         frames = grow_steps(nca.get_weights(), config)
         structure = frames[-1]
@@ -285,8 +285,8 @@ def _run_nca(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
 
 def cmd_info(args: argparse.Namespace) -> int:
     if Path(args.file).is_dir():  # a run folder, of any domain, or a tall search
+        from structgen.domains.structures.tall import describe_search, is_search_folder, search_summary
         from structgen.runs import describe_run, run_summary
-        from structgen.tall import describe_search, is_search_folder, search_summary
 
         if is_search_folder(args.file):
             summary = search_summary(args.file)
@@ -378,7 +378,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from structgen.render import render_check
+    from structgen.domains.structures.render import render_check
 
     output = Path(args.output)
     if output.suffix.lower() != ".png":
@@ -489,8 +489,8 @@ def _grow_command(weights: Path, config: Any, output: str) -> str:
 
 
 def cmd_teach(args: argparse.Namespace) -> int:
+    from structgen.domains.structures.teach import teach
     from structgen.nca import save_weights
-    from structgen.teach import teach
 
     if args.output.suffix.lower() not in (".npy", ".json"):
         raise InputError(f"{args.output}: weights are written as .npy or .json, not {args.output.suffix or 'no suffix'!r}")
@@ -546,7 +546,7 @@ def _add_teach(subparsers: Any) -> None:
 
 def cmd_tall(args: argparse.Namespace) -> int:
     from physics import PhysicsConfig
-    from structgen.tall import TRANSIENT_WINDOW, TallSettings, find_tallest
+    from structgen.domains.structures.tall import TRANSIENT_WINDOW, TallSettings, find_tallest
 
     settings = TallSettings(
         levels=args.levels, beam=args.beam, candidates=args.candidates, max_vertices=args.max_vertices, refine=args.refine

@@ -44,7 +44,7 @@ from evolution import Evaluation, Problem
 from evolution.files import atomic_write
 from physics import PhysicsConfig, StabilityReport, check_stability, check_transient
 from physics.statics import check_statics_with_loads
-from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population, n_params
+from structgen.nca import INIT_SCALE, LocalNCA, NCAConfig, _split, grow, grow_population, n_params
 from structgen.nca_config import MAX_ITERATIONS
 from structgen.structure import Structure
 
@@ -230,12 +230,16 @@ class StableStructures(Problem):
         w1[:, neuron], b1[neuron], w2[neuron, :] = o1[:, neuron], c1[neuron], o2[neuron, :]
         return child
 
+    def nca(self, genome: Any) -> LocalNCA:
+        """The network a genome stands for, with this problem's NCA settings (``run.problem.nca(run.best_genome())``)."""
+        return LocalNCA(np.asarray(genome, dtype=np.float64), self.settings.nca)
+
     def structure_of(self, genome: Any) -> Structure:
         """The structure a genome grows (the same as during evaluation)."""
         return grow(np.asarray(genome, dtype=np.float64), self.settings.nca)
 
     def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
-        from structgen.render import render_check
+        from structgen.domains.structures.render import render_check
 
         structure = self.structure_of(genome)
         report = self.judge(structure)

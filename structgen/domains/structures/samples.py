@@ -1,0 +1,254 @@
+"""Reference structures: the calibration shapes of the paper's physics, and random lattice growth for test sets.
+
+The calibration shapes pin the physics model (tests/physics): with unit masses and a 52.5 N break force, a
+:func:`column` of 3 vertices stands, a column of 4 breaks, a column of 4 :func:`braced` at its first level stands, and
+a :func:`flat_edge` stands.
+
+:func:`random_growth` makes varied structures of a chosen size, which random NCAs do not (they grow either a lone
+seed or a blob that fills their growth box); benchmarks use it to measure the physics on realistic small and
+medium structures.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+
+import numpy as np
+
+from structgen.lattice import OFFSETS, are_neighbours
+from structgen.structure import Structure
+
+__all__ = [
+    "LEVEL_RULES",
+    "braced",
+    "by_level_rules",
+    "by_level_rules_one_taller",
+    "cantilever",
+    "column",
+    "five_level_pyramid",
+    "flat_edge",
+    "random_growth",
+    "six_level_rule_design",
+    "sparse_pyramid",
+    "star_on_five_legs",
+]
+
+
+def column(n: int) -> Structure:
+    """``n`` vertices stacked straight up from the ground, each joined to the next."""
+    return Structure([[0, 0, z] for z in range(n)], [[z, z + 1] for z in range(n - 1)], {"sample": f"column({n})"})
+
+
+def star_on_five_legs() -> Structure:
+    """A one-step star grown by random generation-0 weights (seed 0): a vertex one level up on five diagonal legs,
+    with three arms. It stands in PyBullet under both presets, while statics loads one leg 12% past the break force
+    (the load can take several paths; the simulation's contacts share it more evenly). The near miss that the
+    statics+bullet screen's margin exists for."""
+    vertices = [[-1, -1, -1], [-1, -1, 1], [-1, 0, -1], [-1, 0, 1], [-1, 1, -1], [-1, 1, 1], [0, 0, 0], [0, 1, -1]]
+    vertices += [[1, 0, -1], [1, 0, 0]]
+    edges = [[k, 6] for k in range(6)] + [[6, 7], [6, 8], [6, 9]]
+    return Structure(vertices, edges, {"sample": "star_on_five_legs()"})
+
+
+def braced(n: int = 4) -> Structure:
+    """A column of ``n`` vertices held at its first level by four diagonal struts from ground vertices."""
+    if n < 2:
+        raise ValueError(f"a braced column needs at least 2 vertices, got {n}")
+    base = column(n)
+    feet = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
+    vertices = [*base.vertices.tolist(), *feet]
+    edges = [*base.edges.tolist(), *[[1, n + k] for k in range(4)]]
+    return Structure(vertices, edges, {"sample": f"braced({n})"})
+
+
+def cantilever(arm: int, n: int = 2) -> Structure:
+    """A braced column of ``n`` vertices with a horizontal arm of ``arm`` vertices sticking out from its top."""
+    base = braced(max(n, 2))
+    vertices = base.vertices.tolist()
+    edges = base.edges.tolist()
+    top = max(n, 2) - 1
+    previous = top
+    for k in range(1, arm + 1):
+        vertices.append([k, 0, top])
+        edges.append([previous, len(vertices) - 1])
+        previous = len(vertices) - 1
+    return Structure(vertices, edges, {"sample": f"cantilever({arm}, {n})"})
+
+
+#: The rules :func:`by_level_rules` takes, one per level. Each letter adds down-neighbours that every vertex of the level
+#: reaches: V straight down, S the four side diagonals, C the four corner diagonals, O outwards (away from the vertical
+#: axis through the top, corners included), o outwards along the sides only. A vertex on the axis has no outward
+#: direction.
+LEVEL_RULES = ("V", "S", "VS", "O", "VO", "SO", "VSO", "C", "VC", "SC", "VSC", "o", "Vo", "So")
+
+
+def _reach(rule: str, x: int, y: int) -> set[tuple[int, int]]:
+    sx, sy = int(np.sign(x)), int(np.sign(y))
+    steps: set[tuple[int, int]] = set()
+    if "V" in rule:
+        steps.add((0, 0))
+    if "S" in rule:
+        steps |= {(1, 0), (-1, 0), (0, 1), (0, -1)}
+    if "C" in rule:
+        steps |= {(1, 1), (1, -1), (-1, 1), (-1, -1)}
+    if "O" in rule:
+        steps |= {(sx, 0), (0, sy), (sx, sy)} - {(0, 0)}
+    if "o" in rule:
+        steps |= {(sx, 0), (0, sy)} - {(0, 0)}
+    return steps
+
+
+def _ties(
+    cells: set[tuple[int, int]], z: int, offsets: tuple[tuple[int, int], ...]
+) -> list[tuple[tuple[int, int, int], tuple[int, int, int]]]:
+    """Edges at height ``z`` between each of ``cells`` and the ones at ``offsets`` from it (each pair once when the
+    offsets hold no two opposite directions)."""
+    return [((x, y, z), (x + dx, y + dy, z)) for x, y in sorted(cells) for dx, dy in offsets if (x + dx, y + dy) in cells]
+
+
+def _from_cell_pairs(edges: list[tuple[tuple[int, int, int], tuple[int, int, int]]], metadata: dict) -> Structure:
+    """The structure whose edges join these pairs of lattice cells, vertices numbered in order of first appearance."""
+    index: dict[tuple[int, int, int], int] = {}
+    for pair in edges:
+        for point in pair:
+            index.setdefault(point, len(index))
+    return Structure(list(index), [[index[a], index[b]] for a, b in edges], metadata)
+
+
+def sparse_pyramid(levels: int) -> Structure:
+    """A sparse pyramid ``levels`` vertices tall, built by one rule per level from a single top vertex: every vertex
+    reaches down along the four side diagonals, and every vertex below the top also outwards (away from the axis,
+    corners included); the two lowest levels are braced by edges between neighbouring vertices, and from five levels
+    on, the vertices inside the outermost ring two levels up carry nothing down, so their load goes round a hollow
+    centre. Five levels is :func:`five_level_pyramid`; taller ones overload their lowest joints (six levels: 53 N by
+    statics, load factors applied, over the 52.5 N limit) and are where ``benchmarks/tall_design.py`` starts its
+    search for designs that stand.
+    """
+    if levels < 2:
+        raise ValueError(f"a pyramid needs at least 2 levels, got {levels}")
+    top = levels - 1
+    level, edges = [(0, 0)], []
+    for z in range(top, 0, -1):
+        below: set[tuple[int, int]] = set()
+        reach = max(max(abs(x), abs(y)) for x, y in level)
+        for x, y in level:
+            if z == 2 and top >= 4 and max(abs(x), abs(y)) < reach - 1:  # the hollow centre
+                continue
+            for dx, dy in sorted(_reach("SO" if z < top else "S", x, y)):
+                below.add((x + dx, y + dy))
+                edges.append(((x, y, z), (x + dx, y + dy, z - 1)))
+        if z <= 2:  # brace the two lowest levels
+            edges += _ties(below, z - 1, ((1, 0), (0, 1), (1, 1), (1, -1)))
+        level = sorted(below)
+    return _from_cell_pairs(edges, {"sample": f"sparse_pyramid({levels})"})
+
+
+def five_level_pyramid() -> Structure:
+    """:func:`sparse_pyramid` five levels tall (79 vertices, 296 edges): it stands under the faithful preset with no
+    joint broken, its largest static joint force 37 N of the 52.5 N limit. Found by a small search over level-by-level
+    rules with the static analysis; taller structures need designing vertex by vertex (``benchmarks/tall_design.py``).
+    """
+    return sparse_pyramid(5).with_metadata(sample="five_level_pyramid()")
+
+
+def by_level_rules(rules: tuple[str, ...] | list[str], tied_levels: int = 0) -> Structure | None:
+    """A structure grown down from one top vertex, one rule per level (top first; letters as in :data:`LEVEL_RULES`):
+    ``len(rules) + 1`` vertices tall, its lowest ``tied_levels`` levels also joined to their side neighbours. None when
+    the rules do not reach the ground (an outward-only rule on the axis reaches nowhere).
+
+    Every vertex of a level does the same thing, the kind of regularity an NCA's shared local rule can express.
+    :mod:`.tall` searches them for the tallest design an NCA can grow that stands (``benchmarks/tall.py --rules``
+    for the tallest that stands at all).
+    """
+    if not rules or any(rule not in LEVEL_RULES for rule in rules):
+        raise ValueError(f"rules must be a non-empty sequence of {', '.join(LEVEL_RULES)}; got {list(rules)!r}")
+    if not isinstance(tied_levels, int) or isinstance(tied_levels, bool) or tied_levels < 0:
+        raise ValueError(f"tied_levels must be a non-negative integer, got {tied_levels!r}")
+    top = len(rules)
+    level, edges = [(0, 0)], []
+    for z, rule in zip(range(top, 0, -1), rules):
+        below: set[tuple[int, int]] = set()
+        for x, y in level:
+            for dx, dy in sorted(_reach(rule, x, y)):
+                below.add((x + dx, y + dy))
+                edges.append(((x, y, z), (x + dx, y + dy, z - 1)))
+        if z <= tied_levels:
+            edges += _ties(below, z - 1, ((1, 0), (0, 1)))
+        level = sorted(below)
+        if not level:
+            return None
+    return _from_cell_pairs(edges, {"sample": f"by_level_rules({list(rules)!r}, tied_levels={tied_levels})"})
+
+
+def by_level_rules_one_taller(
+    prefixes: Iterable[tuple[str, ...]], max_vertices: int
+) -> Iterator[tuple[tuple[str, ...], int, Structure]]:
+    """``(rules, tied_levels, design)`` for every :func:`by_level_rules` design one level taller than one of
+    ``prefixes`` (each rule of :data:`LEVEL_RULES` added below, with 0, 1 or 2 of the lowest levels tied), in that
+    order, each distinct structure once (different rules can give the same one: an axis vertex has no outward
+    direction). Designs that do not reach the ground or have more than ``max_vertices`` vertices are left out. The
+    step of the beam searches in :mod:`.tall` and ``benchmarks/tall.py``."""
+    seen: set[tuple[bytes, bytes]] = set()
+    for rules in prefixes:
+        for rule in LEVEL_RULES:
+            for tied in (0, 1, 2):
+                design = by_level_rules((*rules, rule), tied)
+                if design is None or design.n_vertices > max_vertices:
+                    continue
+                shape = (design.vertices.tobytes(), design.edges.tobytes())
+                if shape not in seen:
+                    seen.add(shape)
+                    yield (*rules, rule), tied, design
+
+
+def six_level_rule_design() -> Structure:
+    """Six vertices tall by one rule per level (153 vertices, 633 edges): straight down from the top, then side and
+    corner diagonals, side diagonals, side and outward diagonals, side and corner diagonals, the lowest level tied.
+    Its largest static joint load is 35.6 N (load factors applied) and its largest force in the first 0.3 s 37.0 N,
+    and it stands under the faithful preset with no joint broken; found by ``benchmarks/tall.py --rules``."""
+    design = by_level_rules(("V", "SC", "S", "SO", "SC"), tied_levels=1)
+    assert design is not None
+    return design.with_metadata(sample="six_level_rule_design()")
+
+
+def flat_edge() -> Structure:
+    """Two vertices side by side on the ground, joined."""
+    return Structure([[0, 0, 0], [1, 0, 0]], [[0, 1]], {"sample": "flat_edge"})
+
+
+def random_growth(n_vertices: int, seed: int, *, extra_edges: float = 0.3, upward: float = 0.2) -> Structure:
+    """A random connected structure of ``n_vertices`` grown from a seed on the ground.
+
+    Each new vertex goes to an empty lattice neighbour of a random existing vertex and is joined to it: one of the 9
+    cells a layer up with probability ``upward``, otherwise one of the 17 cells in the same layer or below (never
+    below the ground). Then every other pair of neighbouring vertices is joined with probability ``extra_edges``.
+    Low ``upward`` gives wide, low structures that mostly stand; high ``upward`` gives towers that mostly fall.
+    The same arguments give the same structure.
+    """
+    if n_vertices < 1:
+        raise ValueError(f"n_vertices must be at least 1, got {n_vertices}")
+    if not 0 <= extra_edges <= 1 or not 0 <= upward <= 1:
+        raise ValueError("extra_edges and upward must be in [0, 1]")
+    rng = np.random.default_rng(seed)
+    cells = [(0, 0, 0)]
+    taken = {cells[0]}
+    edges = []
+    up, other = np.flatnonzero(OFFSETS[:, 2] > 0), np.flatnonzero(OFFSETS[:, 2] <= 0)
+    while len(cells) < n_vertices:
+        parent_index = int(rng.integers(len(cells)))
+        step = OFFSETS[int(rng.choice(up if rng.random() < upward else other))]
+        child = tuple(int(c) for c in np.add(cells[parent_index], step))
+        if child in taken or child[2] < 0:
+            continue
+        taken.add(child)
+        cells.append(child)
+        edges.append((parent_index, len(cells) - 1))
+    points = np.array(cells)
+    joined = {tuple(sorted(e)) for e in edges}
+    i, j = np.triu_indices(len(points), k=1)
+    near = are_neighbours(points[i], points[j])
+    for a, b in zip(i[near].tolist(), j[near].tolist()):
+        if (a, b) not in joined and rng.random() < extra_edges:
+            edges.append((a, b))
+    sample = f"random_growth({n_vertices}, seed={seed}, extra_edges={extra_edges}, upward={upward})"
+    return Structure(points, np.array(edges, dtype=np.int64).reshape(-1, 2), {"sample": sample})
