@@ -34,7 +34,6 @@ import dataclasses
 import math
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 # Run as a script, this file's folder comes first on sys.path, and benchmarks/physics.py would shadow the physics package.
@@ -43,6 +42,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 import cma  # noqa: E402
 import numpy as np  # noqa: E402
 
+from evolution.pool import Lost, WorkerPool  # noqa: E402
 from physics import PhysicsConfig, check_stability, check_transient  # noqa: E402
 from physics.statics import bounding_loads  # noqa: E402
 from structgen.nca import NCAConfig, grow_population, load_weights, save_weights  # noqa: E402
@@ -117,12 +117,13 @@ def main() -> None:
     )
     best = (math.inf, math.nan, start, None, 0)
     began = time.perf_counter()
-    with ProcessPoolExecutor(args.workers) as pool:
+    with WorkerPool(args.workers) as pool:
         for generation in range(1, args.generations + 1):
             asked = strategy.ask()
             structures = grow_population(np.array(asked), growth)
             jobs = [(s.vertices, s.edges, args.levels, args.judge) for s in structures]
-            results = list(pool.map(rate, jobs, chunksize=4))
+            # A structure whose worker died scores as one that fell.
+            results = [(FELL, math.nan) if isinstance(r, Lost) else r for r in pool.map(rate, jobs)]
             scores = [score for score, _ in results]
             strategy.tell(asked, scores)
             i = int(np.argmin(scores))

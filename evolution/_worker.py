@@ -1,9 +1,10 @@
-"""The worker process of :class:`evolution.evaluators.PoolEvaluator`: ``python -m evolution._worker IN OUT PARENT``.
+"""A worker of :class:`evolution.pool.WorkerPool`, started by the pool as ``python -c BOOT MODE PARENT IN OUT PATH...``
+(``PATH...``: the module search path it is given).
 
-It first receives the problem (pickled once by the parent), says ``"ready"``, then answers every ``(task, genomes,
-seeds)`` with ``(task, "ok", evaluation)`` or ``(task, "error", traceback)`` until it reads ``None`` or the pipe
-closes. It is a fresh interpreter (not forked, not multiprocessing's spawn), so it never re-runs the caller's script,
-and it dies with its parent: a parent killed with ``kill -9`` leaves no worker behind.
+It reads messages from the pipe ``IN`` and answers on ``OUT``: ``("job", bytes)`` loads a job (a pickled callable)
+and answers ``"ready"``; ``("task", index, payload)`` answers ``("ok", index, job(payload))``, or ``("error", index,
+traceback)`` if the job raised; ``None`` or a closed pipe ends it. It dies with its parent: a parent killed with
+``kill -9`` leaves no worker behind.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import threading
 import time
 import traceback
 from multiprocessing.connection import Connection
+from typing import Any
 
 
 def die_with_parent(parent: int) -> None:
@@ -40,8 +42,7 @@ def die_with_parent(parent: int) -> None:
 
 
 def serve(reader: Connection, writer: Connection) -> None:
-    problem = pickle.loads(reader.recv_bytes())
-    writer.send("ready")
+    job: Any = None
     while True:
         try:
             message = reader.recv()
@@ -49,18 +50,28 @@ def serve(reader: Connection, writer: Connection) -> None:
             return
         if message is None:
             return
-        task, genomes, seeds = message
+        if message[0] == "job":
+            job = pickle.loads(message[1])
+            writer.send("ready")
+            continue
+        _, index, payload = message
         try:
-            writer.send((task, "ok", problem.evaluate(genomes, seeds)))
-        except Exception:  # the problem's own failure: the parent decides what it means
-            writer.send((task, "error", traceback.format_exc()))
+            result = job(payload)
+        except Exception:  # the job's own failure: the parent decides what it means
+            writer.send(("error", index, traceback.format_exc()))
+            continue
+        writer.send(("ok", index, result))
 
 
 def main(argv: list[str]) -> None:
-    die_with_parent(int(argv[2]))
-    # Ctrl-C is for the parent, which finishes the generation and checkpoints.
+    mode, parent, inbound, outbound = argv
+    die_with_parent(int(parent))
+    # Ctrl-C is the parent's: it finishes or abandons the batch and ends the pool.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    serve(Connection(int(argv[0]), writable=False), Connection(int(argv[1]), readable=False))
+    # Results travel on the pipes; standard output belongs to the parent's results.
+    target = os.open(os.devnull, os.O_WRONLY) if mode == "quiet" else 2
+    os.dup2(target, 1)
+    serve(Connection(int(inbound), writable=False), Connection(int(outbound), readable=False))
 
 
 if __name__ == "__main__":

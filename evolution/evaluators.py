@@ -8,16 +8,11 @@ gives the same results; they differ only in where the work happens.
 from __future__ import annotations
 
 import logging
-import os
-import subprocess
-import sys
-import time
-from collections import deque
-from multiprocessing.connection import Connection, wait
 from typing import Any
 
 import numpy as np
 
+from evolution.pool import Lost, TaskError, WorkerPool
 from evolution.problem import Evaluation, Problem
 
 __all__ = [
@@ -79,165 +74,89 @@ class SerialEvaluator(Evaluator):
         return problem.evaluate(genomes, np.asarray(seeds))
 
 
-class _Worker:
-    """One worker process (``python -m evolution._worker``), the pipes to it, and the task it holds."""
+class _EvaluateSlice:
+    """The job a pool's workers run: evaluate one slice ``(genomes, seeds)`` of a batch with the problem they hold."""
 
-    def __init__(self, problem_bytes: bytes) -> None:
-        to_child_read, to_child_write = os.pipe()
-        from_child_read, from_child_write = os.pipe()
-        # One core per worker: libraries must not start a thread per core in every worker.
-        threads = {name: "1" for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
-        self.process = subprocess.Popen(
-            [sys.executable, "-m", "evolution._worker", str(to_child_read), str(from_child_write), str(os.getpid())],
-            pass_fds=(to_child_read, from_child_write),
-            stdin=subprocess.DEVNULL,
-            env={**os.environ, **threads},
-        )
-        os.close(to_child_read)
-        os.close(from_child_write)
-        self.sender = Connection(to_child_write, readable=False)
-        self.receiver = Connection(from_child_read, writable=False)
-        self.sender.send_bytes(problem_bytes)
-        self.task: int | None = None
-        self.started = 0.0
-        self.ready = False  # set when the worker has loaded the problem
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
 
-    def give(self, task: int, genomes: Any, seeds: np.ndarray) -> None:
-        self.task, self.started = task, time.monotonic()  # a worker still starting restarts the clock when ready
-        self.sender.send((task, genomes, seeds))
-
-    def stop(self, *, kill: bool = False) -> None:
-        if not kill:
-            try:
-                self.sender.send(None)
-                self.process.wait(timeout=5)
-            except (OSError, subprocess.TimeoutExpired):
-                kill = True
-        if kill:
-            self.process.kill()
-            self.process.wait()
-        self.sender.close()
-        self.receiver.close()
+    def __call__(self, payload: tuple[Any, np.ndarray]) -> Evaluation:
+        return self.problem.evaluate(*payload)
 
 
 class PoolEvaluator(Evaluator):
-    """``workers`` local processes; each batch is cut into ``slices_per_worker * workers`` slices so that uneven
-    evaluation costs even out.
+    """``workers`` local processes (:class:`evolution.pool.WorkerPool`); each batch is cut into
+    ``slices_per_worker * workers`` slices so that uneven evaluation costs even out.
 
-    - The problem goes to each worker once, when the pool starts for it (pickled with cloudpickle, so a problem
-      defined in the script that runs evolution works too); after that only genomes and seeds travel. Evaluating a
-      different problem object starts fresh workers.
+    - The problem goes to each worker once; after that only genomes and seeds travel.
     - A worker that dies, or holds one slice longer than ``timeout`` seconds per candidate (None: no limit), is
       replaced and costs only what it held: each candidate of the slice is tried again alone, and a candidate whose
       second try fails too gets the problem's :meth:`~evolution.Problem.failed_evaluation`, flagged in
       ``Evaluation.failed``. The batch always completes.
     - An exception raised by the problem itself is a bug, not bad luck: it ends the batch with an EvaluationError
       carrying the worker's traceback.
-    - Workers are fresh interpreters (``python -m evolution._worker``) on pipes, so they never re-run the caller's
-      script, and they die with the process that started them.
     """
 
     def __init__(self, workers: int, *, slices_per_worker: int = 4, timeout: float | None = None) -> None:
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
-        if timeout is not None and not timeout > 0:
-            raise ValueError(f"timeout must be positive, got {timeout}")
+        self.pool = WorkerPool(workers, timeout=timeout)
         self.workers, self.slices_per_worker, self.timeout = workers, slices_per_worker, timeout
-        self._pool: list[_Worker] = []
-        self._problem: Problem | None = None
-        self._problem_bytes = b""
+        self._job: _EvaluateSlice | None = None
 
     @property
     def pids(self) -> list[int]:
         """Process ids of the running workers."""
-        return [worker.process.pid for worker in self._pool]
-
-    def _start(self, problem: Problem) -> None:
-        if problem is not self._problem:
-            import cloudpickle
-
-            self.close()
-            self._problem, self._problem_bytes = problem, cloudpickle.dumps(problem)
-        while len(self._pool) < self.workers:
-            self._pool.append(_Worker(self._problem_bytes))
+        return self.pool.pids
 
     def evaluate(self, problem: Problem, genomes: Any, seeds: np.ndarray) -> Evaluation:
         seeds = np.asarray(seeds)
-        self._start(problem)
-        # A task is a slice of the batch and how many times it was tried; a slice that failed once comes back as
-        # single candidates, so that one candidate that kills its worker does not take its neighbours with it.
-        tasks: list[tuple[slice, int]] = [(part, 0) for part in _slices(len(seeds), self.workers * self.slices_per_worker)]
-        results: dict[int, Evaluation] = {}
-        queue = deque(range(len(tasks)))
-        busy: dict[Connection, _Worker] = {}
-        try:
-            while queue or busy:
-                failed = []
-                for worker in self._pool:
-                    if queue and worker.task is None:
-                        task = queue.popleft()
-                        part = tasks[task][0]
-                        busy[worker.receiver] = worker
-                        try:
-                            worker.give(task, _take(genomes, part), seeds[part])
-                        except OSError:  # it died while idle
-                            failed.append((worker, f"the worker died (exit code {worker.process.wait()})"))
-                failed += self._collect(busy, tasks, results, problem)
-                for worker, reason in failed:
-                    task = worker.task
-                    del busy[worker.receiver]
-                    worker.stop(kill=True)
-                    self._pool[self._pool.index(worker)] = _Worker(self._problem_bytes)
-                    part, tries = tasks[task]
-                    log.warning("candidates %d to %d: %s", part.start, part.stop - 1, reason)
-                    if tries == 0:  # try each candidate again, alone
-                        for k in range(part.start, part.stop):
-                            tasks.append((slice(k, k + 1), 1))
-                            queue.appendleft(len(tasks) - 1)
-                    else:
-                        results[task] = problem.failed_evaluation(part.stop - part.start)
-        except BaseException:
-            self.close()  # a worker may be mid-task; do not leave it running
-            raise
-        # The results cover the batch once: slices that succeeded, and single candidates where a slice failed.
-        return Evaluation.concatenate([results[task] for task in sorted(results, key=lambda t: tasks[t][0].start)])
+        if self._job is None or self._job.problem is not problem:
+            self._job = _EvaluateSlice(problem)
+        parts = _slices(len(seeds), self.workers * self.slices_per_worker)
+        results = self._run(problem, genomes, seeds, parts)
+        # A slice lost with its worker comes back as single candidates, so that one candidate that kills its worker
+        # does not take its neighbours with it; a candidate lost twice is scored as failed.
+        singles = [
+            slice(k, k + 1)
+            for part, result in zip(parts, results)
+            if isinstance(result, Lost)
+            for k in range(part.start, part.stop)
+        ]
+        retried = dict(zip((s.start for s in singles), self._run(problem, genomes, seeds, singles)))
+        pieces: list[Evaluation] = []
+        for part, result in zip(parts, results):
+            if not isinstance(result, Lost):
+                pieces.append(result)
+                continue
+            for k in range(part.start, part.stop):
+                again = retried[k]
+                pieces.append(problem.failed_evaluation(1) if isinstance(again, Lost) else again)
+        return Evaluation.concatenate(pieces)
 
-    def _collect(
-        self, busy: dict[Connection, _Worker], tasks: list, results: dict[int, Evaluation], problem: Problem
-    ) -> list[tuple[_Worker, str]]:
-        """Wait for results, deaths or time-outs; record results and return the workers that failed, with why."""
-        timed = [w for w in busy.values() if w.ready and w.task is not None] if self.timeout else []
-        limit = {w: self.timeout * (tasks[w.task][0].stop - tasks[w.task][0].start) for w in timed}
-        wait_for = max(0.0, min(w.started + limit[w] for w in timed) - time.monotonic()) if timed else None
-        failed: list[tuple[_Worker, str]] = []
-        for connection in wait(list(busy), timeout=wait_for):
-            worker = busy[connection]
-            try:
-                message = connection.recv()
-            except (EOFError, OSError):
-                failed.append((worker, f"the worker died (exit code {worker.process.wait()})"))
-                continue
-            if message == "ready":
-                worker.ready, worker.started = True, time.monotonic()
-                continue
-            task, status, payload = message
-            if status == "error":
-                part = tasks[task][0]
-                raise EvaluationError(f"{problem.name} failed on candidates {part.start} to {part.stop - 1}:\n{payload}")
-            results[task] = payload
-            worker.task = None
-            del busy[connection]
-        now = time.monotonic()
-        for worker in timed:
-            if worker.receiver in busy and worker.task is not None and now - worker.started >= limit[worker]:
-                if all(worker is not w for w, _ in failed):
-                    failed.append((worker, f"timed out after {limit[worker]:g} s"))
-        return failed
+    def _run(self, problem: Problem, genomes: Any, seeds: np.ndarray, parts: list[slice]) -> list[Any]:
+        if not parts:
+            return []
+        assert self._job is not None
+        try:
+            results = self.pool.map(
+                self._job,
+                [(_take(genomes, part), seeds[part]) for part in parts],
+                weights=[part.stop - part.start for part in parts],
+            )
+        except TaskError as err:
+            part = parts[err.index]
+            raise EvaluationError(
+                f"{problem.name} failed on candidates {part.start} to {part.stop - 1}:\n{err.details}"
+            ) from None
+        for part, result in zip(parts, results):
+            if isinstance(result, Lost):
+                log.warning("candidates %d to %d: %s", part.start, part.stop - 1, result.reason)
+        return results
 
     def close(self) -> None:
-        for worker in self._pool:
-            worker.stop()
-        self._pool, self._problem = [], None
+        self.pool.close()
+        self._job = None
 
 
 class DaskEvaluator(Evaluator):

@@ -90,8 +90,12 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 
 def cmd_resume(args: argparse.Namespace) -> int:
     from evolution import graceful_interrupt
-    from structgen.runs import resume
+    from structgen.runs import other_run_kind, resume
 
+    other = other_run_kind(args.run_dir)
+    if other is not None:  # a domain's own kind of run (a search): the domain resumes it
+        domain, kind = other
+        return _hooks(domains.spec(domain), Path(args.run_dir)).resume_run(kind, Path(args.run_dir), args)
     with graceful_interrupt() as stop:
         folder, state = resume(
             args.run_dir, generations=args.generations, workers=args.workers, cluster=args.cluster, stop_requested=stop
@@ -262,7 +266,8 @@ def _add_resume(commands: Any) -> None:
         "resume",
         help="continue a run from its last checkpoint",
         description="Continue the run in RUN_DIR from its last checkpoint, reading only its config.toml; the result "
-        "is the same as if it had never stopped.",
+        "is the same as if it had never stopped. A domain's own kind of run (a tall search) is continued by its "
+        "domain, with the settings it was started with.",
     )
     resume.add_argument("run_dir", metavar="RUN_DIR", help="run folder")
     resume.add_argument(

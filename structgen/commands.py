@@ -112,6 +112,12 @@ class DomainCommands:
         for name in verbs_wanted(self.adders, only):
             self.adders[name](subparsers)
 
+    def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
+        """``structgen resume`` on a run folder of the domain that is not an evolution run: a search of its own, whose
+        manifest names its ``run_kind``. ``args`` holds resume's options (``workers``, ``generations``,
+        ``cluster``); returns the exit code."""
+        raise InputError(f"{run_dir}: a {kind!r} run, which this domain cannot resume")
+
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         """Options for exporting this domain's files and elites; they appear in ``structgen export --help``, so
         give them names no other domain is likely to use."""

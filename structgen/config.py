@@ -39,6 +39,7 @@ __all__ = [
     "ConfigError",
     "apply_overrides",
     "build",
+    "flatten",
     "parse_assignment",
     "parse_value",
     "presets_of",
@@ -265,6 +266,14 @@ def to_table(settings: Any) -> dict[str, Any]:
         if value is not None:
             table[item.name] = value
     return table
+
+
+def flatten(table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Every value of nested tables under its dotted path: ``{"nca": {"cutoff": 0.6}}`` -> ``{"nca.cutoff": 0.6}``."""
+    found: dict[str, Any] = {}
+    for key, value in table.items():
+        found.update(flatten(value, f"{prefix}{key}.") if isinstance(value, Mapping) else {prefix + key: value})
+    return found
 
 
 def _plain(value: Any) -> Any:

@@ -24,7 +24,11 @@ from structgen.budget import check_memory
 __all__ = ["ConvNCA", "parameter_count"]
 
 
-def parameter_count(tiles: int, hidden: int = 32) -> int:
+#: Hidden channels of the paper's generators.
+HIDDEN = 32
+
+
+def parameter_count(tiles: int, hidden: int = HIDDEN) -> int:
     """How many numbers a genome of a ``tiles``-channel NCA has."""
     return hidden * tiles * 9 + hidden + hidden * hidden + hidden + tiles * hidden + tiles
 
@@ -34,7 +38,7 @@ class ConvNCA:
     """The network's shape: ``tiles`` channels in and out, ``hidden`` channels between."""
 
     tiles: int
-    hidden: int = 32
+    hidden: int = HIDDEN
 
     def __post_init__(self) -> None:
         for name in ("tiles", "hidden"):

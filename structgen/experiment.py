@@ -31,7 +31,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["Experiment", "load_experiment", "main_job_tables"]
+__all__ = ["Experiment", "load_experiment", "main_job_tables", "parse_toml"]
 
 TABLES = ("run", "problem", "optimizer")
 
@@ -109,12 +109,17 @@ def _read_file(path: str | os.PathLike) -> dict[str, Any]:
         text = read_text(path, MAX_CONFIG_BYTES, what="TOML")
     except InputFileError as err:
         raise ConfigError(str(err)) from None
+    return parse_toml(text, path)
+
+
+def parse_toml(text: str, source: str | os.PathLike) -> dict[str, Any]:
+    """The tables of a configuration's text; ``source`` names it in the error when it is not TOML."""
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"{path}: not valid TOML ({err})") from None
+        raise ConfigError(f"{source}: not valid TOML ({err})") from None
     except RecursionError:
-        raise ConfigError(f"{path}: not valid TOML (nested too deeply)") from None
+        raise ConfigError(f"{source}: not valid TOML (nested too deeply)") from None
 
 
 def _table(tables: Mapping[str, Any], name: str, source: str) -> dict[str, Any]:
@@ -125,10 +130,13 @@ def _table(tables: Mapping[str, Any], name: str, source: str) -> dict[str, Any]:
 
 
 def _name(table: dict[str, Any], default: str, where: str) -> str:
-    name = table.pop("name", default)
+    name = table.get("name", default)
     if not isinstance(name, str):
         raise ConfigError(f"{where}.name = {name!r}: expected a string")
     return name
+
+
+NAMES = ("problem.name", "optimizer.name")
 
 
 def load_experiment(
@@ -145,14 +153,50 @@ def load_experiment(
     ``optimizer`` set ``problem.name`` and ``optimizer.name``; ``overrides`` are ``--set`` assignments (texts or
     ``(key, value)`` pairs, keys as in :func:`structgen.config.resolve_key`); ``run_changes`` set ``[run]``
     settings (None values are ignored). Raises ConfigError naming the file and key at fault.
+
+    In order: the tables are read (:func:`_source_tables`); the names choose the domain and the optimiser, whose
+    settings classes the other keys are resolved against (:func:`_choose`); the assignments are written into the
+    tables; the three settings objects are built from them, an error naming where its value came from.
     """
     source = f"{path}: " if path else ""
     assignments = [parse_assignment(item) if isinstance(item, str) else item for item in overrides]
-    named = dict(assignments)
-    chosen_domain = domain or named.get("problem.name")
+    changes = [(f"run.{key}", value) for key, value in (run_changes or {}).items() if value is not None]
+    tables = _source_tables(path, domain or dict(assignments).get("problem.name"), source)
+    if path is not None and domain is not None:
+        _check_domain(tables, domain, source)
+    names = [(name, value) for name, value in zip(NAMES, (domain, optimizer)) if value is not None]
+    spec, optimizer_name = _choose(tables, [*names, *((k, v) for k, v in assignments if k in NAMES)], source)
+    settings_type, optimizer_type = spec.settings_type(), OPTIMIZERS[optimizer_name].settings
+    paths = [
+        *TABLES,
+        *NAMES,
+        *setting_paths(RunSettings, "run."),
+        *setting_paths(settings_type, "problem."),
+        *setting_paths(optimizer_type, "optimizer."),
+    ]
+    given = [(resolve_key(key, paths, TABLES), value) for key, value in assignments if key not in NAMES] + changes
+    for key, value in given:
+        set_path(tables, key, value)
+    tables = {name: _table(tables, name, source) for name in TABLES}  # a --set may have put a value there
+    if path is None:  # the main job's size for the chosen optimiser, under whatever was set explicitly
+        sizes = spec.main_job.optimizers.get(optimizer_name, {})
+        tables["optimizer"] = {**copy.deepcopy(dict(sizes)), **tables["optimizer"]}
+    for name in ("problem", "optimizer"):
+        tables[name].pop("name", None)
+    try:
+        run = build(RunSettings, tables["run"], "run")
+        problem_settings = build(settings_type, tables["problem"], "problem")
+        optimizer_settings = build(optimizer_type, tables["optimizer"], "optimizer")
+    except ConfigError as err:
+        raise _attributed(err, path, [key for key, _ in given]) from None
+    return Experiment(run, spec.id, problem_settings, optimizer_name, optimizer_settings)
+
+
+def _source_tables(path: str | os.PathLike | None, domain: str | None, source: str) -> dict[str, Any]:
+    """The tables of the configuration file, or of the main job of ``domain`` when there is no file."""
     if path is None:
         try:
-            tables = main_job_tables(chosen_domain or domains.DEFAULT_DOMAIN)
+            tables = main_job_tables(domain or domains.DEFAULT_DOMAIN)
         except domains.UnknownDomainError as err:
             raise ConfigError(str(err)) from None
     else:
@@ -160,64 +204,32 @@ def load_experiment(
     unknown = sorted(set(tables) - set(TABLES))
     if unknown:
         raise ConfigError(f"{source}unknown table [{unknown[0]}]; a configuration has [run], [problem] and [optimizer]")
-    if path is not None and domain is not None:
-        named_in_file = _table(tables, "problem", source).get("name", domains.DEFAULT_DOMAIN)
-        try:
-            same = domains.spec(str(named_in_file)).id == domains.spec(domain).id
-        except domains.UnknownDomainError:
-            same = False
-        if not same:
-            raise ConfigError(f"{source}a configuration of the {named_in_file} domain, not of {domain}")
-    for name, value in (("problem.name", domain), ("optimizer.name", optimizer)):
-        if value is not None:
-            set_path(tables, name, value)
+    return tables
 
-    # The names choose the settings classes, which the other keys are resolved against.
-    for key, value in assignments:
-        if key in ("problem.name", "optimizer.name"):
-            set_path(tables, key, value)
-    problem_table = _table(tables, "problem", source)
-    optimizer_table = _table(tables, "optimizer", source)
+
+def _check_domain(tables: dict[str, Any], domain: str, source: str) -> None:
+    """A file run as a domain's (``structgen <group> evolve FILE``) must be that domain's configuration."""
+    named_in_file = _table(tables, "problem", source).get("name", domains.DEFAULT_DOMAIN)
     try:
-        spec = domains.spec(_name(problem_table, domains.DEFAULT_DOMAIN, "problem"))
+        same = domains.spec(str(named_in_file)).id == domains.spec(domain).id
+    except domains.UnknownDomainError:
+        same = False
+    if not same:
+        raise ConfigError(f"{source}a configuration of the {named_in_file} domain, not of {domain}")
+
+
+def _choose(tables: dict[str, Any], names: list[tuple[str, Any]], source: str) -> tuple[domains.DomainSpec, str]:
+    """The domain and the optimiser, with the names given (options, then ``--set``) written into ``tables``."""
+    for key, value in names:
+        set_path(tables, key, value)
+    try:
+        spec = domains.spec(_name(_table(tables, "problem", source), domains.DEFAULT_DOMAIN, "problem"))
     except domains.UnknownDomainError as err:
         raise ConfigError(f"{source}problem.name: {err}") from None
-    optimizer_name = _name(optimizer_table, DEFAULT_OPTIMIZER, "optimizer")
+    optimizer_name = _name(_table(tables, "optimizer", source), DEFAULT_OPTIMIZER, "optimizer")
     if optimizer_name not in OPTIMIZERS:
         raise ConfigError(f"{source}unknown optimizer.name {optimizer_name!r}; choose one of {', '.join(OPTIMIZERS)}")
-    settings_type = spec.settings_type()
-    optimizer_type = OPTIMIZERS[optimizer_name].settings
-    paths = [
-        *TABLES,
-        "problem.name",
-        "optimizer.name",
-        *setting_paths(RunSettings, "run."),
-        *setting_paths(settings_type, "problem."),
-        *setting_paths(optimizer_type, "optimizer."),
-    ]
-    tables = {"run": _table(tables, "run", source), "problem": problem_table, "optimizer": optimizer_table}
-    for key, value in assignments:
-        if key not in ("problem.name", "optimizer.name"):
-            set_path(tables, resolve_key(key, paths, TABLES), value)
-    for key, value in (run_changes or {}).items():
-        if value is not None:
-            set_path(tables, f"run.{key}", value)
-    tables = {name: _table(tables, name, source) for name in TABLES}  # a --set may have put a value there
-    if path is None:  # the main job's size for the chosen optimiser, under whatever was set explicitly
-        sizes = spec.main_job.optimizers.get(optimizer_name, {})
-        tables["optimizer"] = {**copy.deepcopy(dict(sizes)), **tables["optimizer"]}
-    tables["problem"].pop("name", None)
-    tables["optimizer"].pop("name", None)
-
-    given = [resolve_key(key, paths, TABLES) for key, _ in assignments if key not in ("problem.name", "optimizer.name")]
-    given += [f"run.{key}" for key, value in (run_changes or {}).items() if value is not None]
-    try:
-        run = build(RunSettings, _table(tables, "run", source), "run")
-        problem_settings = build(settings_type, _table(tables, "problem", source), "problem")
-        optimizer_settings = build(optimizer_type, _table(tables, "optimizer", source), "optimizer")
-    except ConfigError as err:
-        raise _attributed(err, path, given) from None
-    return Experiment(run, spec.id, problem_settings, optimizer_name, optimizer_settings)
+    return spec, optimizer_name
 
 
 def _attributed(err: ConfigError, path: str | os.PathLike | None, given: list[str]) -> ConfigError:

@@ -21,7 +21,7 @@ import datetime as _dt
 import hashlib
 import logging
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -32,10 +32,22 @@ from evolution import Archive, Problem, RunFolder, RunFolderError, RunState, adv
 from evolution.files import MAX_WEIGHTS_BYTES, atomic_write, read_bytes
 from evolution.optimizers import START_WORDS
 from structgen import __version__
-from structgen.config import ConfigError
+from structgen.config import ConfigError, flatten
 from structgen.experiment import Experiment, load_experiment
 
-__all__ = ["Run", "default_run_dir", "elite_genome", "evolve", "load_run", "open_run", "resume", "run_summary", "summary_of"]
+__all__ = [
+    "Run",
+    "default_run_dir",
+    "elite_genome",
+    "evolve",
+    "load_run",
+    "manifest",
+    "open_run",
+    "other_run_kind",
+    "resume",
+    "run_summary",
+    "summary_of",
+]
 
 log = logging.getLogger(__name__)
 #: Libraries every run's manifest records; a domain adds its own (DomainSpec.libraries).
@@ -54,10 +66,6 @@ def default_run_dir(experiment: Experiment) -> Path:
     return path
 
 
-def _libraries(experiment: Experiment) -> list[str]:
-    return list(dict.fromkeys([*LIBRARIES, *experiment.spec.libraries]))
-
-
 def _start_file(experiment: Experiment) -> tuple[str, bytes] | None:
     """(name of its copy in the run folder, contents) of the genome file the optimiser starts from, if it names one
     (``optimizer.x0``): the run keeps its own copy, so its start is known after the file moves or changes."""
@@ -67,22 +75,30 @@ def _start_file(experiment: Experiment) -> tuple[str, bytes] | None:
     return "x0" + Path(x0).suffix.lower(), read_bytes(x0, MAX_WEIGHTS_BYTES)
 
 
-def _manifest(experiment: Experiment, start: tuple[str, bytes] | None) -> dict[str, Any]:
-    manifest = {
+def manifest(domain: str, libraries: Iterable[str], **extra: Any) -> dict[str, Any]:
+    """What every run folder's ``manifest.json`` records: structgen's version, the domain, when and how the run was
+    started, and the versions of the engine's libraries and of ``libraries``; ``extra`` adds to it (a search's
+    ``run_kind``)."""
+    return {
         "schema": 1,
         "structgen": __version__,
-        "domain": experiment.domain,
+        "domain": domain,
         "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
         "argv": sys.argv,
-        "versions": library_versions(_libraries(experiment)),
+        "versions": library_versions(list(dict.fromkeys([*LIBRARIES, *libraries]))),
+        **extra,
     }
+
+
+def _manifest(experiment: Experiment, start: tuple[str, bytes] | None) -> dict[str, Any]:
+    extra = {}
     if start is not None:
-        manifest["x0"] = {
+        extra["x0"] = {
             "source": experiment.optimizer_settings.x0,
             "copy": start[0],
             "sha256": hashlib.sha256(start[1]).hexdigest(),
         }
-    return manifest
+    return manifest(experiment.domain, experiment.spec.libraries, **extra)
 
 
 def _advance(folder: RunFolder, experiment: Experiment, problem: Problem, state: RunState, **options: Any) -> RunState:
@@ -124,8 +140,27 @@ def evolve(
         problem.close()
 
 
+def other_run_kind(run_dir: str | Path) -> tuple[str, str] | None:
+    """``(domain, kind)`` of a run folder that a domain wrote for a run of its own kind (a search, whose manifest
+    names its ``run_kind``); None for an evolution run."""
+    folder = RunFolder.open(run_dir)
+    kind = folder.manifest().get("run_kind")
+    if kind is None:
+        return None
+    domain = folder.manifest().get("domain")
+    if not isinstance(kind, str) or not isinstance(domain, str):
+        raise RunFolderError(f"{folder / RunFolder.MANIFEST}: run_kind {kind!r} of domain {domain!r} is not a run kind")
+    return domain, kind
+
+
 def open_run(run_dir: str | Path) -> tuple[RunFolder, Experiment]:
-    """A run folder and its configuration, checked (nothing is built)."""
+    """An evolution run's folder and its configuration, checked (nothing is built)."""
+    other = other_run_kind(run_dir)
+    if other is not None:
+        raise RunFolderError(
+            f"{run_dir}: a {other[1]} run of the {other[0]} domain, not an evolution run (structgen info {run_dir} "
+            "says what it holds)"
+        )
     folder = RunFolder.open(run_dir)
     try:
         experiment = load_experiment(folder / RunFolder.CONFIG)
@@ -190,13 +225,6 @@ EDITABLE = (
 )
 
 
-def _leaves(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    found: dict[str, Any] = {}
-    for key, value in table.items():
-        found.update(_leaves(value, f"{prefix}{key}.") if isinstance(value, dict) else {prefix + key: value})
-    return found
-
-
 def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> Experiment:
     """The configuration to resume with: config.toml, if it differs from what the run recorded only in settings
     that cannot change results (applied, and recorded); otherwise an error naming each changed setting."""
@@ -205,7 +233,7 @@ def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> Ex
     if recorded is None:  # a checkpoint from before runs recorded their configuration: the file is all there is
         state.extra["config"] = current
         return experiment
-    before, after = _leaves(recorded), _leaves(current)
+    before, after = flatten(recorded), flatten(current)
     # Settings only one side knows were added or removed by another version of structgen, not by an edit.
     changed = sorted(key for key in before.keys() & after.keys() if before[key] != after[key])
     fixed = [key for key in changed if key not in EDITABLE]

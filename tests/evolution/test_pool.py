@@ -17,6 +17,7 @@ import pytest
 
 from evolution import EvaluationError, PoolEvaluator, RunFolder, RunSettings, RunState, SerialEvaluator, advance, make_optimizer
 from evolution.optimizers import GASettings
+from evolution.pool import TaskError, WorkerPool
 from evolution.toys import Sphere, SphereSettings
 
 
@@ -138,3 +139,43 @@ def test_a_problem_from_the_running_script_works_and_workers_die_with_their_pare
     while any(alive(pid) for pid in workers) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert not any(alive(pid) for pid in workers)
+
+
+def test_one_pool_runs_any_job_in_input_order_and_swaps_jobs_without_restarting_its_workers():
+    with WorkerPool(2) as pool:
+        assert pool.map(abs, [-3, 1, -2, 5, -8]) == [3, 1, 2, 5, 8]
+        pids = pool.pids
+        assert pool.map(str, range(4)) == ["0", "1", "2", "3"]
+        assert pool.pids == pids
+        with pytest.raises(TaskError, match="(?s)payload 1 failed.*ZeroDivisionError") as caught:
+            pool.map(lambda x: 1 / x, [1, 0, 2])
+        assert caught.value.index == 1
+        assert pool.map(len, ["ab", ""]) == [2, 0]  # a fresh pool after the error
+    assert WorkerPool(0).map(abs, [-1, -2]) == [1, 2]
+
+
+SHADOWS = """
+import pathlib
+pathlib.Path({marker!r}).write_text("imported from the folder the process runs in")
+"""
+
+
+def test_workers_never_import_from_the_folder_they_run_in(tmp_path):
+    # A run folder holding signal.py or numbers.py (standard modules a worker imports) must not run them: workers get
+    # the parent's module search path, not their working folder.
+    for name in ("signal", "numbers", "json", "pickle"):
+        (tmp_path / f"{name}.py").write_text(SHADOWS.format(marker=str(tmp_path / f"{name}.imported")))
+    code = "from evolution.pool import WorkerPool\nwith WorkerPool(2) as pool: print(pool.map(abs, [-1, -2, 3]))"
+    # -I keeps the parent itself from the folder too (it would import them anyway, before any worker did).
+    done = subprocess.run([sys.executable, "-I", "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[1, 2, 3]"
+    assert sorted(p.name for p in tmp_path.glob("*.imported")) == []
+
+
+def test_what_a_worker_prints_goes_to_standard_error_not_to_the_parents_results(tmp_path):
+    code = (
+        "from evolution.pool import WorkerPool\nwith WorkerPool(1) as pool: pool.map(print, ['from a worker'])\nprint('result')"
+    )
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and done.stdout == "result\n" and "from a worker" in done.stderr

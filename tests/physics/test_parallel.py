@@ -76,7 +76,7 @@ def test_a_worker_that_dies_fails_only_its_structure():
         assert not runner.is_alive()
         assert victim not in pool.pids  # replaced
     killed, *others = result
-    assert killed.error == "worker process died (exit code -9)" and killed.integrity == 0.0
+    assert killed.error == "the worker died (exit code -9)" and killed.integrity == 0.0
     assert all(r.error is None and r.intact for r in others)
 
 

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 import structgen.domains.structures.tall as tall
+from evolution import RunFolderError
+from physics import PhysicsConfig
 from structgen import NCAConfig, Structure, grow
 from structgen.cli import main
 from structgen.domains.structures.tall import TallDesign, TallSettings, find_tallest, refine
@@ -18,7 +21,8 @@ from structgen.nca import load_weights
 
 # Small enough to run in seconds; three levels still go through every stage (beam, transient, refinement, teaching).
 SMALL = TallSettings(levels=3, beam=3, candidates=2, max_vertices=100)
-SMALL_OPTIONS = ["--levels", "3", "--beam", "3", "--candidates", "2", "--max-vertices", "100", "--workers", "1"]
+SMALL_OPTIONS = ["--levels", "3", "--beam", "3", "--candidates", "2", "--max-vertices", "100", "--workers", "0"]
+BREAK_FORCE = PhysicsConfig().break_force
 
 
 def shape(structure: Structure) -> tuple[set, set]:
@@ -31,7 +35,7 @@ def shape(structure: Structure) -> tuple[set, set]:
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("tall") / "run"
-    return run_dir, find_tallest(SMALL, run_dir)
+    return run_dir, find_tallest(SMALL, run_dir, workers=0)
 
 
 def test_every_height_is_a_design_the_taught_weights_grow_exactly(small_run):
@@ -39,7 +43,7 @@ def test_every_height_is_a_design_the_taught_weights_grow_exactly(small_run):
     assert sorted(result.designs) == [2, 3] and result.tallest == 3
     for levels, design in result.designs.items():
         assert design.structure.height == levels - 1
-        assert design.peak < tall.PHYSICS.break_force  # these small towers hold in the transient
+        assert design.peak < BREAK_FORCE  # these small towers hold in the transient
         taught = result.taught[levels]
         grown = grow(load_weights(run_dir / f"tall_{levels}.npy"), NCAConfig(max_extent=levels - 1, iterations=30))
         assert grown.metadata["growth"]["reached_fixed_point"]
@@ -78,11 +82,11 @@ def test_an_interrupted_search_resumes_after_its_last_height_to_the_same_answer(
     monkeypatch.setattr(tall, "_one_height", stop_at_the_third_level)
     run_dir = tmp_path / "run"
     with pytest.raises(KeyboardInterrupt):
-        find_tallest(SMALL, run_dir)
-    assert json.loads((run_dir / "search.json").read_text())["levels_done"] == 2
+        find_tallest(SMALL, run_dir, workers=0)
+    assert json.loads((run_dir / "checkpoint.json").read_text())["levels_done"] == 2
     assert not (run_dir / "designs.csv").exists()
     lines = []
-    resumed = find_tallest(SMALL, run_dir, log=lines.append)
+    resumed = find_tallest(SMALL, run_dir, workers=0, log=lines.append)
     assert len(calls) == 3  # only the third level was searched again
     assert lines[0] == f"{run_dir}: resuming after 2 of 3 levels (1 heights found so far)"
     assert resumed.designs == uninterrupted.designs
@@ -91,7 +95,7 @@ def test_an_interrupted_search_resumes_after_its_last_height_to_the_same_answer(
 def test_a_search_asked_for_more_levels_goes_on_from_its_folder_to_the_answer_of_a_new_search(small_run, tmp_path, monkeypatch):
     _, fresh = small_run
     run_dir = tmp_path / "run"
-    find_tallest(TallSettings(levels=2, beam=3, candidates=2, max_vertices=100), run_dir)
+    find_tallest(TallSettings(levels=2, beam=3, candidates=2, max_vertices=100), run_dir, workers=0)
     refine = tall.refine
 
     def stop(*args):
@@ -99,18 +103,18 @@ def test_a_search_asked_for_more_levels_goes_on_from_its_folder_to_the_answer_of
 
     monkeypatch.setattr(tall, "refine", stop)
     with pytest.raises(KeyboardInterrupt):  # stopped after the new height, before its refinement
-        find_tallest(SMALL, run_dir)
-    saved = json.loads((run_dir / "search.json").read_text())
+        find_tallest(SMALL, run_dir, workers=0)
+    saved = json.loads((run_dir / "checkpoint.json").read_text())
     assert saved["levels_done"] == 3 and saved["refined"] == [2] and not saved["complete"]
     monkeypatch.setattr(tall, "refine", refine)
     lines = []
-    taller = find_tallest(SMALL, run_dir, log=lines.append)
+    taller = find_tallest(SMALL, run_dir, workers=0, log=lines.append)
     assert lines[0] == f"{run_dir}: resuming after 3 of 3 levels (2 heights found so far)"
     assert [line.split(" (")[0] for line in lines[1:]] == ["refined the 3-level design"]  # the 2-level one is kept
     assert taller.designs == fresh.designs
-    assert json.loads((run_dir / "settings.json").read_text())["levels"] == 3
-    with pytest.raises(InputError, match="holds a search with levels = 3, not 2; give the same settings to resume it"):
-        find_tallest(TallSettings(levels=2, beam=3, candidates=2, max_vertices=100), run_dir)
+    assert "levels = 3\n" in (run_dir / "config.toml").read_text()
+    with pytest.raises(InputError, match="holds a search with search.levels = 3, not 2; give the same settings to resume it"):
+        find_tallest(TallSettings(levels=2, beam=3, candidates=2, max_vertices=100), run_dir, workers=0)
 
 
 def test_refinement_keeps_the_lowest_peak_of_the_design_and_its_two_level_changes():
@@ -123,22 +127,19 @@ def test_refinement_keeps_the_lowest_peak_of_the_design_and_its_two_level_change
 def test_when_the_tallest_breaks_even_refined_the_next_height_down_is_refined_and_named_the_tallest_that_holds(
     small_run, tmp_path, monkeypatch
 ):
-    from physics import PhysicsConfig
-
     _, result = small_run
     # a break force between the two small heights' peaks: three levels cannot hold, two can
     between = (result.designs[2].peak + result.designs[3].peak) / 2
-    monkeypatch.setattr(tall, "PHYSICS", PhysicsConfig(break_force=between))
     run_dir = tmp_path / "run"
     lines = []
-    weaker = find_tallest(SMALL, run_dir, log=lines.append)
+    weaker = find_tallest(replace(SMALL, physics=PhysicsConfig(break_force=between)), run_dir, workers=0, log=lines.append)
     assert weaker.designs == result.designs  # the loads do not depend on the break force
     assert weaker.tallest == 3 and weaker.tallest_holding == 2
     assert [line.split(" (")[0] for line in lines if line.startswith("refined")] == [
         "refined the 3-level design",
         "refined the 2-level design",
     ]
-    assert json.loads((run_dir / "search.json").read_text())["refined"] == [3, 2]
+    assert json.loads((run_dir / "checkpoint.json").read_text())["refined"] == [3, 2]
     rows = {row["levels"]: row["holds_in_transient"] for row in csv.DictReader((run_dir / "designs.csv").open())}
     assert rows == {"2": "yes", "3": "no"}
 
@@ -146,15 +147,28 @@ def test_when_the_tallest_breaks_even_refined_the_next_height_down_is_refined_an
 def test_a_folder_it_does_not_own_or_another_search_is_refused_and_left_as_it_was(small_run, tmp_path):
     run_dir, _ = small_run
     before = {path.name: path.read_bytes() for path in run_dir.iterdir()}
-    with pytest.raises(InputError, match=r"settings.json: this folder holds a search with beam = 3, not 4"):
-        find_tallest(TallSettings(levels=3, beam=4, candidates=2, max_vertices=100), run_dir)
+    with pytest.raises(InputError, match=r"config.toml: this folder holds a search with search.beam = 3, not 4"):
+        find_tallest(TallSettings(levels=3, beam=4, candidates=2, max_vertices=100), run_dir, workers=0)
+    with pytest.raises(InputError, match=r"search.physics.break_force = 52.5, not 60.0"):
+        find_tallest(replace(SMALL, physics=PhysicsConfig(break_force=60.0)), run_dir, workers=0)
     assert {path.name: path.read_bytes() for path in run_dir.iterdir()} == before
     (tmp_path / "notes.txt").write_text("mine")
-    with pytest.raises(InputError, match="is not empty and holds no tall search"):
-        find_tallest(SMALL, tmp_path)
+    with pytest.raises(RunFolderError, match="already exists"):
+        find_tallest(SMALL, tmp_path, workers=0)
+    with pytest.raises(RunFolderError, match="not a run folder"):
+        find_tallest(SMALL, tmp_path, workers=0, overwrite=True)
     assert [path.name for path in tmp_path.iterdir()] == ["notes.txt"]
     with pytest.raises(InputError, match="is a file, expected a run folder"):
-        find_tallest(SMALL, tmp_path / "notes.txt")
+        find_tallest(SMALL, tmp_path / "notes.txt", workers=0)
+
+
+def test_a_second_writer_is_refused_while_a_search_holds_its_folder(small_run):
+    from evolution import RunFolder
+
+    run_dir, _ = small_run
+    with RunFolder(run_dir).locked():
+        with pytest.raises(RunFolderError, match="another process .* is writing this run"):
+            find_tallest(SMALL, run_dir, workers=0)
 
 
 @pytest.mark.parametrize(
@@ -181,7 +195,44 @@ def test_the_command_writes_the_run_folder_and_prints_how_to_grow_and_check_the_
     assert shape(Structure.load(grown_file)) == shape(Structure.load(run_dir / "tall_3.json"))
     # another search in the same folder: exit 2, the reason on stderr
     assert main(["tall", "--run-dir", str(run_dir), *SMALL_OPTIONS[:-2], "--no-refine"]) == 2
-    assert "this folder holds a search with refine = True, not False" in capsys.readouterr().err
+    assert "this folder holds a search with search.refine = True, not False" in capsys.readouterr().err
+    # the generic verbs know it for what it is
+    assert main(["resume", str(run_dir), "--workers", "0"]) == 0
+    assert "the tallest that holds: 3 levels" in capsys.readouterr().out
+    assert main(["resume", str(run_dir), "--generations", "5"]) == 2
+    assert "a tall search has no generations" in capsys.readouterr().err
+    assert main(["export", str(run_dir), str(tmp_path / "x.glb")]) == 2
+    assert "a tall run of the structures-v0 domain, not an evolution run" in capsys.readouterr().err
+
+
+def test_the_physics_is_a_setting_of_the_search_and_of_the_check_it_prints(tmp_path, capsys):
+    run_dir = tmp_path / "run"
+    options = [*SMALL_OPTIONS, "--set", "physics.break_force=0.5", "--set", "search.refine=false"]
+    assert main(["tall", "--run-dir", str(run_dir), *options]) == 1  # nothing holds under half a newton
+    out = capsys.readouterr().out
+    assert "over the 0.5 N break force: it breaks" in out and "no height holds in the transient" in out
+    config = (run_dir / "config.toml").read_text()
+    assert "[search.physics]" in config and "break_force = 0.5\n" in config and "refine = false\n" in config
+    assert main(["info", str(run_dir)]) == 0
+    assert "joints break above 0.5 N" in capsys.readouterr().out
+    assert main(["tall", "--run-dir", str(tmp_path / "other"), *SMALL_OPTIONS, "--set", "physics.break_force=60"]) == 0
+    assert "structgen check " in (out := capsys.readouterr().out) and "--set break_force=60.0" in out
+    assert main(["tall", "--run-dir", str(tmp_path / "bad"), "--set", "physics.break_forse=1"]) == 2
+    assert "break_forse" in capsys.readouterr().err and not (tmp_path / "bad").exists()
+
+
+def test_a_search_folder_of_structgen_0_2_is_read_and_converted_when_resumed(small_run, tmp_path, capsys):
+    run_dir, result = small_run
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "settings.json").write_text(json.dumps({"levels": 3, "beam": 3, "candidates": 2, "max_vertices": 100, "refine": True}))
+    state = json.loads((run_dir / "checkpoint.json").read_text())
+    (old / "search.json").write_text(json.dumps({**state, "complete": False}))
+    assert main(["info", str(old)]) == 0
+    assert "a tall search (structgen tall), searched up to 3 levels, unfinished" in capsys.readouterr().out
+    assert find_tallest(SMALL, old, workers=0).designs == result.designs
+    assert not (old / "settings.json").exists() and (old / "config.toml").is_file() and (old / "checkpoint.json").is_file()
+    assert main(["resume", str(old), "--workers", "0"]) == 0
 
 
 def test_info_on_a_search_folder_lists_each_height_and_says_how_far_it_got(small_run, tmp_path, capsys):

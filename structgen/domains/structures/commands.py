@@ -544,16 +544,41 @@ def _add_teach(subparsers: Any) -> None:
     teach.set_defaults(handler=cmd_teach)
 
 
-def cmd_tall(args: argparse.Namespace) -> int:
-    from physics import PhysicsConfig
-    from structgen.domains.structures.tall import TRANSIENT_WINDOW, TallSettings, find_tallest
+TALL_OPTIONS = {
+    "levels": "search.levels",
+    "beam": "search.beam",
+    "candidates": "search.candidates",
+    "max_vertices": "search.max_vertices",
+    "refine": "search.refine",
+}
 
-    settings = TallSettings(
-        levels=args.levels, beam=args.beam, candidates=args.candidates, max_vertices=args.max_vertices, refine=args.refine
-    )
-    run_dir = Path(args.run_dir or f"runs/tall-{args.levels}")
-    result = find_tallest(settings, run_dir, workers=args.workers, progress=True, log=lambda line: print(line, flush=True))
-    limits = PhysicsConfig()
+
+def cmd_tall(args: argparse.Namespace) -> int:
+    from structgen.domains.structures.tall import find_tallest
+    from structgen.domains.structures.tall_settings import TallSettings
+
+    settings = settings_from_args({"search": TallSettings()}, args, TALL_OPTIONS)["search"]
+    run_dir = Path(args.run_dir or f"runs/tall-{settings.levels}")
+    say = _printer()
+    result = find_tallest(settings, run_dir, workers=args.workers, progress=True, log=say, overwrite=args.overwrite)
+    return _report_tall(result, run_dir)
+
+
+def _printer() -> Any:
+    return lambda line: print(line, flush=True)
+
+
+def resume_tall(run_dir: Path, workers: int | None) -> int:
+    """``structgen resume`` on a tall search folder: the search goes on with the settings it was started with."""
+    from structgen.domains.structures.tall import resume_search
+
+    return _report_tall(resume_search(run_dir, workers=workers, progress=True, log=_printer()), run_dir)
+
+
+def _report_tall(result: Any, run_dir: Path) -> int:
+    from structgen.domains.structures.tall import TRANSIENT_WINDOW
+
+    limits = result.settings.physics
     seconds = sum(result.teach_seconds.values())
     print(f"{run_dir}: taught {len(result.taught)} heights ({seconds:.1f} s); table: {run_dir / 'designs.csv'}")
     if result.tallest_holding != result.tallest:
@@ -571,26 +596,36 @@ def cmd_tall(args: argparse.Namespace) -> int:
         f"(peak {result.designs[levels].peak:.1f} N); picture: {run_dir / 'tallest.png'}"
     )
     print(f"grow it: {_grow_command(run_dir / f'tall_{levels}.npy', result.taught[levels].config, 'tall.json')}")
-    roomier = limits.room_for(grown.n_vertices, grown.n_edges)
+    from physics import PhysicsConfig
+    from structgen.config import flatten, to_table
+
+    # The check command carries the search's own physics (where it differs from the default) and the room it needs.
+    changed = {
+        key: value for key, value in flatten(to_table(limits)).items() if flatten(to_table(PhysicsConfig())).get(key) != value
+    }
+    changed.update(limits.room_for(grown.n_vertices, grown.n_edges))
     print(
-        f"its faithful 30 s verdict (minutes): structgen check {run_dir / f'tall_{levels}.json'}"
-        + "".join(f" --set {name}={value}" for name, value in roomier.items())
+        f"its {limits.horizon:g} s verdict (minutes): structgen check {run_dir / f'tall_{levels}.json'}"
+        + "".join(f" --set {name}={value}" for name, value in changed.items())
     )
     return EXIT_OK
 
 
 def _add_tall(subparsers: Any) -> None:
+    from structgen.domains.structures.tall_settings import TallSettings
+
+    defaults = TallSettings()
     tall = subparsers.add_parser(
         "tall",
         help="find the tallest tower an NCA can grow that stands, and teach it",
         description="Search level-by-level designs (one rule per level from a top vertex) for the tallest whose "
         "levels the NCA's shared local rule can tell apart: a beam search from the top ranked by static joint load, "
-        "the best of each height simulated for the faithful preset's first 0.3 s (the lowest peak force wins), then "
+        "the best of each height simulated for the physics' first 0.3 s (the lowest peak force wins), then "
         "every change of two levels' rules of the tallest tried (and of the next lower while none above holds). "
-        "Each height's design is taught to the paper's "
-        "52-60-26 network. Writes, in the run folder: designs.csv (a row per height), tall_<levels>.npy (weights), "
-        "tall_<levels>.json (what they grow), tallest.png, and search.json (a checkpoint after each height: the same "
-        "command resumes an interrupted search). The defaults reach eight levels in about 8 minutes on 2 cores.",
+        "Each height's design is taught to the paper's 52-60-26 network. The run folder holds config.toml (every "
+        "setting), designs.csv (a row per height), tall_<levels>.npy (weights), tall_<levels>.json (what they grow), "
+        "tallest.png, and checkpoint.json (after each height): `structgen resume DIR` or the same command goes on "
+        "after an interruption. The defaults reach eight levels in about 8 minutes on 2 cores.",
     )
     tall.add_argument(
         "--run-dir",
@@ -599,38 +634,46 @@ def _add_tall(subparsers: Any) -> None:
         "it goes on from there); default runs/tall-<levels>",
     )
     tall.add_argument(
-        "--levels", type=whole_number(2, 50), default=8, metavar="N", help="tallest design to look for, in vertices (default 8)"
+        "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"
+    )
+    tall.add_argument(
+        "--levels",
+        type=whole_number(2, 50),
+        metavar="N",
+        help=f"tallest design to look for, in vertices (default {defaults.levels}; search.levels)",
     )
     tall.add_argument(
         "--beam",
         type=whole_number(1, 10_000),
-        default=30,
         metavar="N",
-        help="designs of each height kept to grow the next (default 30)",
+        help=f"designs of each height kept to grow the next (default {defaults.beam}; search.beam)",
     )
     tall.add_argument(
         "--candidates",
         type=whole_number(1, 10_000),
-        default=12,
         metavar="N",
-        help="designs of each height simulated, and of the refinement (default 12)",
+        help=f"designs of each height simulated, and of the refinement (default {defaults.candidates}; search.candidates)",
     )
     tall.add_argument(
-        "--max-vertices", type=whole_number(2, 100_000), default=700, metavar="N", help="largest design tried (default 700)"
+        "--max-vertices",
+        type=whole_number(2, 100_000),
+        metavar="N",
+        help=f"largest design tried (default {defaults.max_vertices}; search.max_vertices)",
     )
     tall.add_argument(
         "--refine",
         action=argparse.BooleanOptionalAction,
-        default=True,
-        help="try every change of two levels' rules of the tallest design (default on; a few minutes at eight levels)",
+        help="try every change of two levels' rules of the tallest design (default on, a few minutes at eight levels; "
+        "search.refine)",
     )
     tall.add_argument(
         "--workers",
-        type=whole_number(1, 256),
+        type=whole_number(0, 256),
         default=2,
         metavar="N",
-        help="processes for the simulations; results do not depend on it (default 2)",
+        help="processes for the simulations, 0 for this one; results do not depend on it (default 2)",
     )
+    add_set_option(tall, "the search (search.*, the physics in search.physics.*)", "break_force=60 or search.beam=10")
     tall.set_defaults(handler=cmd_tall)
 
 
@@ -643,6 +686,13 @@ class StructureCommands(DomainCommands):
         "teach": _add_teach,
         "tall": _add_tall,
     }
+
+    def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
+        if kind != "tall":
+            return super().resume_run(kind, run_dir, args)
+        if args.generations is not None or args.cluster is not None:
+            raise InputError(f"{run_dir}: a tall search has no generations and runs on this machine; give --workers only")
+        return resume_tall(run_dir, args.workers)
 
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         _add_mesh_options(parser, "structures: mesh dimensions (mesh formats only; defaults match the physics model)")

@@ -21,8 +21,12 @@ express. The search:
 4. **Teaching.** Each height's design is taught to the paper's 52-60-26 network; the weights are grown and checked
    against the design.
 
-:func:`find_tallest` runs it all, in a run folder when given one (``structgen tall``): the search writes a checkpoint
-after each height, so an interrupted search resumes where it stopped, and every output is written atomically.
+:func:`find_tallest` runs it all, in a run folder when given one (``structgen tall``). The folder is a run folder like
+an evolution run's (:class:`evolution.RunFolder`: ``config.toml`` with every setting, the physics included,
+``manifest.json``, the lock, atomic writes), with ``checkpoint.json`` written after each height and each refinement:
+``structgen resume DIR`` (or the same ``structgen tall`` command) goes on where it stopped, and the same folder
+with more ``levels`` goes on to the taller heights. The simulations run on the project's worker pool
+(:class:`evolution.pool.WorkerPool`), so a worker that dies costs one design, which then counts as unable to stand.
 """
 
 from __future__ import annotations
@@ -32,24 +36,32 @@ import functools
 import io
 import itertools
 import json
+import logging
+import math
 import os
 import sys
 import time
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, fields
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from evolution import RunFolder, RunFolderError
+from evolution.files import MiB, atomic_write, read_json
+from evolution.pool import Lost, WorkerPool
 from physics import PhysicsConfig, check_transient
 from physics.statics import bounding_loads
+from structgen.config import ConfigError, build, flatten, to_table
 from structgen.domains.structures.samples import LEVEL_RULES, by_level_rules, by_level_rules_one_taller
+from structgen.domains.structures.tall_settings import TallSettings
 from structgen.domains.structures.teach import TeachError, TeachResult, growth_config, growth_schedule, local_rules, teach
 from structgen.errors import InputError
 from structgen.structure import Structure
 
 __all__ = [
+    "RUN_KIND",
     "TallDesign",
     "TallResult",
     "TallSettings",
@@ -57,46 +69,22 @@ __all__ = [
     "find_tallest",
     "is_search_folder",
     "refine",
+    "resume_search",
     "search_summary",
     "teachable",
 ]
 
-#: The faithful preset: the loads of the search and the break force they are held to.
-PHYSICS = PhysicsConfig()
-#: Seconds of the faithful preset simulated per candidate: the tallest designs carry their largest loads in it.
+log = logging.getLogger(__name__)
+
+#: Seconds of the preset simulated per candidate: the tallest designs carry their largest loads in them.
 TRANSIENT_WINDOW = 0.3
-
-SETTINGS_FILE = "settings.json"
-CHECKPOINT_FILE = "search.json"
+#: What a tall search's manifest calls its kind of run (``structgen resume`` finds the domain's code by it).
+RUN_KIND = "tall"
+DOMAIN = "structures-v0"
+CHECKPOINT_FILE = "checkpoint.json"
 TABLE_FILE = "designs.csv"
-
-
-@dataclass(frozen=True)
-class TallSettings:
-    """What the search explores; the same settings give the same designs on any number of workers.
-
-    Attributes:
-        levels: the tallest design to look for, in vertices (a level is one lattice layer).
-        beam: designs of each height kept to grow the next.
-        candidates: designs of each height (and of the refinement) simulated.
-        max_vertices: the largest design tried.
-        refine: whether to try every change of two levels' rules of the tallest design (and of lower ones while none
-            above holds in the transient).
-    """
-
-    levels: int = 8
-    beam: int = 30
-    candidates: int = 12
-    max_vertices: int = 700
-    refine: bool = True
-
-    def __post_init__(self) -> None:
-        for name, smallest in (("levels", 2), ("beam", 1), ("candidates", 1), ("max_vertices", 2)):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < smallest:
-                raise InputError(f"{name} must be a whole number of at least {smallest}, got {value!r}")
-        if not isinstance(self.refine, bool):
-            raise InputError(f"refine must be true or false, got {self.refine!r}")
+# The files of a search folder written by structgen 0.2, converted when the folder is next opened.
+_OLD_SETTINGS, _OLD_CHECKPOINT = "settings.json", "search.json"
 
 
 @dataclass(frozen=True)
@@ -118,20 +106,30 @@ class TallDesign:
         assert design is not None, "a chosen design reaches the ground"
         return design
 
-    @property
-    def holds(self) -> bool:
+    def holds(self, physics: PhysicsConfig) -> bool:
         """Whether no joint carries more than the break force in the transient, so none breaks there."""
-        return self.peak <= PHYSICS.break_force
+        return self.peak <= physics.break_force
 
     def to_json(self) -> dict[str, Any]:
-        # JSON has no infinity: a static solve without an answer (inf) is stored as null.
-        load = self.static_load if np.isfinite(self.static_load) else None
-        return {"rules": list(self.rules), "tied": self.tied, "static_load": load, "peak": self.peak}
+        # JSON has no infinity: a load without an answer (inf) is stored as null.
+        return {
+            "rules": list(self.rules),
+            "tied": self.tied,
+            "static_load": _finite(self.static_load),
+            "peak": _finite(self.peak),
+        }
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> TallDesign:
-        load = np.inf if data["static_load"] is None else float(data["static_load"])
-        return cls(tuple(data["rules"]), int(data["tied"]), load, float(data["peak"]))
+        return cls(tuple(data["rules"]), int(data["tied"]), _number(data["static_load"]), _number(data["peak"]))
+
+
+def _finite(value: float) -> float | None:
+    return float(value) if np.isfinite(value) else None
+
+
+def _number(value: Any) -> float:
+    return math.inf if value is None else float(value)
 
 
 @dataclass
@@ -139,12 +137,14 @@ class TallResult:
     """The designs found, per height, and what teaching made of them.
 
     Attributes:
+        settings: what was searched, the physics included.
         designs: each height's design, by number of levels.
         taught: each height's taught network (its weights, growth settings and grown structure).
         teach_seconds: how long each teaching took.
         search_seconds: time spent searching in this call (a resumed search counts only its own part).
     """
 
+    settings: TallSettings
     designs: dict[int, TallDesign]
     taught: dict[int, TeachResult]
     teach_seconds: dict[int, float]
@@ -158,7 +158,8 @@ class TallResult:
     @property
     def tallest_holding(self) -> int | None:
         """The most levels of a design that holds in the transient (None when none does)."""
-        return max((levels for levels, design in self.designs.items() if design.holds), default=None)
+        physics = self.settings.physics
+        return max((levels for levels, design in self.designs.items() if design.holds(physics)), default=None)
 
 
 def teachable(design: Structure, *, whole: bool) -> bool:
@@ -175,25 +176,27 @@ def teachable(design: Structure, *, whole: bool) -> bool:
     return True
 
 
-def largest_static_load(design: Structure, physics: PhysicsConfig = PHYSICS) -> float:
+def largest_static_load(design: Structure, physics: PhysicsConfig | None = None) -> float:
     """The largest joint load of the static analysis (inf where it has no answer: a piece that cannot stand)."""
-    return float(np.nan_to_num(np.max(bounding_loads(design, physics)), nan=np.inf))
+    return float(np.nan_to_num(np.max(bounding_loads(design, physics or PhysicsConfig())), nan=np.inf))
 
 
-def transient_peak(design: Structure) -> float:
-    """The largest joint force in the faithful preset's first :data:`TRANSIENT_WINDOW` seconds, joints unbreakable.
-    The tallest designs pass the default caps; the window is short, so they are let in."""
-    physics = PHYSICS.replace(**PHYSICS.room_for(design.n_vertices, design.n_edges))
+def transient_peak(design: Structure, physics: PhysicsConfig | None = None) -> float:
+    """The largest joint force in the first :data:`TRANSIENT_WINDOW` seconds of ``physics`` (default: the faithful
+    preset), joints unbreakable. The tallest designs pass the default caps; the window is short, so they are let in."""
+    physics = physics or PhysicsConfig()
+    physics = physics.replace(**physics.room_for(design.n_vertices, design.n_edges))
     return check_transient(design, physics, window=TRANSIENT_WINDOW).peak_force
 
 
-def _whole_static_load(candidate: tuple[tuple[str, ...], int], max_vertices: int) -> float:
+def _whole_static_load(candidate: tuple[tuple[str, ...], int], max_vertices: int, physics: PhysicsConfig) -> float:
     design = by_level_rules(*candidate)
     if design is None or design.n_vertices > max_vertices or not teachable(design, whole=True):
         return np.inf
-    return largest_static_load(design)
+    return largest_static_load(design, physics)
 
 
+#: Runs a function over items, in order (in the worker pool, or in this process in tests).
 Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]
 
 
@@ -204,13 +207,13 @@ def _one_height(
     scored = []
     for rules, tied, design in by_level_rules_one_taller([rules for rules, _ in kept], settings.max_vertices):
         if teachable(design, whole=False):
-            scored.append((largest_static_load(design), rules, tied, design))
+            scored.append((largest_static_load(design, settings.physics), rules, tied, design))
     scored.sort(key=lambda row: row[0])  # stable: ties keep the order the designs were made in
     kept = list(dict.fromkeys((row[1], row[2]) for row in scored))[: settings.beam]
     whole = list(itertools.islice((row for row in scored if teachable(row[3], whole=True)), settings.candidates))
     if not whole:
         return kept, None
-    peaks = simulate(transient_peak, [row[3] for row in whole])
+    peaks = simulate(functools.partial(transient_peak, physics=settings.physics), [row[3] for row in whole])
     k = int(np.argmin(peaks))
     load, rules, tied, _ = whole[k]
     return kept, TallDesign(rules, tied, load, float(peaks[k]))
@@ -227,9 +230,10 @@ def refine(found: TallDesign, settings: TallSettings, simulate: Mapper) -> TallD
         for rule_b in LEVEL_RULES
     } - {(rules, found.tied)}
     ordered = sorted(variants)
-    loads = simulate(functools.partial(_whole_static_load, max_vertices=settings.max_vertices), ordered)
+    static = functools.partial(_whole_static_load, max_vertices=settings.max_vertices, physics=settings.physics)
+    loads = simulate(static, ordered)
     ranked = [(load, variant) for load, variant in sorted(zip(loads, ordered)) if np.isfinite(load)][: settings.candidates]
-    peaks = simulate(transient_peak, [by_level_rules(*variant) for _, variant in ranked])
+    peaks = simulate(functools.partial(transient_peak, physics=settings.physics), [by_level_rules(*v) for _, v in ranked])
     if peaks and min(peaks) < found.peak:
         k = int(np.argmin(peaks))
         load, (new_rules, tied) = ranked[k]
@@ -240,50 +244,103 @@ def refine(found: TallDesign, settings: TallSettings, simulate: Mapper) -> TallD
 # --- the run folder ---------------------------------------------------------------------------------------------
 
 
-def _write_json(path: Path, data: Any) -> None:
-    from evolution.files import atomic_write
+def _config_text(settings: TallSettings, workers: int) -> str:
+    import tomli_w
 
-    atomic_write(path, json.dumps(data, indent=2) + "\n")
-
-
-def _read_json(path: Path) -> Any:
-    from evolution.files import MiB, read_json
-
-    return read_json(path, 16 * MiB)
+    header = (
+        "# Settings of this tall search (structgen tall): every setting, as used. `structgen resume` reads this file;\n"
+        "# [run] workers only decides where the simulations run, never what they find.\n"
+    )
+    return header + tomli_w.dumps({"run": {"workers": workers}, "search": to_table(settings)})
 
 
-def _open_folder(run_dir: Path, settings: TallSettings) -> dict[str, Any]:
-    """Start or reopen a run folder; the saved search so far ({} for a new one). A search with the same settings
-    resumes, and one with more ``levels`` goes on from where it stopped (keeping its heights, refinements included). A
-    folder that holds anything else, or a search with other settings, is refused, so nothing in it is overwritten."""
-    settings_path = run_dir / SETTINGS_FILE
-    if run_dir.exists() and not run_dir.is_dir():
-        raise InputError(f"{run_dir}: is a file, expected a run folder")
-    if settings_path.exists():
-        saved = _read_json(settings_path)
-        if not isinstance(saved, dict):
-            raise InputError(f"{settings_path}: expected an object of settings")
-        for field in fields(TallSettings):
-            before, now = saved.get(field.name), getattr(settings, field.name)
-            taller = field.name == "levels" and isinstance(before, int) and now > before
-            if before != now and not taller:
-                raise InputError(
-                    f"{settings_path}: this folder holds a search with {field.name} = {before!r}, not {now!r}; give the "
-                    "same settings to resume it (or more levels to go on), or another folder"
-                )
-        checkpoint = run_dir / CHECKPOINT_FILE
-        state = _read_json(checkpoint) if checkpoint.exists() else {}
-        if saved["levels"] != settings.levels:
-            _write_json(settings_path, asdict(settings))
-        return state
-    if run_dir.is_dir() and any(run_dir.iterdir()):
-        raise InputError(f"{run_dir}: is not empty and holds no tall search ({SETTINGS_FILE}); choose another folder")
-    _write_json(settings_path, asdict(settings))
-    return {}
+def _read_config(folder: RunFolder) -> tuple[TallSettings, int]:
+    """The search settings and the number of workers a search folder's ``config.toml`` holds."""
+    from structgen.experiment import parse_toml
+
+    where = folder / RunFolder.CONFIG
+    tables = parse_toml(folder.config_text(), where)
+    unknown = sorted(set(tables) - {"run", "search"})
+    if unknown:
+        raise ConfigError(f"{where}: unknown table [{unknown[0]}]; a tall search's configuration has [run] and [search]")
+    run, search = tables.get("run", {}), tables.get("search", {})
+    workers = run.get("workers", 2) if isinstance(run, dict) else None
+    whole = isinstance(workers, int) and not isinstance(workers, bool) and workers >= 0
+    if not isinstance(run, dict) or set(run) - {"workers"} or not whole:
+        raise ConfigError(f"{where}: [run] holds only workers, a whole number of processes (0 for this one), got {run!r}")
+    if not isinstance(search, dict):
+        raise ConfigError(f"{where}: [search] must be a table")
+    try:
+        return build(TallSettings, search, "search"), workers
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}", err.key) from None
+
+
+def _manifest(settings: TallSettings) -> dict[str, Any]:
+    from structgen.runs import manifest
+
+    return manifest(DOMAIN, ("numpy", "scipy", "torch", "pybullet"), run_kind=RUN_KIND)
+
+
+def is_search_folder(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a folder a tall search wrote (``structgen info`` tells it from an evolution run)."""
+    folder = RunFolder(path)
+    if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
+        return True
+    return (folder / RunFolder.CONFIG).is_file() and folder.manifest().get("run_kind") == RUN_KIND
+
+
+def _convert_old_folder(folder: RunFolder) -> None:
+    """Turn a search folder of structgen 0.2 (settings.json, search.json) into a run folder, keeping its progress."""
+    saved = read_json(folder / _OLD_SETTINGS, 16 * MiB)
+    if not isinstance(saved, dict):
+        raise InputError(f"{folder / _OLD_SETTINGS}: expected an object of settings")
+    try:
+        settings = build(TallSettings, saved, "settings")
+    except ConfigError as err:
+        raise InputError(f"{folder / _OLD_SETTINGS}: {err}") from None
+    folder.write_config(_config_text(settings, 2))
+    atomic_write(folder / RunFolder.MANIFEST, json.dumps(_marked(_manifest(settings)), indent=2) + "\n")
+    if (folder / _OLD_CHECKPOINT).is_file():
+        os.replace(folder / _OLD_CHECKPOINT, folder / CHECKPOINT_FILE)
+    (folder / _OLD_SETTINGS).unlink()
+    log.info("%s: converted from the tall search folder of structgen 0.2", folder.path)
+
+
+def _marked(manifest: dict[str, Any]) -> dict[str, Any]:
+    from evolution.runfolder import MARK, MARK_VALUE
+
+    return {**manifest, MARK: MARK_VALUE}
+
+
+def _open_folder(path: Path, settings: TallSettings, workers: int, overwrite: bool) -> RunFolder:
+    """A new run folder for the search, or the one a search with the same settings started (it resumes; with more
+    ``levels`` it goes on). A folder that holds anything else, or a search with other settings, is refused, and
+    nothing in it is changed."""
+    folder = RunFolder(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{path}: is a file, expected a run folder")
+    if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
+        _convert_old_folder(folder)
+    if not is_search_folder(path) or overwrite:
+        if (folder / RunFolder.CONFIG).is_file() and not overwrite:
+            raise InputError(f"{path}: holds a run that is not a tall search; choose another folder")
+        return RunFolder.create(path, _config_text(settings, workers), _manifest(settings), overwrite=overwrite)
+    saved, _ = _read_config(folder)
+    before, now = flatten(to_table(saved)), flatten(to_table(settings))
+    for key in sorted(before.keys() | now.keys()):
+        taller = key == "levels" and now.get(key, 0) > before.get(key, 0)
+        if before.get(key) != now.get(key) and not taller:
+            raise InputError(
+                f"{folder / RunFolder.CONFIG}: this folder holds a search with search.{key} = {before.get(key)!r}, not "
+                f"{now.get(key)!r}; give the same settings to resume it (or more levels to go on), or another folder"
+            )
+    folder.write_config(_config_text(settings, workers))
+    return folder
 
 
 def _checkpoint(
-    run_dir: Path | None,
+    folder: RunFolder | None,
     done: int,
     kept: list[tuple[tuple[str, ...], int]],
     designs: dict[int, TallDesign],
@@ -292,7 +349,7 @@ def _checkpoint(
     complete: bool = False,
 ) -> None:
     """Write what :func:`_restore` reads back; ``complete`` once every output is written (``structgen info``)."""
-    if run_dir is not None:
+    if folder is not None:
         state = {
             "levels_done": done,
             "kept": [[list(rules), tied] for rules, tied in kept],
@@ -300,7 +357,12 @@ def _checkpoint(
             "refined": refined,
             "complete": complete,
         }
-        _write_json(run_dir / CHECKPOINT_FILE, state)
+        atomic_write(folder / CHECKPOINT_FILE, json.dumps(state, indent=2) + "\n")
+
+
+def _saved_state(folder: RunFolder) -> Any:
+    path = folder / CHECKPOINT_FILE
+    return read_json(path, 16 * MiB) if path.exists() else {}
 
 
 def _restore(state: Any, where: Path) -> tuple[int, list, dict[int, TallDesign], list[int]]:
@@ -335,7 +397,6 @@ def _table_text(result: TallResult) -> str:
         ]
     )
     for levels, design in sorted(result.designs.items()):
-        taught = result.taught[levels]
         writer.writerow(
             [
                 levels,
@@ -345,58 +406,63 @@ def _table_text(result: TallResult) -> str:
                 design.structure.n_edges,
                 f"{design.static_load:.2f}",
                 f"{design.peak:.2f}",
-                "yes" if design.holds else "no",
-                taught.n_rules,
+                "yes" if design.holds(result.settings.physics) else "no",
+                result.taught[levels].n_rules,
                 f"tall_{levels}.npy",
             ]
         )
     return buffer.getvalue()
 
 
-def _write_outputs(run_dir: Path, result: TallResult) -> None:
-    from evolution.files import atomic_write
+def _write_outputs(folder: RunFolder, result: TallResult) -> None:
     from structgen.domains.structures.render import render_structure
     from structgen.nca import save_weights
 
     for levels, taught in result.taught.items():
-        save_weights(run_dir / f"tall_{levels}.npy", taught.weights)
-        taught.grown.save(run_dir / f"tall_{levels}.json")
-    atomic_write(run_dir / TABLE_FILE, _table_text(result))
+        save_weights(folder / f"tall_{levels}.npy", taught.weights)
+        taught.grown.save(folder / f"tall_{levels}.json")
+    atomic_write(folder / TABLE_FILE, _table_text(result))
     levels = result.tallest_holding or result.tallest
     grown = result.taught[levels].grown
-    holds = "that hold in the transient" if result.designs[levels].holds else "that break in the transient"
+    holds = "hold" if result.designs[levels].holds(result.settings.physics) else "break"
     render_structure(
         grown,
-        run_dir / "tallest.png",
-        title=f"{levels} levels grown by a taught NCA, {holds}: {grown.n_vertices} vertices, {grown.n_edges} edges",
+        folder / "tallest.png",
+        title=f"{levels} levels grown by a taught NCA, that {holds} in the transient: {grown.n_vertices} vertices, "
+        f"{grown.n_edges} edges",
     )
-
-
-def is_search_folder(path: str | os.PathLike) -> bool:
-    """Whether ``path`` is a folder a tall search wrote (``structgen info`` tells it from an evolution run)."""
-    return (Path(path) / SETTINGS_FILE).is_file()
 
 
 def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
     """What a tall search folder holds, from its files: its settings, how far it got and each height's design."""
-    folder = Path(run_dir)
-    settings = _read_json(folder / SETTINGS_FILE)
-    state = _read_json(folder / CHECKPOINT_FILE) if (folder / CHECKPOINT_FILE).exists() else {}
-    done, _, designs, refined = _restore(state, folder)
+    folder = RunFolder(run_dir)
+    if not is_search_folder(folder.path):
+        raise RunFolderError(f"{folder.path}: not a tall search folder")
+    if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
+        saved = read_json(folder / _OLD_SETTINGS, 16 * MiB)
+        settings = build(TallSettings, saved if isinstance(saved, dict) else {}, "settings")
+        state: Any = read_json(folder / _OLD_CHECKPOINT, 16 * MiB) if (folder / _OLD_CHECKPOINT).exists() else {}
+        checkpoint = folder.path / _OLD_CHECKPOINT
+    else:
+        settings, _ = _read_config(folder)
+        state, checkpoint = _saved_state(folder), folder / CHECKPOINT_FILE
+    if not isinstance(state, dict):
+        raise InputError(f"{checkpoint}: not a tall search checkpoint (expected an object)")
+    done, _, designs, refined = _restore(state, folder.path)
     rows = [
         {
             **design.to_json(),
             "levels": levels,
             "vertices": design.structure.n_vertices,
             "edges": design.structure.n_edges,
-            "holds_in_transient": design.holds,
+            "holds_in_transient": design.holds(settings.physics),
         }
         for levels, design in sorted(designs.items())
     ]
     return {
-        "run_dir": str(folder),
+        "run_dir": str(folder.path),
         "kind": "tall search",
-        "settings": settings,
+        "settings": to_table(settings),
         "levels_searched": done,
         "refined": sorted(refined),
         "finished": bool(state.get("complete")),
@@ -408,16 +474,19 @@ def describe_search(summary: dict[str, Any]) -> str:
     """:func:`search_summary` as lines to read."""
     settings = summary["settings"]
     status = "finished" if summary["finished"] else f"searched up to {summary['levels_searched']} levels, unfinished"
+    break_force = settings["physics"]["break_force"] if "break_force" in settings["physics"] else PhysicsConfig().break_force
     lines = [
         f"{summary['run_dir']}: a tall search (structgen tall), {status}",
         f"settings    levels {settings.get('levels')}, beam {settings.get('beam')}, candidates "
-        f"{settings.get('candidates')}, max_vertices {settings.get('max_vertices')}, refine {settings.get('refine')}",
+        f"{settings.get('candidates')}, max_vertices {settings.get('max_vertices')}, refine {settings.get('refine')}, "
+        f"joints break above {break_force:g} N",
     ]
     for row in summary["designs"]:
+        load, peak = _number(row["static_load"]), _number(row["peak"])
         lines.append(
             f"{row['levels']} levels    {' '.join(row['rules'])} (tied {row['tied']}): {row['vertices']} vertices, "
-            f"{row['edges']} edges, static {row['static_load']:.1f} N, transient peak {row['peak']:.1f} N"
-            + ("" if row["holds_in_transient"] else f" (over the {PHYSICS.break_force:g} N break force)")
+            f"{row['edges']} edges, static {load:.1f} N, transient peak {peak:.1f} N"
+            + ("" if row["holds_in_transient"] else f" (over the {break_force:g} N break force)")
         )
     holding = [row["levels"] for row in summary["designs"] if row["holds_in_transient"]]
     if summary["finished"] and holding:
@@ -425,41 +494,34 @@ def describe_search(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _ignore_interrupts() -> None:
-    # Ctrl-C reaches every process of the terminal's group; the parent alone stops the search (and ends the pool), so
-    # the workers do not each print a traceback.
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def _pool_mapper(workers: int, progress: bool) -> tuple[Mapper, Any]:
-    pool = None
-    if workers > 1:
-        from multiprocessing import Pool
-
-        pool = Pool(workers, initializer=_ignore_interrupts)
-
+def _pool_mapper(pool: WorkerPool, progress: bool) -> Mapper:
     def simulate(function: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
-        results: Iterable[Any] = (
-            pool.imap(function, items, chunksize=max(1, len(items) // (8 * workers))) if pool else map(function, items)
-        )
+        bar = None
         if progress and sys.stderr.isatty():
             from tqdm import tqdm
 
-            results = tqdm(results, total=len(items), leave=False, unit="design", file=sys.stderr, dynamic_ncols=True)
-        return list(results)
+            bar = tqdm(total=len(items), leave=False, unit="design", file=sys.stderr, dynamic_ncols=True)
+        try:
+            results = pool.map(function, items, done=None if bar is None else lambda _: bar.update(1))
+        finally:
+            if bar is not None:
+                bar.close()
+        lost = [k for k, result in enumerate(results) if isinstance(result, Lost)]
+        for k in lost:  # a design whose worker died counts as one that cannot stand
+            log.warning("design %d of %d: %s; it counts as unable to stand", k, len(items), results[k].reason)
+        return [math.inf if isinstance(result, Lost) else result for result in results]
 
-    return simulate, pool
+    return simulate
 
 
 def find_tallest(
     settings: TallSettings | None = None,
     run_dir: str | os.PathLike | None = None,
     *,
-    workers: int = 1,
+    workers: int = 2,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    overwrite: bool = False,
 ) -> TallResult:
     """Search for the tallest design an NCA can grow with the lowest transient load, teach every height's design,
     and (with ``run_dir``) write it all to a run folder.
@@ -467,31 +529,61 @@ def find_tallest(
     Args:
         settings: what to search (the defaults reach eight levels in about 8 minutes on 2 cores).
         run_dir: a new or empty folder, or one a search with the same settings started (it resumes after the last
-            finished height). It receives ``settings.json``, ``search.json`` (the checkpoint), ``designs.csv`` (a row
-            per height), ``tall_<levels>.npy`` (the taught weights), ``tall_<levels>.json`` (what they grow) and
-            ``tallest.png`` (the tallest that holds in the transient).
-        workers: processes for the simulations; results do not depend on it.
+            finished height; with more ``levels`` it goes on from there). It receives ``config.toml`` (the settings),
+            ``manifest.json``, ``checkpoint.json``, ``designs.csv`` (a row per height), ``tall_<levels>.npy`` (the
+            taught weights), ``tall_<levels>.json`` (what they grow) and ``tallest.png`` (the tallest that holds in
+            the transient).
+        workers: processes for the simulations (0: this process); results do not depend on it.
         progress: a progress bar on a terminal while candidates are simulated.
         log: called with a line per finished stage (``print`` shows the search as it goes).
+        overwrite: replace a run folder that holds another search (never a folder that is not a run folder).
 
     Raises:
         InputError: a run folder that holds something else, or a search with other settings.
+        RunFolderError: another process is writing the folder.
     """
     settings = settings or TallSettings()
-    if not isinstance(workers, int) or workers < 1:
-        raise InputError(f"workers must be a whole number of at least 1, got {workers!r}")
-    say = log or (lambda line: None)
-    folder = Path(run_dir) if run_dir is not None else None
-    state = _open_folder(folder, settings) if folder is not None else {}
-    done, kept, designs, refined = _restore(state, folder or Path("."))
+    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 0:
+        raise InputError(f"workers must be a whole number, 0 or more, got {workers!r}")
+    if run_dir is None:
+        return _search(settings, None, workers, progress, log or (lambda line: None))
+    folder = _open_folder(Path(run_dir), settings, workers, overwrite)
+    with folder.locked():
+        folder.remove_temporary_files()
+        return _search(settings, folder, workers, progress, log or (lambda line: None))
+
+
+def resume_search(
+    run_dir: str | os.PathLike,
+    *,
+    workers: int | None = None,
+    progress: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> TallResult:
+    """Go on with the search in ``run_dir`` with the settings it was started with (``structgen resume DIR``);
+    ``workers`` changes only where the simulations run."""
+    folder = RunFolder.open(run_dir)
+    if not is_search_folder(folder.path):
+        raise RunFolderError(f"{folder.path}: not a tall search folder")
+    settings, saved_workers = _read_config(folder)
+    return find_tallest(settings, folder.path, workers=saved_workers if workers is None else workers, progress=progress, log=log)
+
+
+def _search(
+    settings: TallSettings, folder: RunFolder | None, workers: int, progress: bool, say: Callable[[str], None]
+) -> TallResult:
+    state = _saved_state(folder) if folder is not None else {}
+    done, kept, designs, refined = _restore(state, folder.path if folder is not None else Path("."))
     _checkpoint(folder, done, kept, designs, refined)  # not complete until this call's outputs are written
+    physics = settings.physics
     if done > 1:
-        say(f"{folder}: resuming after {done} of {settings.levels} levels ({len(designs)} heights found so far)")
+        where = folder.path if folder is not None else "the search"
+        say(f"{where}: resuming after {done} of {settings.levels} levels ({len(designs)} heights found so far)")
     else:
-        say(f"searching designs of 2 to {settings.levels} levels; joints break above {PHYSICS.break_force:g} N")
+        say(f"searching designs of 2 to {settings.levels} levels; joints break above {physics.break_force:g} N")
     started = time.perf_counter()
-    simulate, pool = _pool_mapper(workers, progress)
-    try:
+    with WorkerPool(workers) as pool:
+        simulate = _pool_mapper(pool, progress)
         for levels in range(done + 1, settings.levels + 1):
             if not kept:  # no design of the last height could be made taller
                 break
@@ -527,18 +619,15 @@ def find_tallest(
                     f"({time.perf_counter() - clock:.0f} s)"
                 )
                 _checkpoint(folder, done, kept, designs, refined)
-            if designs[levels].holds:
+            if designs[levels].holds(physics):
                 break
-    finally:
-        if pool is not None:
-            pool.terminate()
     search_seconds = time.perf_counter() - started
     taught, teach_seconds = {}, {}
     for levels, design in sorted(designs.items()):
         clock = time.perf_counter()
         taught[levels] = teach(design.structure)
         teach_seconds[levels] = time.perf_counter() - clock
-    result = TallResult(designs, taught, teach_seconds, search_seconds)
+    result = TallResult(settings, designs, taught, teach_seconds, search_seconds)
     if folder is not None:
         _write_outputs(folder, result)
         _checkpoint(folder, done, kept, designs, refined, complete=True)

@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from structgen.commands import DomainCommands, InputError, output_path, verbs_wanted, whole_number
-from structgen.domains.warehouse.layouts import KINDS, LayoutKind
+from structgen.conv_nca import HIDDEN
+from structgen.domains.warehouse.layouts import KINDS, REPAIR_TIME_LIMIT, LayoutKind
 from structgen.grid import Grid
 
 EXIT_OK = 0
@@ -288,7 +289,9 @@ def _add_generate(subparsers: Any, kind: LayoutKind) -> None:
         metavar="N",
         help="NCA steps (default: the paper's for the size, 50, or 200 at 101x102)",
     )
-    p.add_argument("--hidden", type=whole_number(1, 1024), default=32, metavar="N", help="hidden channels (default 32)")
+    p.add_argument(
+        "--hidden", type=whole_number(1, 1024), default=HIDDEN, metavar="N", help=f"hidden channels (default {HIDDEN})"
+    )
     p.add_argument("--device", default=None, help="torch device, e.g. cuda (default: the CPU)")
     p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
     p.set_defaults(handler=cmd_generate, kind=kind.name)
@@ -304,7 +307,13 @@ def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
     )
     p.add_argument("file", metavar="FILE", help="map JSON file (unrepaired)")
     p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
-    p.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="seconds for HiGHS (default 60)")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        default=REPAIR_TIME_LIMIT,
+        metavar="S",
+        help=f"seconds for HiGHS (default {REPAIR_TIME_LIMIT:g})",
+    )
     p.add_argument("--threads", type=whole_number(1, 1024), default=1, metavar="N", help="HiGHS threads (default 1)")
     p.add_argument("--seed", type=whole_number(0, 2**31 - 1), default=0, metavar="N", help="HiGHS random seed (default 0)")
     p.add_argument(

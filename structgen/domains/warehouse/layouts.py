@@ -18,8 +18,10 @@ import numpy as np
 
 from structgen.grid import Grid
 
-__all__ = ["KINDS", "MANUFACTURING", "MAZE", "WAREHOUSE", "LayoutKind", "Size", "reference_maps"]
+__all__ = ["KINDS", "MANUFACTURING", "MAZE", "REPAIR_TIME_LIMIT", "WAREHOUSE", "LayoutKind", "Size", "reference_maps"]
 
+#: Seconds a repair may take unless told otherwise (the problem's ``repair_time_limit``, ``repair --time-limit``).
+REPAIR_TIME_LIMIT = 60.0
 #: Environment variable naming the folder of the original's map files (``warehouse/``, ``manufacture/``, ``maze/``).
 REFERENCE_MAPS_VARIABLE = "STRUCTGEN_REFERENCE_MAPS"
 

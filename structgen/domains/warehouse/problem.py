@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 
 from evolution.problem import Evaluation, Problem
-from structgen.conv_nca import ConvNCA
-from structgen.domains.warehouse.layouts import KINDS, LayoutKind
+from structgen.conv_nca import HIDDEN, ConvNCA
+from structgen.domains.warehouse.layouts import KINDS, REPAIR_TIME_LIMIT, LayoutKind
 from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity
 from structgen.domains.warehouse.repair import RepairError, repair
 from structgen.errors import InputError
@@ -58,10 +58,10 @@ class WarehouseSettings:
     simulations: int = 5
     simulation_steps: int = 1000
     uneven: bool = False
-    repair_time_limit: float = 60.0
+    repair_time_limit: float = REPAIR_TIME_LIMIT
     repair_threads: int = 1
     repair_node_limit: int = 0
-    hidden: int = 32
+    hidden: int = HIDDEN
 
     kind = "warehouse"
 
@@ -108,7 +108,7 @@ class MazeSettings:
     iterations: int = 0
     agent: str = "explorer"
     episodes: int = 50
-    hidden: int = 32
+    hidden: int = HIDDEN
 
     kind = "maze"
 

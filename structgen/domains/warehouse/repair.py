@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
+from structgen.domains.warehouse.layouts import MANUFACTURING, REPAIR_TIME_LIMIT, WAREHOUSE, LayoutKind
 from structgen.domains.warehouse.measures import violations
 from structgen.errors import InputError
 
@@ -212,7 +212,7 @@ def repair(
     *,
     shelves: int | None = None,
     agents: int = 0,
-    time_limit: float = 60.0,
+    time_limit: float = REPAIR_TIME_LIMIT,
     seed: int = 0,
     threads: int = 1,
     greedy_first: bool | None = None,

@@ -1,0 +1,45 @@
+"""The settings of the tall search (:mod:`.tall`), in a module of their own: the command line shows their defaults
+without loading the search (the statics, the simulator, the teaching)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from physics.config import PhysicsConfig
+from structgen.errors import InputError
+
+__all__ = ["TallSettings"]
+
+
+@dataclass(frozen=True)
+class TallSettings:
+    """What the search explores, and the physics that judges it; the same settings give the same designs on any
+    number of workers.
+
+    Attributes:
+        levels: the tallest design to look for, in vertices (a level is one lattice layer).
+        beam: designs of each height kept to grow the next.
+        candidates: designs of each height (and of the refinement) simulated.
+        max_vertices: the largest design tried.
+        refine: whether to try every change of two levels' rules of the tallest design (and of lower ones while none
+            above holds in the transient).
+        physics: the loads and the break force they are held to (the faithful preset unless set otherwise; its size
+            caps are raised for each design as far as the design needs).
+    """
+
+    levels: int = 8
+    beam: int = 30
+    candidates: int = 12
+    max_vertices: int = 700
+    refine: bool = True
+    physics: PhysicsConfig = field(default_factory=PhysicsConfig)
+
+    def __post_init__(self) -> None:
+        for name, smallest in (("levels", 2), ("beam", 1), ("candidates", 1), ("max_vertices", 2)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < smallest:
+                raise InputError(f"{name} must be a whole number of at least {smallest}, got {value!r}")
+        if not isinstance(self.refine, bool):
+            raise InputError(f"refine must be true or false, got {self.refine!r}")
+        if not isinstance(self.physics, PhysicsConfig):
+            raise InputError(f"physics must be a PhysicsConfig, got {type(self.physics).__name__}")
