@@ -34,11 +34,11 @@ import numpy as np  # noqa: E402
 
 from evolution import RunFolderError  # noqa: E402
 from physics import InputError, PhysicsConfig, check_stability, joint_forces  # noqa: E402
+from structgen.domains.structures.samples import by_level_rules_one_taller  # noqa: E402
+from structgen.domains.structures.tall import largest_static_load, transient_peak  # noqa: E402
 from structgen.lattice import OFFSETS  # noqa: E402
 from structgen.runs import load_run  # noqa: E402
-from structgen.domains.structures.samples import by_level_rules_one_taller  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
-from structgen.domains.structures.tall import largest_static_load, transient_peak  # noqa: E402
 
 
 def main() -> None:

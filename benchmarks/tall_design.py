@@ -37,8 +37,8 @@ import numpy as np  # noqa: E402
 
 from physics import PhysicsConfig, check_stability, check_transient  # noqa: E402
 from physics.statics import bounding_loads  # noqa: E402
-from structgen.lattice import OFFSETS  # noqa: E402
 from structgen.domains.structures.samples import sparse_pyramid  # noqa: E402
+from structgen.lattice import OFFSETS  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
 
 Cell = tuple[int, int, int]

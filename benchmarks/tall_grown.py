@@ -23,8 +23,8 @@ from pathlib import Path
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
 from physics import check_stability  # noqa: E402
+from structgen.domains.structures.tall import TallSettings, find_tallest  # noqa: E402
 from structgen.nca import save_weights  # noqa: E402
-from structgen.domains.structures.tall import PHYSICS, TallSettings, find_tallest  # noqa: E402
 
 
 def main() -> None:
@@ -47,9 +47,10 @@ def main() -> None:
         settings = TallSettings(args.levels, args.beam, args.candidates, args.max_vertices, args.refine)
     except ValueError as err:
         parser.error(str(err))
-    if args.workers < 1:
-        parser.error("--workers must be at least 1")
+    if args.workers < 0:
+        parser.error("--workers must be 0 (this process) or more")
     result = find_tallest(settings, workers=args.workers, log=print)
+    physics = settings.physics
     print(f"search: {result.search_seconds:.0f} s")
     print()
     print(
@@ -59,7 +60,7 @@ def main() -> None:
     print("|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for levels, design in sorted(result.designs.items()):
         taught = result.taught[levels]
-        shown = [f"{f:.1f} N" if f <= PHYSICS.break_force else f"**{f:.1f} N**" for f in (design.static_load, design.peak)]
+        shown = [f"{f:.1f} N" if f <= physics.break_force else f"**{f:.1f} N**" for f in (design.static_load, design.peak)]
         print(
             f"| {levels} | {' '.join(design.rules)} | {design.tied} | {design.structure.n_vertices} | "
             f"{design.structure.n_edges} | {shown[0]} | {shown[1]} | {taught.n_rules} | {result.teach_seconds[levels]:.1f} s |"
@@ -71,7 +72,7 @@ def main() -> None:
             parser.error(f"--verdict {args.verdict}: no teachable design of that height was found")
         clock = time.perf_counter()
         grown = result.taught[args.verdict].grown
-        report = check_stability(grown, PHYSICS.replace(**PHYSICS.room_for(grown.n_vertices, grown.n_edges)))
+        report = check_stability(grown, physics.replace(**physics.room_for(grown.n_vertices, grown.n_edges)))
         verdict = "stands, no joint broken" if report.stands else f"{len(report.broken_joints)} joints break"
         print(
             f"\nfaithful 30 s, the grown {args.verdict}-level structure: {verdict}, height {report.height:.3f} "
