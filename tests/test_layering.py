@@ -85,6 +85,7 @@ CORE = {
     "structgen.mesh",
     "structgen.nca",
     "structgen.nca_config",
+    "structgen.reference_data",
     "structgen.structure",
 }
 #: Old names of modules that moved into a domain, kept for one release (structgen._moved): the top layer, so that no

@@ -4,8 +4,6 @@ refusals."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -13,11 +11,12 @@ from structgen.domains.fortress.engine import CAUSES, POPULATION_CAP, Rules, sim
 from structgen.domains.fortress.formats import parse_fortress, read_fortress_file
 from structgen.domains.fortress.world import mutate_world, random_world
 from structgen.errors import InputError
+from tests import reference
 from tests.fortress.reference_fortress import ReferenceFortress
 
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "amorphous-fortress"
+DATA = reference.folder("amorphous-fortress")
 SHIPPED = sorted((DATA / "FORTS").glob("*.txt")) + sorted((DATA / "QD_EXP" / "SAVED_FORTS").glob("*.txt"))
-needs_data = pytest.mark.skipif(not SHIPPED, reason=f"the shared fortress data is not at {DATA}")
+needs_data = reference.needs("amorphous-fortress")
 
 
 def assert_matches_reference(worlds, seeds, steps):

@@ -16,6 +16,7 @@ from structgen.domains.fortress.engine import simulate
 from structgen.domains.fortress.formats import read_fortress_file
 from structgen.domains.fortress.problem import FortressProblem, FortressSettings
 from structgen.domains.fortress.world import random_world
+from tests.fortress.own_worlds import GARDEN, GEM_KEEPER, LONE_CLASS
 from tests.fortress.test_engine import DATA, needs_data
 from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
 
@@ -142,9 +143,14 @@ def test_a_killed_fortress_run_resumes_to_the_same_archive(tmp_path, capsys):
     assert read_fortress_file(tmp_path / "elite.txt").classes
 
 
-@needs_data
-def test_run_prints_the_final_map_and_the_population_of_each_class(capsys):
-    path = DATA / "FORTS" / "LOCK_N_KEY.txt"
+def own_world(tmp_path, text: str, name: str = "world.txt"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_run_prints_the_final_map_and_the_population_of_each_class(tmp_path, capsys):
+    path = own_world(tmp_path, GEM_KEEPER)
     code, out, err = cli(capsys, "fortress", "run", path, "--steps", "30", "--seed", "2")
     assert code == 0, err
     lines = out.splitlines()
@@ -157,19 +163,25 @@ def test_run_prints_the_final_map_and_the_population_of_each_class(capsys):
     assert sum(summary["populations"].values()) == len(final) == summary["entities"]
 
 
-@needs_data
-def test_running_an_entity_file_says_that_it_places_no_entities(capsys):
-    # The original's ENT/*.txt define one class each and place nothing: an empty world, and the command says why.
-    code, out, err = cli(capsys, "fortress", "run", DATA / "ENT" / "boko.txt", "--steps", "5")
+def test_running_an_entity_file_says_that_it_places_no_entities(tmp_path, capsys):
+    # An entity file (the original's ENT/*.txt) defines one class and places nothing: an empty world, and the command
+    # says why.
+    code, out, err = cli(capsys, "fortress", "run", own_world(tmp_path, LONE_CLASS, "lone.txt"), "--steps", "5")
     assert code == 0 and "0 entities" in out
     assert "places no entities (no -- INIT ENT POS -- or -- INIT FORT -- block)" in err
-    code, out, err = cli(capsys, "fortress", "run", DATA / "FORTS" / "LOCK_N_KEY.txt", "--steps", "5")
+    code, out, err = cli(capsys, "fortress", "run", own_world(tmp_path, GEM_KEEPER), "--steps", "5")
     assert code == 0 and "places no entities" not in err
 
 
 @needs_data
+def test_the_originals_files_run_from_the_command_line(capsys):
+    for path in (DATA / "FORTS" / "LOCK_N_KEY.txt", DATA / "ENT" / "boko.txt"):
+        code, out, err = cli(capsys, "fortress", "run", path, "--steps", "5")
+        assert code == 0 and out.splitlines()[0] == "#" * 15, err
+
+
 def test_replay_and_show_write_their_pictures(tmp_path, capsys):
-    path = DATA / "FORTS" / "HYRULE.txt"
+    path = own_world(tmp_path, GARDEN)
     gif, strip = tmp_path / "h.gif", tmp_path / "h.png"
     code, out, err = cli(capsys, "fortress", "replay", path, "--steps", "12", "--every", "4", "--gif", gif, "--strip", strip)
     assert code == 0, err

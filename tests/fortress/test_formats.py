@@ -1,4 +1,5 @@
-"""The Amorphous Fortress's text formats: every shipped file reads, and writes back to an equivalent file."""
+"""The Amorphous Fortress's text formats: our own small worlds and (where the reference data is on the machine) every
+file the original ships read, and write back to equivalent files."""
 
 from __future__ import annotations
 
@@ -15,29 +16,57 @@ from structgen.domains.fortress.formats import (
     read_fortress_file,
 )
 from structgen.errors import InputError
+from tests import reference
+from tests.fortress import own_worlds
 
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "amorphous-fortress"
+DATA = reference.folder("amorphous-fortress")
 ENTITY_FILES = sorted((DATA / "ENT").glob("*.txt"))
 FORTRESS_FILES = sorted((DATA / "FORTS").glob("*.txt")) + sorted((DATA / "QD_EXP" / "SAVED_FORTS").glob("*.txt"))
+OWN = {"gem_keeper.txt": own_worlds.GEM_KEEPER, "garden.txt": own_worlds.GARDEN, "numbered.txt": own_worlds.NUMBERED_FROM_ONE}
+needs_data = reference.needs("amorphous-fortress")
 
 
+@needs_data
 def test_the_reference_files_are_there():
-    # the shared data sits beside the checkout; without it the round-trip tests below would test nothing
+    # where the data is, all of it is: otherwise the round trips below would test less than they say
     assert len(ENTITY_FILES) == 11 and len(FORTRESS_FILES) == 15, DATA
 
 
-@pytest.mark.parametrize("path", ENTITY_FILES, ids=lambda p: p.name)
-def test_entity_files_round_trip(path):
-    entity = read_entity_file(path)
+def entity_round_trip(entity) -> None:
     again = parse_entity(format_entity(entity))
     assert (again.char, again.nodes, list(again.edges.items())) == (entity.char, entity.nodes, list(entity.edges.items()))
     assert entity.nodes[0] and entity.edges
 
 
+@needs_data
+@pytest.mark.parametrize("path", ENTITY_FILES, ids=lambda p: p.name)
+def test_entity_files_round_trip(path):
+    entity_round_trip(read_entity_file(path))
+
+
+def test_our_entity_file_round_trips(tmp_path):
+    path = tmp_path / "lone.txt"
+    path.write_text(own_worlds.LONE_CLASS)
+    entity_round_trip(read_entity_file(path))
+
+
+@pytest.mark.parametrize("name", sorted(OWN))
+def test_our_fortress_files_round_trip(name, tmp_path):
+    path = tmp_path / name
+    path.write_text(OWN[name])
+    fortress_round_trip(path, tmp_path / "again")
+
+
+@needs_data
 @pytest.mark.parametrize("path", FORTRESS_FILES, ids=lambda p: p.name)
 def test_fortress_files_round_trip(path, tmp_path):
+    fortress_round_trip(path, tmp_path)
+
+
+def fortress_round_trip(path: Path, folder: Path) -> None:
     fortress = read_fortress_file(path)
-    written = tmp_path / path.name
+    folder.mkdir(exist_ok=True)
+    written = folder / path.name
     written.write_text(format_fortress(fortress))
     again = read_fortress_file(written)
     assert list(again.classes) == list(fortress.classes)
@@ -51,6 +80,16 @@ def test_fortress_files_round_trip(path, tmp_path):
         assert len(fortress.classes) == 15 and fortress.placed_by == "pos"
 
 
+def test_a_map_places_entities_row_by_row_with_x_the_column(tmp_path):
+    path = tmp_path / "gem_keeper.txt"
+    path.write_text(own_worlds.GEM_KEEPER)
+    fortress = read_fortress_file(path)
+    assert list(fortress.classes) == ["k", "g"] and fortress.placed_by == "fort"
+    assert fortress.classes["k"].edge_list() == [(0, 1, "nextTo", ["g"]), (1, 0, "none", [])]
+    assert fortress.initial == [("k", 2, 1), ("g", 5, 3), ("g", 3, 4), ("k", 7, 5)]
+
+
+@needs_data
 def test_lock_and_key_reads_as_the_original_reads_it():
     fortress = read_fortress_file(DATA / "FORTS" / "LOCK_N_KEY.txt")
     assert list(fortress.classes) == ["o", "O", "X", "?", ">"]
@@ -85,7 +124,14 @@ def test_positions_of_undefined_classes_are_refused():
 
 
 def test_nodes_are_numbered_by_order_as_the_original_numbers_them():
-    # DRUNK_SOKOBAN_2's player writes its only node as "1: push *" and an edge 1-1 that can never fire
+    # a class that writes its only node as "1: push b" and an edge 1-1 that can never fire
+    player = parse_fortress(own_worlds.NUMBERED_FROM_ONE, "numbered.txt").classes["p"]
+    assert player.nodes == ["push b"] and player.edges == {"1-1": "none"}
+    assert format_entity(player).splitlines()[2] == "0: push b"
+
+
+@needs_data
+def test_the_originals_node_numbering_quirk_reads_the_same():
+    # DRUNK_SOKOBAN_2's player is written as "1: push *" with an edge 1-1
     player = read_fortress_file(DATA / "FORTS" / "DRUNK_SOKOBAN_2.txt").classes["@"]
     assert player.nodes == ["push *"] and player.edges == {"1-1": "none"}
-    assert format_entity(player).splitlines()[2] == "0: push *"

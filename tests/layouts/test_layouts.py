@@ -10,18 +10,17 @@ import pytest
 
 from structgen.cli import main
 from structgen.conv_nca import ConvNCA, parameter_count
-from structgen.domains.warehouse.layouts import MANUFACTURING, MAZE, WAREHOUSE, reference_maps
+from structgen.domains.warehouse.layouts import MANUFACTURING, MAZE, WAREHOUSE
 from structgen.domains.warehouse.maze import AGENTS, diameter, run_episodes
 from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity, violations
 from structgen.domains.warehouse.repair import RepairError, greedy_repair, repair
 from structgen.grid import Grid, GridError
+from tests import reference
 from tests.layouts.reference_conv_nca import reference_grow
 
-MAPS = reference_maps() or Path("no reference maps")
+MAPS = reference.maps()
 OURS = MAPS / "warehouse" / "ours" / "nca_to_show"
-needs_maps = pytest.mark.skipif(
-    not MAPS.is_dir(), reason="the original's maps are not on this machine: set $STRUCTGEN_REFERENCE_MAPS to their folder"
-)
+needs_maps = reference.needs("warehouse-maps")
 #: The one map file of the original that is not a grid: its last row is one tile longer (a typo in the original).
 RAGGED = "warehouse/report/fixed_n_shelf/kiva_comp_repaired.json"
 

@@ -9,15 +9,14 @@ import numpy as np
 import pytest
 
 from structgen.cli import main
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
+from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE
 from structgen.domains.warehouse.simulator import STATION_WAITS, simulate
 from structgen.grid import Grid
+from tests import reference
 
 E, SHELF = WAREHOUSE.vocabulary.index("e"), WAREHOUSE.vocabulary.index("@")
-MAPS = reference_maps()
-needs_maps = pytest.mark.skipif(
-    MAPS is None, reason="the original's maps are not on this machine: set $STRUCTGEN_REFERENCE_MAPS to their folder"
-)
+MAPS = reference.maps()
+needs_maps = reference.needs("warehouse-maps")
 
 
 def small_warehouse() -> np.ndarray:

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from structgen.grid import Grid
+from structgen.reference_data import reference_data
 
 __all__ = ["KINDS", "MANUFACTURING", "MAZE", "REPAIR_TIME_LIMIT", "WAREHOUSE", "LayoutKind", "Size", "reference_maps"]
 
@@ -28,16 +29,13 @@ REFERENCE_MAPS_VARIABLE = "STRUCTGEN_REFERENCE_MAPS"
 
 def reference_maps() -> Path | None:
     """The folder of the original paper's map files, which the tests and ``benchmarks/grid.py`` check against: the
-    folder named by ``$STRUCTGEN_REFERENCE_MAPS``, else ``shared/data/warehouse-maps`` beside the checkout or any
-    folder above it; None where there is none (the maps are research data, not part of the package)."""
+    folder named by ``$STRUCTGEN_REFERENCE_MAPS``, else ``warehouse-maps/`` of the reference data
+    (:func:`structgen.reference_data.reference_data`); None where there is none (the maps are research data, not
+    part of the package)."""
     named = os.environ.get(REFERENCE_MAPS_VARIABLE)
     if named:
         return Path(named)
-    for folder in Path(__file__).resolve().parents:
-        candidate = folder / "shared" / "data" / "warehouse-maps"
-        if candidate.is_dir():
-            return candidate
-    return None
+    return reference_data("warehouse-maps")
 
 
 @dataclass(frozen=True)
