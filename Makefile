@@ -1,14 +1,15 @@
 # Two commands set up and use structgen on a fresh machine (see README.md):
 #   make run    create .venv, install structgen, run the main job (a short evolution run; prints its run folder)
 #   make test   create .venv, install structgen with test tools, lint, run the whole test suite
-# For the edit loop: make test-fast (the suite without the tests marked slow), make format (ruff formats the code).
+# For the edit loop: make test-fast (the suite without the tests marked slow), make format (ruff formats the code);
+# make test-all also compiles with torch.compile's code generation (minutes more on a CPU).
 PYTHON ?= $(shell command -v python3.11 || command -v python3.10 || command -v python3)
 VENV ?= .venv
 BIN := $(VENV)/bin
 # Extra options for the main job, e.g. make run ARGS="--generations 10 --seed 3"
 ARGS ?=
 
-.PHONY: run test test-fast lint format install clean
+.PHONY: run test test-fast test-all lint format install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +26,9 @@ lint: install
 
 test: lint
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+
+test-all: lint
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup --run-inductor
 
 test-fast: install
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup -m "not slow"

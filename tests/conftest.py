@@ -17,11 +17,32 @@ def _required() -> bool:
     return bool(os.environ.get(REQUIRE_VARIABLE))
 
 
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--run-inductor",
+        action="store_true",
+        help="also run the tests marked inductor (torch.compile's code generation: minutes on a CPU; make test-all)",
+    )
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if config.getoption("--run-inductor"):
+        return
+    skip = pytest.mark.skip(
+        reason="torch.compile's code generation takes minutes on a CPU: make test-all (--run-inductor) runs it"
+    )
+    for item in items:
+        if "inductor" in item.keywords:
+            item.add_marker(skip)
+
+
 def pytest_configure(config: pytest.Config) -> None:
     if _required() and not hasattr(config, "workerinput"):
         missing = [name for name in FOLDERS if reference_data(name) is None]
         if missing:
-            raise pytest.UsageError(f"${REQUIRE_VARIABLE} is set but the reference data lacks {', '.join(name + '/' for name in missing)}")
+            raise pytest.UsageError(
+                f"${REQUIRE_VARIABLE} is set but the reference data lacks {', '.join(name + '/' for name in missing)}"
+            )
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:

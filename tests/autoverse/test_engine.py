@@ -68,17 +68,30 @@ def test_batched_engine_equals_reference_on_random_games_and_actions(mechanics):
     assert all(bool(trace[-1][4].all()) for trace in traces.values()), "the 101st step ends the episode"
 
 
-@pytest.mark.slow
-def test_compiled_engine_equals_the_plain_torch_engine():
-    # torch.compile (the fast GPU path) once: compiling costs about a minute on 2 cores with a cold cache. The plain
-    # torch engine is held to the reference above, so matching it step for step holds the compiled one there too.
+def _compiled_against_plain(monkeypatch: pytest.MonkeyPatch | None, backend: str | None) -> None:
     games = _games(np.random.default_rng(11), 12)
     actions = _episode(games)
     plain = _play(Engine(games, backend="torch"), actions)
+    if backend is not None:  # the engine's own torch.compile call, with another compiler behind it
+        compile_with = torch.compile
+        monkeypatch.setattr(torch, "compile", lambda function, **options: compile_with(function, backend=backend, **options))
     compiled = _play(Engine(games, backend="torch", compile=True), actions)
     for t, (want, got) in enumerate(zip(plain, compiled)):
         for name, a, b in zip(("map", "rotation", "position", "reward", "done"), want, got):
             assert np.array_equal(a, b), f"step {t}: {name}"
+
+
+def test_the_graph_torch_compile_captures_equals_the_plain_torch_engine(monkeypatch):
+    # What torch.compile traces (one graph, no breaks; guards, functionalisation) run without code generation: seconds.
+    # The plain torch engine is held to the reference above, so matching it step for step holds the graph there too.
+    _compiled_against_plain(monkeypatch, "aot_eager")
+
+
+@pytest.mark.inductor
+def test_compiled_engine_equals_the_plain_torch_engine():
+    # The whole of torch.compile, code generation included (the fast GPU path; C++ on a CPU): about 100 s of compiling
+    # on 2 cores with a cold cache, so it runs in make test-all, not in make test (CONTRIBUTING.md).
+    _compiled_against_plain(None, None)
 
 
 @pytest.mark.parametrize("backend", ["torch", "numba"])
