@@ -1,6 +1,6 @@
 # Two commands set up and use structgen on a fresh machine (see README.md):
 #   make run    create .venv, install structgen, run the main job (a short evolution run; prints its run folder)
-#   make test   create .venv, install structgen with test tools, lint, run the whole test suite
+#   make test   create .venv, install structgen with test and docs tools, lint, build the docs, run the whole suite
 # For the edit loop: make test-fast (the suite without the tests marked slow), make format (ruff formats the code);
 # make test-all also compiles with torch.compile's code generation (minutes more on a CPU).
 PYTHON ?= $(shell command -v python3.11 || command -v python3.10 || command -v python3)
@@ -9,13 +9,13 @@ BIN := $(VENV)/bin
 # Extra options for the main job, e.g. make run ARGS="--generations 10 --seed 3"
 ARGS ?=
 
-.PHONY: run test test-fast test-all lint format install clean
+.PHONY: run test test-fast test-all lint docs format install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
 install: $(BIN)/python
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,docs]'
 
 run: install
 	$(BIN)/structgen evolve $(ARGS)
@@ -24,7 +24,11 @@ lint: install
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
-test: lint
+# The site is built into a scratch folder: the check is that it builds without a warning (strict).
+docs: install
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir site
+
+test: lint docs
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 test-all: lint
@@ -38,4 +42,4 @@ format: install
 	$(BIN)/ruff format .
 
 clean:
-	rm -rf $(VENV) runs
+	rm -rf $(VENV) runs site

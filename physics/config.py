@@ -80,7 +80,7 @@ class PhysicsConfig:
             an edge of its footprint rolls over in the simulation.
 
     The four statics settings were fitted on half of the 240 structures of ``benchmarks/statics.py`` and checked on
-    the other half (see ``benchmarks/README.md``).
+    the other half (see ``benchmarks/structures.md``).
     """
 
     timestep: float = 1 / 240

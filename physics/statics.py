@@ -16,7 +16,7 @@ The model is the simulation's (``physics.bullet``) with time taken out:
 - Progressive failure: every joint whose force times ``config.statics_load_factor`` exceeds the break force breaks;
   the structure is solved again, and so on until nothing more breaks. A piece that no longer touches the ground
   (cut loose, or tipping) falls, and its joints count as broken: in the simulation, falling pieces hit the ground
-  hard enough to break them (see the validation in ``benchmarks/README.md``). A cylinder left on one joint hangs
+  hard enough to break them (see the validation in ``benchmarks/structures.md``). A cylinder left on one joint hangs
   from it.
 
 The prediction: broken joints, integrity, the height of what still stands, and Q; exact for statically determinate
@@ -293,7 +293,7 @@ def bounding_loads(structure: Any, config: PhysicsConfig | None = None) -> np.nd
 
     The simulation's ground lies between the two: friction holds feet that push outwards only so far. A search
     judged on held ground alone ends on designs whose spreading feet break their joints in the simulation
-    (benchmarks/README.md, "Tall structures"); the larger of the two is the safer guide."""
+    (benchmarks/structures.md, "Tall structures"); the larger of the two is the safer guide."""
     config = config or PhysicsConfig()
     bodies = _placed(structure, config)
     held = _predict(bodies, config, rounds=0).first_loads

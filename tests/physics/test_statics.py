@@ -273,7 +273,7 @@ def test_bounding_loads_take_each_joints_larger_load_of_the_two_grounds():
 @pytest.mark.slow
 def test_a_sparse_five_level_pyramid_stands_where_dense_growth_breaks():
     # Five levels are possible under the paper's model when the load is spread round a hollow centre; a solid block
-    # of three levels already breaks (benchmarks/README.md, "Tall structures").
+    # of three levels already breaks (benchmarks/structures.md, "Tall structures").
     pyramid = five_level_pyramid()
     assert pyramid.height == 4 and (pyramid.n_vertices, pyramid.n_edges) == (79, 296)
     assert check_statics(pyramid, FAST).intact and np.nanmax(joint_forces(pyramid, FAST)) < 40

@@ -196,7 +196,7 @@ class Engine:
             raise ValueError("compile=True compiles the tensor code; the numba backend is compiled already")
         self.backend = backend
         # torch.compile fuses the rules' forty-odd gathers and shifts into a few kernels: 2.7x the env-steps/s on an
-        # H100 at large batches, for about 20 s of compiling on first use (benchmarks/README.md, Autoverse).
+        # H100 at large batches, for about 20 s of compiling on first use (benchmarks/autoverse.md).
         self._rules = torch.compile(self._rules_on_codes, dynamic=False) if compile else self._rules_on_codes
         self.mechanics = mechanics = mechanics or Mechanics()
         self.episode_steps = episode_steps

@@ -72,7 +72,7 @@ class StructuresSettings:
             intact structure is loaded beyond ``screen_margin`` times the break force. Statics is approximate where
             the load can take several paths (a star on five legs): the rare early structures that stand are then
             often predicted to break by a few percent, and a screen without a margin starved runs of every standing
-            structure (benchmarks/README.md, "Statics as a screen"). 1 screens on the prediction alone.
+            structure (benchmarks/structures.md, "Statics as a screen"). 1 screens on the prediction alone.
         transient_window: simulated seconds the transient evaluator runs (the spawn transient, where tall
             structures carry their largest loads, is over within the first 0.3 s).
         min_height: structures lower than this (H, lattice units, as judged) score 0. For refining at a height: the

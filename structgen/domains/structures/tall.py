@@ -1,7 +1,7 @@
 """Find the tallest structures a local NCA can grow that stand, and teach them to it.
 
-Evolution in weight space stops at four or five levels (benchmarks/README.md, "Tall"): the weights that grow a tall,
-sparse tower are a narrow target. This module searches the designs instead and then trains the network on the
+Evolution in weight space stops at four or five levels (benchmarks/structures.md, "Tall structures"): the weights that
+grow a tall, sparse tower are a narrow target. This module searches the designs instead and then trains the network on the
 winner with :func:`.teach.teach`.
 
 The designs are :func:`.samples.by_level_rules`: one rule per level from a top vertex, the lowest 0 to 2

@@ -326,7 +326,7 @@ ROUNDING_SHARE = 0.25
 #: :data:`GREEDY_FIRST_CELLS`) given at least this many seconds. Below 1,000 cells (9x16) the full search proves the
 #: optimum in seconds and the rounding only added its own 1 to 3 s; under 30 s the relaxation's 0.6 to 3 s at 33x36
 #: leave too little for the search; above 4,000 cells the relaxation alone outlasted its share of two minutes; and
-#: on the original's manufacturing maps the full search did as well without it (all measured, benchmarks/README.md).
+#: on the original's manufacturing maps the full search did as well without it (all measured, benchmarks/layouts.md).
 ROUNDING_MIN_CELLS = 1000
 ROUNDING_MIN_SECONDS = 30.0
 #: Branch-and-bound nodes the rounding's smaller MILP may use: its answers came from the root on the maps measured,

@@ -15,7 +15,7 @@ Planner ``"pp"``: windowed prioritized planning (space-time A* against a reserva
 goal longest ago plan first; an agent that finds no path moves to the front and planning restarts; after a budget
 of restarts, one per 40 agents and at least five, such agents wait in place). It stands in for the original's PBS,
 whose licence keeps it out of this project. The priority rule and the restart budget were chosen against the
-original's recorded throughputs (benchmarks/README.md): with more restarts at 200 agents the human layout no longer
+original's recorded throughputs (benchmarks/layouts.md): with more restarts at 200 agents the human layout no longer
 congests, as it does there.
 """
 

@@ -1,0 +1,121 @@
+"""Every example in the docs runs as written: the README, CONTRIBUTING.md, the guide's pages under docs/ and the
+benchmark pages.
+
+Each page runs in a scratch folder of its own that sees the repository's configs/, docs/ and examples/, its blocks in
+the order a reader meets them: every `structgen` line of a ``bash`` block (through the same entry point as the console
+script) and every ``python`` block (in one namespace per page). Two changes keep the suite short, and nothing else is
+changed: evolution runs stop after one generation on one process (``--generations 1 --workers 0`` appended; a resume
+with ``--generations`` continues to 2), and an ``--elite index:I`` whose cell the short run did not fill takes a cell
+it did fill. A command whose comment says ``exits N`` must exit with N; every other one with 0. ``console`` blocks
+are shown, not run (they take minutes, or install a package: tests/test_plugins.py runs the plugin's). Every ``toml``
+block is a configuration that loads as written.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+import shlex
+import sys
+from pathlib import Path
+
+import pytest
+
+from structgen.cli import main
+from structgen.config import flatten
+from structgen.experiment import load_experiment
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGES = [
+    ROOT / "README.md",
+    ROOT / "CONTRIBUTING.md",
+    *sorted((ROOT / "docs").rglob("*.md")),
+    *sorted((ROOT / "benchmarks").glob("*.md")),
+]
+BLOCK = re.compile(r"^```(\w*)\n(.*?)^```", flags=re.S | re.M)
+
+pytestmark = pytest.mark.slow
+
+
+def name(page: Path) -> str:
+    return page.relative_to(ROOT).as_posix()
+
+
+def blocks(page: Path, *languages: str) -> list[tuple[str, str]]:
+    """``(language, text)`` of the page's fenced blocks in those languages, in order."""
+    return [(language, text) for language, text in BLOCK.findall(page.read_text()) if language in languages]
+
+
+def commands(text: str) -> list[tuple[list[str], int]]:
+    """``(argv, expected exit code)`` for every structgen command of a bash block."""
+    found = []
+    for line in text.splitlines():
+        if not line.startswith("structgen "):
+            continue
+        command, _, comment = line.partition("  #")
+        expected = re.search(r"\bexits (\d)", comment)
+        found.append((shlex.split(command)[1:], int(expected.group(1)) if expected else 0))
+    return found
+
+
+def shortened(argv: list[str], scratch: Path) -> list[str]:
+    """The command with its evolution cut short and its archive cell taken from the run at hand."""
+    argv = list(argv)
+    verb = argv[1] if argv[0] not in ("evolve", "resume", "export", "grow") and len(argv) > 1 else argv[0]
+    if verb == "evolve" and "--print-config" not in argv:
+        argv += ["--generations", "1", "--workers", "0"]
+    if verb == "resume" and "--generations" in argv:
+        argv[argv.index("--generations") + 1] = "2"
+    if "--elite" in argv and argv[argv.index("--elite") + 1].startswith("index:"):
+        run = scratch / (argv[argv.index("--run") + 1] if "--run" in argv else argv[1])
+        cells = [line.split(",")[0] for line in (run / "archive.csv").read_text().splitlines()[1:]]
+        cell = argv[argv.index("--elite") + 1].split(":")[1]
+        if cell not in cells:
+            argv[argv.index("--elite") + 1] = f"index:{cells[0]}"
+    return argv
+
+
+RUNNABLE = [
+    page for page in PAGES if any(commands(text) or language == "python" for language, text in blocks(page, "bash", "python"))
+]
+
+
+def test_the_pages_have_examples_of_each_kind():
+    assert {name(page) for page in RUNNABLE} >= {"README.md", "docs/runs.md", "docs/structures.md", "docs/layouts.md"}
+    assert sum(len(commands(text)) for page in PAGES for _, text in blocks(page, "bash")) >= 60
+    assert sum(len(blocks(page, "python")) for page in PAGES) >= 8 and any(blocks(page, "toml") for page in PAGES)
+
+
+@pytest.mark.parametrize("page", RUNNABLE, ids=name)
+def test_every_example_of_the_page_runs_in_order(page, tmp_path, monkeypatch, capsys):
+    for folder in ("configs", "docs", "examples"):
+        (tmp_path / folder).symlink_to(ROOT / folder)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {"__name__": "docs_example"}
+    for n, (language, text) in enumerate(blocks(page, "bash", "python"), start=1):
+        where = f"{name(page)}, block {n}"
+        if language == "python":
+            exec(compile(text, f"{where} (python)", "exec"), namespace)
+            continue
+        for argv, expected in commands(text):
+            out, err = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                code = main(shortened(argv, tmp_path))
+            assert code == expected, f"{where}: structgen {shlex.join(argv)} exited {code}:\n{err.getvalue()[-2000:]}"
+
+
+def test_every_toml_block_is_a_configuration_taken_as_written(tmp_path):
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python 3.10
+        import tomli as tomllib
+
+    configurations = [text for page in PAGES for _, text in blocks(page, "toml") if "[project" not in text]
+    assert configurations
+    for n, text in enumerate(configurations):
+        path = tmp_path / f"block{n}.toml"
+        path.write_text(text)
+        resolved = flatten(load_experiment(path).to_mapping())
+        for key, value in flatten(tomllib.loads(text)).items():
+            assert resolved[key] == value, key
