@@ -15,7 +15,7 @@ from structgen.domains.autoverse.clone import CloneSettings, clone_run, collect_
 from structgen.domains.autoverse.engine import Observation
 from structgen.domains.autoverse.game import game_key, random_game
 from structgen.domains.autoverse.problem import AutoverseProblem, AutoverseSettings
-from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
+from tests.helpers import cli, kill_during_evolve, outcome
 
 TINY = """\
 [run]

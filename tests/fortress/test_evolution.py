@@ -16,9 +16,12 @@ from structgen.domains.fortress.engine import simulate
 from structgen.domains.fortress.formats import read_fortress_file
 from structgen.domains.fortress.problem import FortressProblem, FortressSettings
 from structgen.domains.fortress.world import random_world
+from tests import reference
 from tests.fortress.own_worlds import GARDEN, GEM_KEEPER, LONE_CLASS
-from tests.fortress.test_engine import DATA, needs_data
-from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
+from tests.helpers import cli, kill_during_evolve, outcome
+
+DATA = reference.folder("amorphous-fortress")
+needs_data = reference.needs("amorphous-fortress")
 
 TINY = """\
 [run]

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from structgen.grid import Grid
-from tests.structgen.test_evolve_cli import cli, kill_during_evolve, outcome
+from tests.helpers import cli, kill_during_evolve, outcome
 
 # configs/warehouse_cma_mae.toml in miniature: every optimiser setting of the paper's, a 6x8 floor, 4 robots.
 TINY_WAREHOUSE = """\

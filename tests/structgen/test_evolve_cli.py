@@ -6,8 +6,6 @@ import hashlib
 import json
 import signal
 import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +13,7 @@ import pytest
 import trimesh
 
 from structgen.cli import main
+from tests.helpers import cli, kill_during_evolve, outcome, structgen_command, wait_for_lines
 
 # The paper's problem in miniature: growth capped at 16 vertices, 4 children a generation, fast physics.
 TINY = """\
@@ -45,54 +44,6 @@ def tiny_config(tmp_path: Path, optimizer: str = "ga") -> Path:
     path = tmp_path / f"{optimizer}.toml"
     path.write_text(TINY.format(optimizer=optimizer, optimizer_settings=OPTIMIZER_SETTINGS[optimizer]))
     return path
-
-
-def cli(capsys, *argv) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def outcome(run: Path) -> dict:
-    """What must be identical between two runs of the same configuration (everything but timings)."""
-    metrics = [
-        {k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in (run / "metrics.jsonl").read_text().splitlines()
-    ]
-    files = {
-        name: (run / name).read_bytes()
-        for name in ("best/genome.npy", "best/best.json", "best/structure.json", "archive.csv", "archive_solutions.npy")
-        if (run / name).exists()
-    }
-    return {"metrics": metrics, "files": files}
-
-
-def structgen_command() -> list[str]:
-    script = Path(sys.executable).with_name("structgen")
-    return [str(script)] if script.exists() else [sys.executable, "-m", "structgen"]
-
-
-def wait_for_lines(path: Path, count: int, process: subprocess.Popen, limit: float = 120.0) -> None:
-    deadline = time.monotonic() + limit
-    while time.monotonic() < deadline:
-        if path.exists() and len(path.read_text().splitlines()) >= count:
-            return
-        assert process.poll() is None, process.communicate()
-        time.sleep(0.05)
-    raise AssertionError(f"{path} never reached {count} lines")
-
-
-def kill_during_evolve(config: Path, run: Path, generations: int, *options: str, limit: float = 120.0) -> None:
-    """Start ``structgen evolve CONFIG --run-dir RUN``, let it finish ``generations`` generations, then SIGKILL it:
-    no chance to clean up, whatever it was writing is cut short."""
-    process = subprocess.Popen(
-        [*structgen_command(), "evolve", str(config), "--run-dir", str(run), *options],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    wait_for_lines(run / "metrics.jsonl", generations, process, limit=limit)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    assert process.returncode == -signal.SIGKILL
 
 
 # -- evolve ---------------------------------------------------------------------------------------------------------------
