@@ -193,8 +193,7 @@ class WorkerPool:
             self._job, self._job_bytes = job, cloudpickle.dumps(job)
         results: list[Any] = [None] * len(payloads)
         queue = deque(range(len(payloads)))
-        while len(self._pool) < min(self.workers, len(payloads)):
-            self._pool.append(_Worker(self.quiet))
+        self._start_workers(min(self.workers, len(payloads)))
         busy: dict[Connection, _Worker] = {}
         try:
             while queue or busy:
@@ -213,6 +212,10 @@ class WorkerPool:
             self._pool = []
             raise
         return results
+
+    def _start_workers(self, count: int) -> None:
+        while len(self._pool) < count:
+            self._pool.append(_Worker(self.quiet))
 
     def _collect(
         self, busy: dict[Connection, _Worker], results: list, weights: Sequence[float] | None, done: Callable[[int], None] | None

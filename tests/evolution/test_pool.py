@@ -179,3 +179,19 @@ def test_what_a_worker_prints_goes_to_standard_error_not_to_the_parents_results(
     )
     done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0 and done.stdout == "result\n" and "from a worker" in done.stderr
+
+
+@pytest.mark.parametrize("when", ["idle", "starting"])
+def test_a_worker_killed_between_batches_or_while_starting_costs_at_most_a_retry(when):
+    genomes, seeds = batch()
+    problem = Sphere(SphereSettings(noise=0.5))
+    expected = SerialEvaluator().evaluate(problem, genomes, seeds)
+    with PoolEvaluator(2) as pool:
+        if when == "idle":
+            pool.evaluate(problem, genomes, seeds)  # both workers started and idle
+        else:
+            pool.pool._start_workers(2)  # started, not yet told the job
+        os.kill(pool.pids[0], signal.SIGKILL)
+        time.sleep(0.2)
+        result = pool.evaluate(problem, genomes, seeds)
+    same_except(result, expected, np.zeros(len(seeds), dtype=bool))
