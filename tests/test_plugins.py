@@ -6,8 +6,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -77,6 +79,32 @@ def test_it_evolves_resumes_and_exports_through_the_generic_commands(site, tmp_p
     assert done.returncode == 0, done.stderr
     faces = json.loads((tmp_path / "die.json").read_text())["faces"]
     assert faces == json.loads((tmp_path / "run" / "best" / "genome.json").read_text())
+
+
+def test_a_run_of_its_dataclass_genomes_killed_midway_resumes_to_the_run_that_never_stopped(site, tmp_path):
+    # Its genomes are Die dataclasses: the checkpoint holds them, and only the problem's genome_types let it load.
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    argv = [sys.executable, "-m", "structgen", "evolve", "--domain", "dice-v0", "--run-dir", "killed", "--generations", "100000"]
+    process = subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    metrics = tmp_path / "killed" / "metrics.jsonl"
+    deadline = time.monotonic() + 120
+    while not (metrics.exists() and len(metrics.read_text().splitlines()) >= 5) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    reached = len(metrics.read_text().splitlines())
+    assert 5 <= reached < 100000
+    total = str(reached + 10)
+    assert structgen(site, "resume", "killed", "--generations", total, cwd=tmp_path).returncode == 0
+    straight = structgen(site, "evolve", "--domain", "dice-v0", "--run-dir", "straight", "--generations", total, cwd=tmp_path)
+    assert straight.returncode == 0
+
+    def outcome(run: str) -> tuple[list, str]:
+        lines = (tmp_path / run / "metrics.jsonl").read_text().splitlines()
+        rows = [{k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in lines]
+        return rows, (tmp_path / run / "best" / "genome.json").read_text()
+
+    assert len(outcome("killed")[0]) == int(total) and outcome("killed") == outcome("straight")
 
 
 def test_its_own_verbs_and_quality_diversity_work(site, tmp_path):
