@@ -1,23 +1,29 @@
 """Loading a checkpoint without running anything it contains.
 
 A checkpoint is a pickle of the run's state: the optimiser (pycma's and pyribs' objects among them), numpy arrays
-and random generators. Ordinary unpickling runs whatever callables a file names, so a crafted ``checkpoint.pkl``
-could run any command. :func:`loads` reads only what checkpoints are made of:
+and random generators. Ordinary unpickling imports whatever modules a file names and runs whatever callables it
+names, so a crafted ``checkpoint.pkl`` could run any command, or build an object whose collection deletes a file.
+:func:`loads` reads only what checkpoints are made of, and decides from the names alone, before anything is
+imported:
 
-- **Objects** are made without calling their constructors: a class is admitted only if it belongs to the engine or
-  to the optimiser libraries (``evolution``, ``ribs``, ``cma``) and creates its instances with the plain
-  ``object.__new__`` (or ``dict.__new__``/``list.__new__``), or if it is one of a few named numpy and built-in types,
-  or if it is a plain dataclass of a built-in domain (``structgen.domains``: genomes such as a fortress world) with
-  no ``__setstate__`` of its own, so that restoring it only sets its fields.
+- **Classes** are admitted by their full name, from a list (:data:`CLASSES`) of what the engine's checkpoints hold:
+  its own run state and optimisers, pyribs' archives, emitters and rankers, pycma's strategy and the parts it
+  keeps. Never a whole package: a class of pycma that deletes a file when collected is refused like any other.
+  Instances are made without calling their constructors (``object.__new__``, ``dict.__new__``, ``list.__new__``)
+  and restored by setting their fields. Beside them: numpy's arrays, dtypes, scalar types and random generators, a
+  few built-in types, and the genome classes the problem declares (:attr:`evolution.Problem.genome_types`, plain
+  dataclasses).
 - **Calls** (the pickle REDUCE instruction) are allowed for the numpy functions that rebuild arrays, scalars,
   dtypes and random generators, and for ``range`` and ``slice``, which only make a value (pycma keeps a range in
   its state when it mirrors samples, as it does in populations under 6).
-- The instructions of old pickle protocols that call constructors, and the extension registry, are refused; so are
-  function references other than three that pycma keeps among its options, and a module name in pyribs' array
-  state other than numpy's.
+- **References** to three functions pycma keeps among its options are allowed (never called while loading).
+- The instructions of old pickle protocols that call constructors, and the extension registry, are refused; so is
+  a module name in pyribs' array state other than numpy's (pyribs imports it when restoring).
 
-Anything else stops loading with :class:`UnsafeCheckpointError`, before it is created. The reader is pickle's own
-pure-Python unpickler with those instructions checked, so it reads every checkpoint the engine writes.
+Anything else stops loading with :class:`UnsafeCheckpointError` naming it, before its module is imported. The reader
+is pickle's own pure-Python unpickler with those instructions checked, so it reads every checkpoint the engine
+writes. ``tests/evolution/test_checkpoint.py`` holds the list to what the engine writes (every optimiser and setting,
+every domain) and to the rule that no class on it runs code when restored or collected.
 """
 
 from __future__ import annotations
@@ -87,9 +93,72 @@ _TYPES = frozenset(
     }
 )
 _PLAIN_NEW = frozenset({object.__new__, dict.__new__, list.__new__})
-_PACKAGES = ("evolution", "ribs", "cma")
+#: The classes of the engine and its optimiser libraries that checkpoints hold, by module and name. Old names stay
+#: (``evolution.run``'s ``Best`` and ``RunState`` are how checkpoints of structgen 0.1 name them).
+CLASSES = frozenset(
+    {
+        ("evolution.runfolder", "Best"),
+        ("evolution.runfolder", "RunState"),
+        ("evolution.run", "Best"),
+        ("evolution.run", "RunState"),
+        ("evolution.optimizers", "CMAES"),
+        ("evolution.optimizers", "GASettings"),
+        ("evolution.optimizers", "GeneticAlgorithm"),
+        ("evolution.optimizers", "_Normal"),
+        ("evolution.qd", "ProblemMutationEmitter"),
+        ("evolution.qd", "RibsOptimizer"),
+        ("ribs.archives._archive_stats", "ArchiveStats"),
+        ("ribs.archives._array_store", "ArrayStore"),
+        ("ribs.archives._grid_archive", "GridArchive"),
+        ("ribs.emitters._evolution_strategy_emitter", "EvolutionStrategyEmitter"),
+        ("ribs.emitters._gaussian_emitter", "GaussianEmitter"),
+        ("ribs.emitters.opt._cma_es", "CMAEvolutionStrategy"),
+        ("ribs.emitters.opt._cma_es", "DecompMatrix"),
+        ("ribs.emitters.opt._sep_cma_es", "DiagonalMatrix"),
+        ("ribs.emitters.opt._sep_cma_es", "SeparableCMAEvolutionStrategy"),
+        ("ribs.emitters.rankers", "ImprovementRanker"),
+        ("ribs.emitters.rankers", "ObjectiveRanker"),
+        ("ribs.emitters.rankers", "TwoStageImprovementRanker"),
+        ("ribs.emitters.rankers", "TwoStageObjectiveRanker"),
+        ("ribs.schedulers._scheduler", "Scheduler"),
+        ("cma.boundary_handler", "BoundNone"),
+        ("cma.boundary_handler", "BoundTransform"),
+        ("cma.evolution_strategy", "CMAEvolutionStrategy"),
+        ("cma.evolution_strategy", "_CMASolutionDict_functional"),
+        ("cma.evolution_strategy", "_CMAStopDict"),
+        ("cma.evolution_strategy", "_StopTolXStagnation"),
+        ("cma.logger", "CMADataLogger"),
+        ("cma.optimization_tools", "BestSolution"),
+        ("cma.options_parameters", "CMAOptions"),
+        ("cma.options_parameters", "CMAParameters"),
+        ("cma.recombination_weights", "RecombinationWeights"),
+        ("cma.sampler", "GaussFullSampler"),
+        ("cma.sampler", "GaussStandardConstant"),
+        ("cma.sigma_adaptation", "CMAAdaptSigmaCSA"),
+        ("cma.transformations", "DiagonalDecoding"),
+        ("cma.transformations", "GenoPheno"),
+        ("cma.transformations", "RoundIntegerVariables"),
+        ("cma.utilities.utils", "BlancClass"),
+        ("cma.utilities.utils", "DictFromTagsInString"),
+        ("cma.utilities.utils", "ElapsedWCTime"),
+        ("cma.utilities.utils", "MoreToWrite"),
+        ("cma.utilities.utils", "SolutionDict"),
+    }
+)
 # Functions pycma stores among its options (referred to, never called while loading).
-_REFERENCES = {("cma.evolution_strategy", "_pass"), ("cma.options_parameters", "is_feasible"), ("numpy.linalg", "eigh")}
+_REFERENCES = frozenset(
+    {("cma.evolution_strategy", "_pass"), ("cma.options_parameters", "is_feasible"), ("numpy.linalg", "eigh")}
+)
+
+
+def _name(found: Any) -> tuple[str, str]:
+    return found.__module__, found.__qualname__ if isinstance(found, type) else found.__name__
+
+
+# numpy's callables and types and the built-in types, by the names pickles give them (numpy's module layout differs
+# between versions, so the names are read off numpy itself).
+_NAMED_CALLS = {_name(call): call for call in _CALLS}
+_NAMED_TYPES = {_name(kind): kind for kind in _TYPES}
 # pyribs keeps the name of its array module in the state and imports it when unpickling.
 _ARRAY_MODULES = frozenset({"numpy", "array_api_compat.numpy"})
 
@@ -100,26 +169,38 @@ def plain_dataclass(found: type) -> bool:
     return hasattr(found, "__dataclass_fields__") and found.__new__ is object.__new__ and not hasattr(found, "__setstate__")
 
 
+def _numpy_scalar_type(module: str, name: str) -> bool:
+    # numpy is loaded already: looking a name up in it imports nothing.
+    found = getattr(np, name, None) if module == "numpy" else None
+    return isinstance(found, type) and issubclass(found, np.generic)
+
+
 class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions can be checked one by one
     dispatch = pickle._Unpickler.dispatch.copy()
 
     def __init__(self, file: io.BytesIO, genome_types: Collection[type]) -> None:
         super().__init__(file)
-        self.genome_types = frozenset(genome_types)
+        self.genome_types = {_name(kind): kind for kind in genome_types}
 
     def find_class(self, module: str, name: str) -> Any:
-        try:
-            found = super().find_class(module, name)
-        except Exception as err:
-            raise UnsafeCheckpointError(f"it names {module}.{name}, which cannot be found ({err})") from None
-        if found in _CALLS or found in _TYPES or (module, name) in _REFERENCES:
-            return found
-        if isinstance(found, type):
-            if issubclass(found, np.generic):  # numpy scalar types (int32, float64, ...)
+        key = (module, name)
+        # Decided from the name alone: nothing is imported for a name that is not admitted.
+        if key in _NAMED_CALLS:
+            return _NAMED_CALLS[key]
+        if key in _NAMED_TYPES:
+            return _NAMED_TYPES[key]
+        if key in self.genome_types:
+            kind = self.genome_types[key]
+            if plain_dataclass(kind):
+                return kind
+        elif key in CLASSES or key in _REFERENCES or _numpy_scalar_type(module, name):
+            try:
+                found = super().find_class(module, name)
+            except Exception as err:
+                raise UnsafeCheckpointError(f"it names {module}.{name}, which cannot be found ({err})") from None
+            if key in _REFERENCES or _numpy_scalar_type(module, name):
                 return found
-            if module.split(".")[0] in _PACKAGES and found.__new__ in _PLAIN_NEW:
-                return found
-            if found in self.genome_types and plain_dataclass(found):
+            if isinstance(found, type) and found.__new__ in _PLAIN_NEW:
                 return found
         raise UnsafeCheckpointError(f"it names {module}.{name}, which a checkpoint never holds")
 

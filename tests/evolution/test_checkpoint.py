@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 import pickle
 import pickletools
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -62,7 +64,8 @@ def test_a_checkpoint_that_runs_a_command_is_refused_before_it_runs(tmp_path):
         (global_call("numpy", "memmap", "/tmp/x", "uint8", "w+", 0, (1,)), "it names numpy.memmap"),
         # A class of an optimiser library is admitted, but may not be called: calling runs its __init__.
         (global_call("cma.evolution_strategy", "CMAEvolutionStrategy", [0.0, 0.0], 1.0), "it asks to call"),
-        (global_call("evolution.runfolder", "RunFolder", "/"), "it asks to call 'RunFolder'"),
+        (global_call("evolution.runfolder", "RunFolder", "/"), "it names evolution.runfolder.RunFolder"),
+        (global_call("cma.logger", "Logger", "victim"), "it names cma.logger.Logger"),
         (b"(cos\nsystem\nS'true'\no.", "it names os.system"),
         (b"(i__builtin__\nobject\n.", "call constructors"),
     ],
@@ -70,6 +73,55 @@ def test_a_checkpoint_that_runs_a_command_is_refused_before_it_runs(tmp_path):
 def test_crafted_pickles_are_refused(data, message):
     with pytest.raises(checkpoint.UnsafeCheckpointError, match=message):
         checkpoint.loads(data)
+
+
+class Collected:
+    """Stands for a library class that deletes the file it names when collected (pycma's Logger does)."""
+
+
+def test_a_class_that_deletes_a_file_when_collected_is_refused_and_the_file_survives(tmp_path):
+    import cma.logger
+
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    logger = cma.logger.Logger.__new__(cma.logger.Logger)  # as a crafted checkpoint would hold it
+    logger.__dict__.update({"_name": str(victim), "_delete": True})
+    data = pickle.dumps({"schema": 1, "state": logger})
+    logger.__dict__["_delete"] = False  # this test's own copy must not delete it when collected
+    with pytest.raises(checkpoint.UnsafeCheckpointError, match="it names cma.logger.Logger, which a checkpoint never holds"):
+        checkpoint.loads(data)
+    import gc
+
+    gc.collect()
+    assert victim.read_text() == "keep me"
+
+
+def test_a_module_is_never_imported_to_decide_whether_to_refuse_it():
+    # The module `this` prints the Zen of Python when imported: a refusal must come before any import.
+    code = (
+        "import sys, pickle\n"
+        "from evolution import checkpoint\n"
+        "data = b'\\x80\\x02cthis\\ns\\nq\\x00.'\n"
+        "try:\n    checkpoint.loads(data)\nexcept checkpoint.UnsafeCheckpointError as err:\n    print('refused:', err)\n"
+        "print('this' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.splitlines() == ["refused: it names this.s, which a checkpoint never holds", "False"]
+
+
+def test_no_admitted_class_runs_code_when_restored_or_collected():
+    import importlib
+
+    for module, name in sorted(checkpoint.CLASSES):
+        kind = getattr(importlib.import_module(module), name)
+        assert isinstance(kind, type), (module, name)
+        mro = [c for c in kind.__mro__ if c is not object]
+        assert not [c for c in mro if "__del__" in vars(c)], f"{module}.{name} runs code when collected"
+        assert kind.__new__ in (object.__new__, dict.__new__, list.__new__), f"{module}.{name} has a constructor of its own"
+        restores = [c for c in mro if "__setstate__" in vars(c)]
+        # pyribs' array store restores through a mixin that imports the array module its state names: the reader
+        # checks that name against numpy's before restoring (test_a_module_import_hidden_in_pyribs_state_is_refused).
+        assert [c.__name__ for c in restores] in ([], ["PickleXPMixin"]), f"{module}.{name} restores with code of its own"
 
 
 def test_a_module_import_hidden_in_pyribs_state_is_refused():
@@ -85,20 +137,34 @@ def test_a_module_import_hidden_in_pyribs_state_is_refused():
 
 
 OPTIMIZERS = {
-    "ga": (Sphere, GASettings(population=6, parents=2)),
-    "cma_es": (Sphere, CMAESSettings(population=6)),
-    "cma_es_mirrored": (Sphere, CMAESSettings(population=4)),  # pycma mirrors samples and keeps a range
-    "map_elites": (Ones, MapElitesSettings(cells=(4, 4), batch_size=6)),
-    "cma_mae": (Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3)),
+    "ga": ("ga", Sphere, GASettings(population=6, parents=2)),
+    "ga_crossover": ("ga", Sphere, GASettings(population=6, parents=2, crossover_rate=0.5)),
+    "cma_es_full": ("cma_es", Sphere, CMAESSettings(population=6, diagonal=False)),
+    "map_elites_mutation": ("map_elites", Ones, MapElitesSettings(cells=(4, 4), batch_size=6, variation="problem")),
+    "cma_mae_full_2imp_filter_basic": (
+        "cma_mae",
+        Sphere,
+        CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, es="cma_es", ranker="2imp", selection="filter", restart="basic"),
+    ),
+    "cma_mae_obj_one_archive": (
+        "cma_mae",
+        Sphere,
+        CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, ranker="obj", result_archive=False),
+    ),
+    "cma_mae_2obj": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, ranker="2obj")),
+    "cma_es": ("cma_es", Sphere, CMAESSettings(population=6)),
+    "cma_es_mirrored": ("cma_es", Sphere, CMAESSettings(population=4)),  # pycma mirrors samples and keeps a range
+    "map_elites": ("map_elites", Ones, MapElitesSettings(cells=(4, 4), batch_size=6)),
+    "cma_mae": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3)),
 }
 
 
 @pytest.mark.parametrize("name", list(OPTIMIZERS))
 def test_every_optimizers_checkpoint_loads_as_plain_unpickling_would(tmp_path, name):
-    problem_type, settings = OPTIMIZERS[name]
+    optimizer, problem_type, settings = OPTIMIZERS[name]
     problem = problem_type()
     folder = RunFolder.create(tmp_path / name, "", {})
-    state = RunState(make_optimizer(name.removesuffix("_mirrored"), problem, settings, seed=1))
+    state = RunState(make_optimizer(optimizer, problem, settings, seed=1))
     advance(folder, problem, state, RunSettings(generations=2, workers=0), SerialEvaluator(), progress=False)
     data = (folder / "checkpoint.pkl").read_bytes()
     assert pickle.dumps(checkpoint.loads(data)) == pickle.dumps(pickle.loads(data))
