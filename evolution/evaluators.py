@@ -94,7 +94,9 @@ class PoolEvaluator(Evaluator):
       second try fails too gets the problem's :meth:`~evolution.Problem.failed_evaluation`, flagged in
       ``Evaluation.failed``. The batch always completes.
     - An exception raised by the problem itself is a bug, not bad luck: it ends the batch with an EvaluationError
-      carrying the worker's traceback.
+      carrying the worker's traceback. So does a batch in which every candidate was lost twice: workers that die on
+      everything (they cannot load the problem, something kills them at once) would otherwise score the whole run at
+      the floor.
     """
 
     def __init__(self, workers: int, *, slices_per_worker: int = 4, timeout: float | None = None) -> None:
@@ -124,6 +126,12 @@ class PoolEvaluator(Evaluator):
             for k in range(part.start, part.stop)
         ]
         retried = dict(zip((s.start for s in singles), self._run(problem, genomes, seeds, singles)))
+        lost_twice = [again.reason for again in retried.values() if isinstance(again, Lost)]
+        if lost_twice and len(lost_twice) == len(seeds):
+            raise EvaluationError(
+                f"{problem.name}: every candidate of the batch was lost, twice ({lost_twice[0]}): the workers die on "
+                "everything, so the run stops rather than score every candidate at the floor (their errors are above)"
+            )
         pieces: list[Evaluation] = []
         for part, result in zip(parts, results):
             if not isinstance(result, Lost):

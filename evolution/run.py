@@ -53,6 +53,9 @@ class RunSettings:
         seed: the run's seed; the same seed and configuration give the same run.
         checkpoint_every: write a checkpoint (and the best candidate, and the archive) every this many generations;
             the last generation and an interrupted one are always checkpointed.
+        checkpoint_seconds: also write one at the end of a generation when this many seconds of the run have passed
+            since the last (0: only by ``checkpoint_every``), so a crash loses minutes, not hours, of a run whose
+            generations are long or whose ``checkpoint_every`` is large.
         workers: local evaluation processes; 0 evaluates in the main process.
         cluster: address of a Dask scheduler; when set, evaluation goes there instead of local processes.
         plot_every: redraw the plots every this many generations (and always at the end).
@@ -63,6 +66,7 @@ class RunSettings:
     generations: int = 20
     seed: int = 0
     checkpoint_every: int = 1
+    checkpoint_seconds: float = 60.0
     workers: int = 2
     cluster: str = ""
     plot_every: int = 10
@@ -78,9 +82,10 @@ class RunSettings:
             whole(name, 1, 10**9)
         whole("workers", 0, 1024)
         whole("seed", 0, 2**63 - 1)
-        timeout = self.evaluation_timeout
-        if not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or not 0 <= timeout < math.inf:
-            raise ValueError(f"run evaluation_timeout must be a number of seconds, 0 for no limit, got {timeout!r}")
+        for name in ("evaluation_timeout", "checkpoint_seconds"):
+            seconds = getattr(self, name)
+            if not isinstance(seconds, (int, float)) or isinstance(seconds, bool) or not 0 <= seconds < math.inf:
+                raise ValueError(f"run {name} must be a number of seconds, 0 for no limit, got {seconds!r}")
 
 
 @contextlib.contextmanager
@@ -155,6 +160,7 @@ def advance(
     optimizer = state.optimizer
     optimizer.attach(problem)
     bar = _progress_bar(state.generation, until) if progress else None
+    last_checkpoint = time.monotonic()  # a session starts from a checkpoint (or from nothing to lose)
     try:
         while state.generation < until:
             started = time.perf_counter()
@@ -189,8 +195,10 @@ def advance(
             folder.append_metrics(metrics)
             stopping = stop_requested()
             last = state.generation >= until or stopping
-            if state.generation % settings.checkpoint_every == 0 or last:
+            overdue = settings.checkpoint_seconds > 0 and time.monotonic() - last_checkpoint >= settings.checkpoint_seconds
+            if state.generation % settings.checkpoint_every == 0 or last or overdue:
                 _checkpoint(folder, problem, state)
+                last_checkpoint = time.monotonic()
             if state.generation % settings.plot_every == 0 or last:
                 write_plots(folder, problem, optimizer.archive)
             _report(bar, metrics, until)

@@ -225,11 +225,19 @@ class RunFolder:
         )
         return manifest.get(MARK) == MARK_VALUE or (legacy and (self / self.CONFIG).is_file())
 
-    def remove(self) -> None:
-        """Delete this run folder (it must carry the mark)."""
+    def remove(self, *, keep_folder: bool = False) -> None:
+        """Delete this run folder (it must carry the mark), or with ``keep_folder`` only what is in it (the folder
+        was made by someone else, empty, and is left as it was found)."""
         if not self.is_marked():
             raise RunFolderError(f"{self.path}: not a run folder; refusing to delete it")
-        shutil.rmtree(self.path)
+        if not keep_folder:
+            shutil.rmtree(self.path)
+            return
+        for child in self.path.iterdir():
+            if child.is_dir() and not child.is_symlink():
+                shutil.rmtree(child)
+            else:
+                child.unlink()
 
     @contextlib.contextmanager
     def locked(self) -> Iterator[RunFolder]:
@@ -301,7 +309,7 @@ class RunFolder:
         classes beyond the engine's own that the checkpoint may hold."""
         path = self / self.CHECKPOINT
         if not path.exists() and not path.is_symlink():
-            raise RunFolderError(f"{self.path}: no checkpoint yet (the run stopped before its first generation ended)")
+            raise RunFolderError(f"{self.path}: no checkpoint yet")
         try:
             data = checkpoint.loads(read_bytes(path, _MAX_STATE), genome_types)
         except InputFileError:
@@ -351,6 +359,10 @@ class RunFolder:
                 raise InputFileError(f"{path}, line {number}: not a metrics row (an object with a 'generation')")
             rows.append(row)
         return rows
+
+    def has_checkpoint(self) -> bool:
+        path = self / self.CHECKPOINT
+        return path.exists() or path.is_symlink()
 
     def truncate_metrics(self, generation: int) -> None:
         """Keep the rows up to ``generation``: those after the checkpoint will be recomputed."""

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from evolution import Archive, Problem, RunFolder, RunFolderError, RunState, advance, library_versions, make_evaluator
-from evolution.files import MAX_WEIGHTS_BYTES, atomic_write, read_bytes
+from evolution.files import MAX_WEIGHTS_BYTES, InputFileError, atomic_write, read_bytes
 from evolution.optimizers import START_WORDS
 from structgen import __version__
 from structgen.config import ConfigError, flatten
@@ -118,26 +118,40 @@ def evolve(
     """Start a run in a new folder (default :func:`default_run_dir`) and carry it to ``experiment.run.generations``
     or until ``stop_requested()`` (checked after each generation, which is then checkpointed).
 
-    A problem and optimiser that cannot work together fail (ConfigError) before the folder is made."""
+    A problem and optimiser that cannot work together fail (ConfigError) before the folder is made. A run that fails
+    before any generation has ended leaves nothing behind (a folder the user made stays, empty); one that fails later
+    keeps its folder, which ``resume`` continues (from the beginning if no checkpoint was written yet)."""
     problem = experiment.make_problem()
     try:
         optimizer = experiment.make_optimizer(problem)
-        path = run_dir or default_run_dir(experiment)
+        path = Path(run_dir or default_run_dir(experiment))
+        made_here = not path.exists()
         start = _start_file(experiment)
         folder = RunFolder.create(path, experiment.to_toml(), _manifest(experiment, start), overwrite=overwrite)
         if start is not None:
             atomic_write(folder / start[0], start[1])
-        state = RunState(optimizer=optimizer, extra={"config": experiment.to_mapping()})
+        state = _fresh_state(experiment, optimizer)
         try:
             with folder.locked():
                 state = _advance(folder, experiment, problem, state, progress=progress, stop_requested=stop_requested)
         except BaseException:
-            if not (folder / RunFolder.CHECKPOINT).exists():  # nothing to resume: leave nothing behind
-                folder.remove()
+            if not folder.has_checkpoint() and not _any_generation_ended(folder):
+                folder.remove(keep_folder=not made_here)
             raise
         return folder, state
     finally:
         problem.close()
+
+
+def _fresh_state(experiment: Experiment, optimizer: Any) -> RunState:
+    return RunState(optimizer=optimizer, extra={"config": experiment.to_mapping()})
+
+
+def _any_generation_ended(folder: RunFolder) -> bool:
+    try:
+        return bool(folder.metrics())
+    except (InputFileError, RunFolderError):  # damaged rows: something ended
+        return True
 
 
 def other_run_kind(run_dir: str | Path) -> tuple[str, str] | None:
@@ -181,7 +195,8 @@ def resume(
     """Continue a run from its last checkpoint up to ``generations`` in total (default: its configured number).
 
     The metrics of generations after the checkpoint are dropped and recomputed; the result is the same as if the
-    run had never stopped. ``workers`` and ``cluster`` change only where evaluation happens, not its results.
+    run had never stopped. A run killed before its first checkpoint starts again from the beginning (same seed, same
+    result). ``workers`` and ``cluster`` change only where evaluation happens, not its results.
     """
     folder, experiment = open_run(run_dir)
     with folder.locked():
@@ -190,7 +205,18 @@ def resume(
         # The problem first: it says which genome classes its checkpoint may hold.
         problem = experiment.make_problem()
         try:
-            state = folder.load_checkpoint(problem.genome_types)
+            if folder.has_checkpoint():
+                state = folder.load_checkpoint(problem.genome_types)
+            else:
+                # Killed before its first checkpoint: the run starts again, and ends as if it had never stopped.
+                rows = folder.metrics()
+                log.warning(
+                    "%s: no checkpoint was written (%d generation%s recorded after none): starting again from the beginning",
+                    folder.path,
+                    len(rows),
+                    "" if len(rows) == 1 else "s",
+                )
+                state = _fresh_state(experiment, experiment.make_optimizer(problem))
             _warn_on_new_versions(folder)
             experiment = _reconcile(folder, experiment, state)
             if generations is not None:
@@ -220,6 +246,7 @@ EDITABLE = (
     "run.workers",
     "run.cluster",
     "run.checkpoint_every",
+    "run.checkpoint_seconds",
     "run.plot_every",
     "run.evaluation_timeout",
 )

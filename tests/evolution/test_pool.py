@@ -195,3 +195,14 @@ def test_a_worker_killed_between_batches_or_while_starting_costs_at_most_a_retry
         time.sleep(0.2)
         result = pool.evaluate(problem, genomes, seeds)
     same_except(result, expected, np.zeros(len(seeds), dtype=bool))
+
+
+class AlwaysDies(Sphere):
+    def evaluate(self, genomes, seeds):
+        os._exit(3)
+
+
+def test_a_batch_whose_workers_die_on_everything_stops_the_run_instead_of_scoring_the_floor():
+    genomes, seeds = batch(6)
+    with PoolEvaluator(2) as pool, pytest.raises(EvaluationError, match="every candidate of the batch was lost, twice"):
+        pool.evaluate(AlwaysDies(), genomes, seeds)

@@ -123,6 +123,58 @@ def test_a_run_that_fails_before_its_first_checkpoint_leaves_no_folder(tmp_path,
     assert not (tmp_path / "run").exists()
 
 
+def test_a_run_that_fails_in_a_folder_the_user_made_leaves_the_folder_as_it_was(tmp_path, monkeypatch):
+    monkeypatch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: Failing())
+    (tmp_path / "mine").mkdir()
+    with pytest.raises(RuntimeError, match="the simulator broke"):
+        evolve(load_experiment(config(tmp_path)), tmp_path / "mine", progress=False)
+    assert (tmp_path / "mine").is_dir() and list((tmp_path / "mine").iterdir()) == []
+
+
+def test_a_run_killed_before_its_first_checkpoint_resumes_from_the_beginning_to_the_same_run(tmp_path, monkeypatch, capsys):
+    straight = tmp_path / "straight"
+    assert cli(capsys, "evolve", config(tmp_path, 4), "--run-dir", straight)[0] == 0
+    calls = {"n": 0}
+
+    class FailsThird(Sphere):  # two generations end, neither checkpointed, then the process dies
+        def evaluate(self, genomes, seeds):
+            calls["n"] += 1
+            if calls["n"] == 3:
+                raise RuntimeError("killed")
+            return super().evaluate(np.asarray(genomes), seeds)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: FailsThird())
+        experiment = load_experiment(config(tmp_path, 4), overrides=["run.checkpoint_every=100", "run.checkpoint_seconds=0"])
+        with pytest.raises(RuntimeError, match="killed"):
+            evolve(experiment, tmp_path / "run", progress=False)
+    run = tmp_path / "run"
+    assert not (run / "checkpoint.pkl").exists() and len(metrics(run)) == 2  # kept: two generations ended
+    code, err = cli(capsys, "resume", run, "-v")
+    assert code == 0, err
+    assert "no checkpoint was written (2 generations recorded after none): starting again from the beginning" in err
+    assert metrics(run) == metrics(straight)
+
+
+def test_a_checkpoint_is_written_when_its_time_has_come_whatever_checkpoint_every_says(tmp_path, monkeypatch):
+    from evolution import RunFolder
+
+    experiment = load_experiment(config(tmp_path, 3), overrides=["run.checkpoint_every=100", "run.checkpoint_seconds=1e-9"])
+    seen = []
+    original = RunFolder.save_checkpoint
+
+    def save(self, state):
+        seen.append(state.generation)
+        original(self, state)
+
+    monkeypatch.setattr(RunFolder, "save_checkpoint", save)
+    evolve(experiment, tmp_path / "run", progress=False)
+    assert seen == [1, 2, 3]
+    seen.clear()
+    evolve(experiment.with_run(checkpoint_seconds=0.0), tmp_path / "other", progress=False)
+    assert seen == [3]  # by checkpoint_every (100) alone: only the last generation
+
+
 def test_a_run_that_fails_later_keeps_its_folder_to_resume(tmp_path, monkeypatch):
     calls = {"n": 0}
 
