@@ -189,21 +189,38 @@ def read_npy(path: str | os.PathLike, limit: int) -> np.ndarray:
     return array.reshape(shape, order="F" if fortran else "C").copy()
 
 
+def _not_a_file(path: Path) -> str | None:
+    """What stands at ``path`` if it is something a file written there would replace but must not: a folder, a
+    device, a FIFO or a socket (a regular file, a symbolic link, or nothing at all is fine)."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISLNK(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a folder, expected an output file name"
+    kind = "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a FIFO" if stat.S_ISFIFO(mode) else "a socket"
+    return f"is {kind}, not a regular file: refusing to replace it"
+
+
 def check_output(path: str | os.PathLike) -> Path:
-    """Fail now, as writing would, if ``path`` cannot be written: it is a folder, a part of it is a file, a name is
-    too long, or the first folder that exists on the way is not writable. Missing folders are fine (they are made)."""
+    """Fail now, as writing would, if ``path`` cannot be written: something other than a regular file stands there
+    (a folder, a device, a FIFO, a socket), its folder does not exist or is a file, a name is too long, or the folder
+    is not writable. Nothing is created."""
     path = Path(path)
     limit = os.pathconf("/", "PC_NAME_MAX") if hasattr(os, "pathconf") else 255
     if any(len(os.fsencode(part)) > limit for part in path.parts):
         raise InputFileError(f"{path}: file name too long")
     try:
-        if path.is_dir():
-            raise InputFileError(f"{path}: is a folder, expected an output file name")
+        problem = _not_a_file(path)
+        if problem:
+            raise InputFileError(f"{path}: {problem}")
         folder = path.parent
-        while not folder.exists():
+        if not folder.exists():
             if folder.is_symlink():  # a dangling link where a folder should be
                 raise InputFileError(f"{path}: {folder} is a broken symbolic link")
-            folder = folder.parent
+            raise InputFileError(f"{path}: no such folder {folder} (make it first)")
         if not folder.is_dir():
             raise InputFileError(f"{path}: {folder} is a file, not a folder")
         if not os.access(folder, os.W_OK | os.X_OK):
@@ -217,8 +234,9 @@ def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
     """Write ``data`` to ``path`` through a temporary file in the same folder, then rename it into place.
 
     Readers see either the old file or the complete new one. On any error the temporary file is removed and an
-    existing file at ``path`` is left untouched. Missing parent folders are created. A symbolic link at ``path`` is
-    replaced by the file, never written through.
+    existing file at ``path`` is left untouched. Missing parent folders are created (user-given paths are checked
+    first by :func:`check_output`, which refuses them). A symbolic link at ``path`` is replaced by the file, never
+    written through; a folder, device, FIFO or socket there is refused, never replaced.
     """
     path = Path(path)
     payload = data.encode("utf-8") if isinstance(data, str) else data
@@ -226,8 +244,9 @@ def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
     # the file with the user's umask, unlike mkstemp's 0600.
     tmp = path.with_name(f".{path.name[:200]}.{uuid.uuid4().hex[:12]}.tmp")
     try:
-        if path.is_dir() and not path.is_symlink():
-            raise InputFileError(f"{path}: is a folder, expected an output file name")
+        problem = _not_a_file(path)
+        if problem:
+            raise InputFileError(f"{path}: {problem}")
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(tmp, "xb") as handle:
             handle.write(payload)

@@ -215,3 +215,42 @@ def test_the_memory_budget_defaults_to_4_gib_and_refuses_a_nonsense_setting(monk
         monkeypatch.setenv("STRUCTGEN_MEMORY_MB", text)
         with pytest.raises(InputError, match=f"STRUCTGEN_MEMORY_MB='{text}'"):
             memory_budget_mb()
+
+
+OUTPUT_VERBS = [
+    ["grow", "--seed", "1", "--max-vertices", "8", "-o", "{out}"],
+    ["export", "{structure}", "{out}"],
+    ["render", "{structure}", "--statics", "-o", "{out}"],
+    ["warehouse", "generate", "--size", "6x8", "--iterations", "2", "-o", "{out}"],
+    ["fortress", "run", "--random", "1", "--steps", "2", "--save", "{out}"],
+]
+
+
+@pytest.mark.parametrize("argv", OUTPUT_VERBS, ids=lambda argv: " ".join(argv[:2]))
+@pytest.mark.parametrize("kind", ["fifo", "device", "folder", "missing folder"])
+def test_an_output_path_that_is_not_a_regular_file_is_refused_before_any_work(tmp_path, capsys, argv, kind):
+    import os
+
+    structure = tmp_path / "s.json"
+    structure.write_text('{"vertices": [[0, 0, 0], [0, 0, 1]], "edges": [[0, 1]]}')
+    if kind == "fifo":
+        out = tmp_path / "pipe.json"
+        os.mkfifo(out)
+    elif kind == "device":
+        out = Path("/dev/null")  # refused before anything is written: never replaced, even by root
+    elif kind == "folder":
+        out = tmp_path / "a-folder.json"
+        out.mkdir()
+    else:
+        out = tmp_path / "no" / "such" / "folder" / "out.json"
+    before = sorted(p.name for p in tmp_path.iterdir())
+    try:
+        code = main([part.format(out=out, structure=structure) for part in argv])
+    except SystemExit as usage:  # refused by the option's own check, as a usage error
+        code = usage.code
+    err = capsys.readouterr().err
+    assert code == 2, err
+    expected = {"fifo": "is a FIFO, not a regular file", "device": "is a device, not a regular file", "folder": "is a folder"}
+    assert expected.get(kind, "no such folder") in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written, no folder made
+    assert Path("/dev/null").is_char_device()
