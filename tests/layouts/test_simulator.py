@@ -176,3 +176,25 @@ def test_the_warehouse_objective_is_throughput_plus_alpha_times_similarity():
     # Without simulations the objective is the similarity term alone, as for manufacturing.
     quiet = LayoutProblem(WarehouseSettings(**{**settings.__dict__, "simulations": 0})).evaluate(genomes, np.arange(2))
     np.testing.assert_allclose(quiet.objective, 5.0 * quiet.fields["similarity"])
+
+
+def test_distances_along_a_corridor_longer_than_16_bits_hold_them_exactly():
+    from structgen.domains.warehouse import _mapf
+    from structgen.domains.warehouse.simulator import distance_tables
+
+    corridor = np.ones((1, 40_000), dtype=bool)  # a 1-wide corridor: 39,999 moves from end to end
+    table = distance_tables(_mapf.grid_neighbours(corridor), np.array([0], dtype=np.int32))
+    assert table.dtype == np.int32 and table[0, -1] == 39_999 and table[0, 12_345] == 12_345
+    small = distance_tables(_mapf.grid_neighbours(np.ones((3, 4), dtype=bool)), np.array([0], dtype=np.int32))
+    assert small.dtype == np.int16 and small[0, -1] == 5
+
+
+def test_distance_tables_beyond_the_memory_budget_are_refused_before_allocating(monkeypatch):
+    from structgen.domains.warehouse import _mapf
+    from structgen.domains.warehouse.simulator import distance_tables
+    from structgen.errors import InputError
+
+    monkeypatch.setenv("STRUCTGEN_MEMORY_MB", "1")
+    open_floor = np.ones((300, 300), dtype=bool)
+    with pytest.raises(InputError, match=r"distance tables \(1,000 goals x 90,000 cells\) needs about 343 MiB"):
+        distance_tables(_mapf.grid_neighbours(open_floor), np.arange(1000, dtype=np.int32))

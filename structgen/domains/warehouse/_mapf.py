@@ -35,10 +35,11 @@ def grid_neighbours(passable: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def distance_tables(neighbours: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """``table[i, cell]``: moves from ``cell`` to ``targets[i]`` (breadth-first; moves are symmetric)."""
+def distance_tables(neighbours: np.ndarray, targets: np.ndarray, table: np.ndarray, unreachable: int) -> np.ndarray:
+    """Fill ``table[i, cell]`` (given full of ``unreachable``) with the moves from ``cell`` to ``targets[i]``
+    (breadth-first; moves are symmetric). Every distance must stay below ``unreachable``: the caller picks a table
+    type for which it does (:func:`structgen.domains.warehouse.simulator.distance_tables`)."""
     n = neighbours.shape[0]
-    table = np.full((len(targets), n), UNREACHABLE, dtype=np.int16)
     queue = np.empty(n, dtype=np.int32)
     for i in range(len(targets)):
         row = table[i]
@@ -50,7 +51,7 @@ def distance_tables(neighbours: np.ndarray, targets: np.ndarray) -> np.ndarray:
             head += 1
             for d in range(4):
                 nxt = neighbours[cell, d]
-                if nxt >= 0 and row[nxt] == UNREACHABLE:
+                if nxt >= 0 and row[nxt] == unreachable:
                     row[nxt] = row[cell] + 1
                     queue[tail] = nxt
                     tail += 1

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
 from structgen.errors import InputError
 
@@ -124,6 +125,24 @@ class _ManufacturingTasks:
         return int(self.rng.choice(self.beside[station])), STATION_WAITS[station]
 
 
+def distance_tables(neighbours: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """``table[i, cell]``: moves from ``cell`` to ``targets[i]``. Distances fit 16 bits on any map with fewer free
+    cells than :data:`._mapf.UNREACHABLE` (no path is longer than the free cells); larger maps take 32 bits. Refused
+    beyond the memory budget, before anything is allocated."""
+    from structgen.domains.warehouse import _mapf
+
+    cells = neighbours.shape[0]
+    free = int((neighbours >= 0).any(axis=1).sum()) + 1
+    kind, unreachable = (np.int16, _mapf.UNREACHABLE) if free < _mapf.UNREACHABLE else (np.int32, np.iinfo(np.int32).max)
+    check_memory(
+        len(targets) * cells * np.dtype(kind).itemsize,
+        f"the simulator's distance tables ({len(targets):,} goals x {cells:,} cells)",
+        "use a smaller map or one with fewer goals",
+    )
+    table = np.full((len(targets), cells), unreachable, dtype=kind)
+    return _mapf.distance_tables(neighbours, targets, table, unreachable)
+
+
 def simulate(
     tiles: np.ndarray,
     agents: int,
@@ -183,7 +202,7 @@ def simulate(
     targets = tasks_of.targets
     target_of = np.full(rows * cols, -1, dtype=np.int32)
     target_of[targets] = np.arange(len(targets), dtype=np.int32)
-    dist = _mapf.distance_tables(neighbours, targets)
+    dist = distance_tables(neighbours, targets)
 
     positions = rng.permutation(free)[:agents].astype(np.int32)
     goals = np.zeros((agents, MAX_GOALS), dtype=np.int32)
