@@ -5,6 +5,7 @@ the Gymnasium environments and PPO on what a run leaves."""
 from __future__ import annotations
 
 import json
+import re
 
 import gymnasium
 import numpy as np
@@ -15,6 +16,7 @@ from structgen.domains.autoverse.clone import CloneSettings, clone_run, collect_
 from structgen.domains.autoverse.engine import Observation
 from structgen.domains.autoverse.game import game_key, random_game
 from structgen.domains.autoverse.problem import AutoverseProblem, AutoverseSettings
+from structgen.errors import InputError
 from tests.helpers import cli, kill_during_evolve, outcome
 
 TINY = """\
@@ -126,3 +128,61 @@ def test_ppo_runs_and_reports_returns():
     assert len(history) == 2 and all(np.isfinite(history))
     logits, value = policy(torch.zeros(1, 5, 31, 31), torch.zeros(1, 1811))
     assert logits.shape == (1, 5) and value.shape == (1,)
+
+
+def _playtraces(games: list, **changes) -> dict:
+    arrays = {
+        "rules": np.stack([g["rules"] for g in games]),
+        "rewards": np.stack([g["rewards"] for g in games]),
+        "map": np.stack([g["map"] for g in games]),
+        "actions": np.full((len(games), 101), 2, dtype=np.int8),
+        "fitness": np.full(len(games), 5.0),
+        "best_return": np.full(len(games), 3.0),
+    }
+    arrays.update(changes)
+    return {name: value for name, value in arrays.items() if value is not None}
+
+
+def _bad_maps(games):
+    maps = np.stack([g["map"] for g in games])
+    maps[0, 2, 0, 0] = 7
+    return maps
+
+
+def _bad_rules(games):
+    rules = np.stack([g["rules"] for g in games])
+    rules[0, 0, 0, 1, 2, 0, 0] = 5
+    return rules
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda games: {"fitness": None}, "not a playtrace file (it lacks fitness)"),
+        (lambda games: {"fitness": np.full(len(games) + 1, 5.0)}, "hold different numbers of games"),
+        (lambda games: {"map": _bad_maps(games)}, "game 0.map: values must be in (0, 1), got [7]"),
+        (lambda games: {"rules": _bad_rules(games)}, "game 0.rules: values must be in (-1, 0, 1), got [5]"),
+        (lambda games: {"rewards": np.full((len(games), 5), 100, dtype=np.int8)}, "game 0.rewards: values must be in"),
+        (lambda games: {"actions": np.full((len(games), 101), 9, dtype=np.int8)}, "actions must be a table of -1"),
+        (lambda games: {"fitness": np.full(len(games), np.nan)}, "fitness and best_return must be finite"),
+        (lambda games: {"fitness": np.array([{"x": 1}] * len(games), dtype=object)}, "not a playtrace file"),
+    ],
+)
+def test_a_tampered_playtrace_file_is_refused_naming_it(tmp_path, capsys, change, message):
+    games = [random_game(np.random.default_rng(seed)) for seed in range(3)]
+    (tmp_path / "run" / "playtraces").mkdir(parents=True)
+    path = tmp_path / "run" / "playtraces" / "gen-000001.npz"
+    np.savez(path, **_playtraces(games, **change(games)))
+    with pytest.raises(InputError, match=re.escape(message)):
+        collect_playtraces(tmp_path / "run", min_fitness=0)
+    code, out, err = cli(capsys, "autoverse", "clone", tmp_path / "run", "-o", tmp_path / "bc", "--steps", 1)
+    assert code == 2 and "gen-000001.npz" in err and not (tmp_path / "bc").exists()
+
+
+def test_a_fifo_among_the_playtraces_is_refused_at_once_not_waited_on(tmp_path, capsys):
+    import os
+
+    (tmp_path / "run" / "playtraces").mkdir(parents=True)
+    os.mkfifo(tmp_path / "run" / "playtraces" / "gen-000001.npz")
+    code, out, err = cli(capsys, "autoverse", "clone", tmp_path / "run", "-o", tmp_path / "bc", "--steps", 1)
+    assert code == 2 and "gen-000001.npz" in err and "FIFO" in err

@@ -27,7 +27,7 @@ import torch
 from torch import nn
 
 from structgen.domains.autoverse.engine import EPISODE_STEPS, Engine, Mechanics, Observation
-from structgen.domains.autoverse.game import game_key
+from structgen.domains.autoverse.game import check_game, game_key
 
 __all__ = ["CloneSettings", "Policy", "clone_run", "collect_playtraces", "evaluate_policy", "normalisation", "split"]
 
@@ -72,6 +72,51 @@ class Policy(nn.Module):
 
 
 # -- data -------------------------------------------------------------------------------------------------------------------
+#: A playtrace file larger than this (compressed, or unpacked) is refused before it is read.
+MAX_PLAYTRACE_BYTES = 512 << 20
+_TRACE_ARRAYS = ("rules", "rewards", "map", "actions", "fitness", "best_return")
+
+
+def read_playtraces(path: Path) -> dict[str, np.ndarray]:
+    """One ``playtraces/gen-*.npz`` file, checked: read through the file gate (a FIFO or a device is refused, never
+    waited on), numbers only (no pickled objects), every array present with one row per game, every game a valid
+    game (:func:`.game.check_game`), actions and scores in range. A bad file is an InputError naming it and what is
+    wrong, before any training."""
+    import io
+    import zipfile
+
+    from evolution.files import read_bytes
+    from structgen.budget import check_memory
+    from structgen.errors import InputError
+
+    raw = read_bytes(path, MAX_PLAYTRACE_BYTES)
+    try:
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            unpacked = sum(member.file_size for member in archive.infolist())
+        check_memory(unpacked, f"{path} unpacked")
+        with np.load(io.BytesIO(raw), allow_pickle=False) as data:
+            missing = [name for name in _TRACE_ARRAYS if name not in data.files]
+            if missing:
+                raise InputError(f"{path}: not a playtrace file (it lacks {', '.join(missing)})")
+            arrays = {name: data[name] for name in _TRACE_ARRAYS}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
+        raise InputError(f"{path}: not a playtrace file ({err})") from None
+    counts = {name: len(array) if array.ndim else -1 for name, array in arrays.items()}
+    if len(set(counts.values())) != 1 or -1 in counts.values():
+        raise InputError(f"{path}: its arrays hold different numbers of games ({counts})")
+    for name, array in arrays.items():
+        if not np.issubdtype(array.dtype, np.number):
+            raise InputError(f"{path}: {name} holds {array.dtype}, not numbers")
+    actions, scores = arrays["actions"], np.concatenate([arrays["fitness"].ravel(), arrays["best_return"].ravel()])
+    if actions.ndim != 2 or ((actions < -1) | (actions > 4)).any():
+        raise InputError(f"{path}: actions must be a table of -1 (none) and 0 to 4, one row per game")
+    if not np.isfinite(scores).all():
+        raise InputError(f"{path}: fitness and best_return must be finite numbers")
+    for i in range(counts["fitness"]):
+        check_game({key: arrays[key][i] for key in ("rules", "rewards", "map")}, f"{path}, game {i}")
+    return arrays
+
+
 def collect_playtraces(run_dir: Path, min_fitness: float = 2.0) -> list[dict[str, Any]]:
     """Every distinct game of the run's ``playtraces/`` with its best trace (highest return; the later generation
     on ties), those with fitness of at least ``min_fitness``."""
@@ -82,18 +127,18 @@ def collect_playtraces(run_dir: Path, min_fitness: float = 2.0) -> list[dict[str
         raise FileNotFoundError(f"{run_dir}: no {PLAYTRACES}/gen-*.npz (not an Autoverse run, or no generation yet)")
     best: dict[str, dict[str, Any]] = {}
     for path in files:
-        with np.load(path) as data:
-            for i in range(len(data["fitness"])):
-                game = {key: data[key][i] for key in ("rules", "rewards", "map")}
-                entry = {
-                    **game,
-                    "actions": data["actions"][i][data["actions"][i] >= 0],
-                    "fitness": float(data["fitness"][i]),
-                    "best_return": float(data["best_return"][i]),
-                }
-                key = game_key(game)
-                if key not in best or entry["best_return"] >= best[key]["best_return"]:
-                    best[key] = entry
+        data = read_playtraces(path)
+        for i in range(len(data["fitness"])):
+            game = {key: data[key][i] for key in ("rules", "rewards", "map")}
+            entry = {
+                **game,
+                "actions": data["actions"][i][data["actions"][i] >= 0],
+                "fitness": float(data["fitness"][i]),
+                "best_return": float(data["best_return"][i]),
+            }
+            key = game_key(game)
+            if key not in best or entry["best_return"] >= best[key]["best_return"]:
+                best[key] = entry
     return [entry for entry in best.values() if entry["fitness"] >= min_fitness]
 
 

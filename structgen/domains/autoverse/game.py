@@ -144,7 +144,8 @@ def check_game(game: Any, where: str = "game") -> dict[str, np.ndarray]:
         if key == "map" and (array.ndim != 3 or array.shape[0] != N_TILES or array.shape[1] != array.shape[2]):
             raise InputError(f"{where}.map: expected shape ({N_TILES}, N, N), got {array.shape}")
         if array.size and not np.isin(array, allowed).all():
-            raise InputError(f"{where}.{key}: values must be in {allowed}, got {sorted(set(np.unique(array)) - set(allowed))}")
+            wrong = sorted({v.item() for v in np.unique(array)} - set(allowed))
+            raise InputError(f"{where}.{key}: values must be in {allowed}, got {wrong}")
         checked[key] = array.astype(dtype)
     if int(checked["map"][PLAYER].sum()) != 1:
         raise InputError(f"{where}.map: the player channel must hold exactly one cell, holds {int(checked['map'][PLAYER].sum())}")
