@@ -440,6 +440,12 @@ def _classify(err: Exception) -> tuple[int, str]:
         return EXIT_BAD_INPUT, f"{err.filename}: no such file"
     if isinstance(err, (IsADirectoryError, PermissionError)):
         return EXIT_BAD_INPUT, f"{err.filename}: {err.strerror.lower()}"
+    if isinstance(err, OSError) and err.filename is not None:  # a path the user gave: too long, a loop, not a folder
+        from evolution.files import path_error
+
+        named = path_error(err.filename, err)
+        if isinstance(named, InputFileError):
+            return EXIT_BAD_INPUT, str(named)
     return EXIT_FAILURE, f"{type(err).__name__}: {err}"
 
 

@@ -243,3 +243,19 @@ def test_the_entropy_measures_start_from_worlds_spread_over_entropy():
     assert ((0 <= entropy) & (entropy <= 1)).all() and len(set(np.round(entropy, 6))) > 3
     low, high = problem.measure_ranges[1]
     assert low == 0 and high == pytest.approx(100 / 99)
+
+
+def test_work_beyond_the_memory_budget_is_refused_before_it_starts(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("STRUCTGEN_MEMORY_MB", "64")
+    code, out, err = cli(capsys, "fortress", "run", "--random", "1", "--steps", "1000000")
+    assert code == 2 and "1,000,000 ticks of 1 worlds x 1 seeds, every tick recorded needs about" in err
+    code, out, err = cli(capsys, "fortress", "evolve", "--set", "steps=2000000", "--run-dir", tmp_path / "run")
+    assert code == 2 and "problem steps = 2,000,000 x sims = 5: one evaluation needs about" in err
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_run_folder_of_another_domain_is_not_taken_for_a_world(tmp_path, capsys):
+    code, out, err = cli(capsys, "evolve", "--domain", "ones-v0", "--generations", "1", "--run-dir", tmp_path / "ones")
+    assert code == 0, err
+    code, out, err = cli(capsys, "fortress", "run", tmp_path / "ones")
+    assert code == 2 and "a run of the ones-v0 domain, not a fortress run" in err

@@ -3,6 +3,7 @@ file the original ships read, and write back to equivalent files."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -135,3 +136,33 @@ def test_the_originals_node_numbering_quirk_reads_the_same():
     # DRUNK_SOKOBAN_2's player is written as "1: push *" with an edge 1-1
     player = read_fortress_file(DATA / "FORTS" / "DRUNK_SOKOBAN_2.txt").classes["@"]
     assert player.nodes == ["push *"] and player.edges == {"1-1": "none"}
+
+
+WORLD = "A\n-- NODES --\n0: idle\n1: move\n-- EDGES --\n0-1: {edge}\n\n-- INIT ENT POS --\n{position}\n"
+
+
+@pytest.mark.parametrize(
+    ("edge", "position", "message"),
+    [
+        ("step ²", "A-[2, 2]", "expected a whole number, got '²'"),  # a digit to str.isdigit, not to int()
+        ("within A ٣", "A-[2, 2]", "expected a whole number, got '٣'"),
+        ("step 4294967296", "A-[2, 2]", "4294967296 is more than 1,000,000,000"),  # would wrap to 0 in 32 bits
+        ("within A 99999999999999999999999", "A-[2, 2]", "is more than 1,000,000,000"),
+        ("step 3", "A-[20, 2]", "A-[20, 2]': off the 15x8 map"),
+        ("step 3", "A-[2, -1]", "off the 15x8 map"),
+        ("step 3", "A-[١, 2]", "expected 'c-[x, y]'"),
+    ],
+)
+def test_numbers_and_positions_the_engine_cannot_hold_are_refused(edge, position, message):
+    with pytest.raises(InputError, match=re.escape(message)):
+        parse_fortress(WORLD.format(edge=edge, position=position), "w.txt")
+
+
+def test_a_file_without_classes_or_with_too_many_is_refused():
+    with pytest.raises(InputError, match="defines no entity class"):
+        parse_fortress("\n\n-- INIT ENT POS --\nA-[2, 2]\n", "empty.txt")
+    with pytest.raises(InputError, match="defines no entity class"):
+        parse_fortress("", "empty.txt")
+    many = "\n\n".join(f"{chr(0x4E00 + k)}\n-- NODES --\n0: idle\n-- EDGES --\n0-0: none" for k in range(10_001))
+    with pytest.raises(InputError, match="defines 10,001 classes, more than 10,000"):
+        parse_fortress(many, "many.txt")

@@ -54,10 +54,13 @@ def load_world(args: argparse.Namespace) -> tuple[Any, str]:
         return random_world(np.random.default_rng(args.random)), f"random world {args.random}"
     path = Path(args.world)
     if path.is_dir():
+        from structgen.domains.fortress import FORTRESS
         from structgen.domains.fortress.problem import FortressProblem
         from structgen.runs import elite_genome, open_run
 
-        folder, _ = open_run(path)
+        folder, experiment = open_run(path)
+        if experiment.domain != FORTRESS.id:
+            raise InputError(f"{path}: a run of the {experiment.domain} domain, not a fortress run")
         return elite_genome(folder, FortressProblem(), args.elite), f"{path} ({args.elite})"
     if not path.is_file():
         raise InputError(f"{path}: no such fortress file or run folder")

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from structgen.budget import check_memory
 from structgen.domains.fortress.formats import ACTIONS, CONDITIONS, EntityClass, FortressFile
 from structgen.errors import InputError
 
@@ -145,8 +146,10 @@ _CACHE: dict[tuple, _CompiledClass] = {}
 _CACHE_SIZE = 8192
 
 
-def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> _CompiledClass:
-    key = (tuple(index), entity.char, tuple(entity.nodes), tuple(entity.edges.items()))
+def _compile_class(entity: EntityClass, index: dict[str, int], order: tuple[str, ...], where: str) -> _CompiledClass:
+    # ``order`` is the world's class order, one tuple shared by every class of the world: a key per class that built
+    # its own copy would cost classes x classes.
+    key = (order, entity.char, tuple(entity.nodes), tuple(entity.edges.items()))
     found = _CACHE.get(key)
     if found is not None:
         return found
@@ -165,7 +168,7 @@ def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> _C
             continue
         target, number = -1, 1 if name == "nextTo" else 0
         for argument in arguments:
-            if argument.isdigit():
+            if argument.isascii() and argument.isdigit():
                 number = int(argument)
             else:
                 target = index.get(argument, -1)
@@ -187,13 +190,16 @@ def compile_worlds(worlds: Sequence[FortressFile], where: Sequence[str] | None =
     compiled, initial = [], []
     for w, world in enumerate(worlds):
         index = {char: k for k, char in enumerate(world.classes)}
+        order = tuple(index)
         label = where[w] if where is not None else f"world {w}"
-        compiled.append([_compile_class(entity, index, label) for entity in world.classes.values()])
+        compiled.append([_compile_class(entity, index, order, label) for entity in world.classes.values()])
         initial.append([(index[c], x, y) for c, x, y in world.initial])
     n_worlds = len(worlds)
     k_max = max((len(c) for c in compiled), default=1) or 1
     n_max = max((len(c.act) for classes in compiled for c in classes), default=1) or 1
     e_total = sum(len(c.edges) for classes in compiled for c in classes)
+    # node_act, node_arg, node_vid, edge_start, edge_stop: 1 + 2 + 4 + 4 bytes a slot of the worlds' padded tables.
+    check_memory(n_worlds * k_max * (n_max * 11 + 4) + e_total * 48, f"the tables of {n_worlds:,} worlds")
     node_act = np.zeros((n_worlds, k_max, n_max), dtype=np.int8)
     node_arg = np.full((n_worlds, k_max, n_max), -1, dtype=np.int16)
     node_vid = np.zeros((n_worlds, k_max), dtype=np.int32)
@@ -297,6 +303,19 @@ class Outcome:
         return found
 
 
+#: About what one recorded entity of one tick costs (a tuple of four numbers in a list).
+_RECORDED_ENTITY_BYTES = 120
+
+
+def memory_needed(worlds: int, seeds: int, steps: int, record: bool = False) -> int:
+    """Bytes a simulation of ``worlds`` x ``seeds`` for ``steps`` ticks takes beyond its tables: the random numbers
+    every simulation draws from (a 32-bit number per possible entity and tick, for each seed) and, recorded, every
+    tick's entities."""
+    draws = seeds * max(steps * POPULATION_CAP, 1) * 4
+    recorded = worlds * seeds * (steps + 1) * POPULATION_CAP * _RECORDED_ENTITY_BYTES if record else 0
+    return draws + recorded
+
+
 def random_streams(seeds: Sequence[int], draws: int) -> np.ndarray:
     """``(len(seeds), draws)`` uint32: the first outputs of ``numpy.random.default_rng(seed)`` for each seed, the
     numbers the simulations' random choices are made from."""
@@ -386,6 +405,8 @@ def simulate(
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise ValueError("simulate needs at least one seed")
+    what = f"{steps:,} ticks of {len(worlds):,} worlds x {len(seeds)} seeds" + (", every tick recorded" if record else "")
+    check_memory(memory_needed(len(worlds), len(seeds), steps, record), what, "fewer ticks")
     tables = compile_worlds(worlds, where)
     n_worlds, n_seeds = len(worlds), len(seeds)
     # At most the cap act in a tick and each draws at most once.

@@ -63,7 +63,18 @@ CONDITIONS = {
     "step": (1, ("int",)),
     "none": (0, ()),
 }
-_POSITION = re.compile(r"^(.)-\[(-?\d+), (-?\d+)\]$")
+_POSITION = re.compile(r"^(.)-\[(-?[0-9]+), (-?[0-9]+)\]$")
+#: The largest number a condition may hold (``within c r``, ``step k``): the engine stores them in 32 bits.
+MAX_NUMBER = 10**9
+#: The most classes a world may define (class numbers are stored in 16 bits).
+MAX_CLASSES = 10_000
+# The map every world lives on (engine.WIDTH x engine.HEIGHT): initial entities must be placed on it.
+_MAP_WIDTH, _MAP_HEIGHT = 15, 8
+
+
+def _whole(text: str) -> bool:
+    """Whether ``text`` is a whole number written in ASCII digits (``str.isdigit`` also takes "²" and other scripts)."""
+    return text.isascii() and text.isdigit()
 
 
 @dataclass
@@ -111,7 +122,7 @@ def _check_entity(entity: EntityClass, where: str) -> None:
         if len(arguments) != ACTIONS[name] or any(len(a) != 1 for a in arguments):
             raise InputError(f"{where}: node {index}: {node!r}: {name} takes {ACTIONS[name]} class character(s)")
     for key, condition in entity.edges.items():
-        match = re.fullmatch(r"(\d+)-(\d+)", key)
+        match = re.fullmatch(r"([0-9]{1,9})-([0-9]{1,9})", key)
         # An edge from a node the class does not have can never fire; the original keeps such edges (a shipped file
         # has one), so they are kept. One that could fire must lead to a node that exists.
         if not match or (int(match[1]) < len(entity.nodes) and int(match[2]) >= len(entity.nodes)):
@@ -123,9 +134,11 @@ def _check_entity(entity: EntityClass, where: str) -> None:
         if len(arguments) != len(kinds):
             raise InputError(f"{where}: edge {key}: {condition!r}: {name} takes {len(kinds)} argument(s)")
         for kind, argument in zip(kinds, arguments):
-            if (kind == "char" and len(argument) != 1) or (kind == "int" and not argument.isdigit()):
+            if (kind == "char" and len(argument) != 1) or (kind == "int" and not _whole(argument)):
                 wanted = "a class character" if kind == "char" else "a whole number"
                 raise InputError(f"{where}: edge {key}: {condition!r}: expected {wanted}, got {argument!r}")
+            if kind == "int" and int(argument) > MAX_NUMBER:
+                raise InputError(f"{where}: edge {key}: {condition!r}: {argument} is more than {MAX_NUMBER:,}")
         if name == "step" and int(arguments[0]) < 1:
             raise InputError(f"{where}: edge {key}: {condition!r}: step needs a count of at least 1")
 
@@ -147,7 +160,7 @@ def parse_entity(text: str, where: str = "entity", *, char_at_end: bool = False)
     for number, line in enumerate(lines[nodes_at + 1 : edges_at]):
         # The original numbers nodes by their order and ignores the number written (a shipped file starts at 1).
         index, sep, node = line.partition(": ")
-        if not sep or not index.isdigit():
+        if not sep or not _whole(index):
             raise InputError(f"{where}: node line {line!r}: expected '{number}: action'")
         nodes.append(node)
     edges: dict[str, str] = {}
@@ -176,7 +189,10 @@ def _positions(block: list[str], where: str) -> list[tuple[str, int, int]]:
         match = _POSITION.match(line.strip())
         if not match:
             raise InputError(f"{where}: position line {line!r}: expected 'c-[x, y]'")
-        found.append((match[1], int(match[2]), int(match[3])))
+        x, y = int(match[2]), int(match[3])
+        if not (0 <= x < _MAP_WIDTH and 0 <= y < _MAP_HEIGHT):
+            raise InputError(f"{where}: position line {line!r}: off the {_MAP_WIDTH}x{_MAP_HEIGHT} map")
+        found.append((match[1], x, y))
     return found
 
 
@@ -208,6 +224,10 @@ def parse_fortress(text: str, where: str = "fortress") -> FortressFile:
         fortress.blocks.append((kind, block))
         if not fortress.initial and placed:
             fortress.initial, fortress.placed_by = placed, kind
+    if not fortress.classes:
+        raise InputError(f"{where}: defines no entity class (a fortress file starts with entity blocks)")
+    if len(fortress.classes) > MAX_CLASSES:
+        raise InputError(f"{where}: defines {len(fortress.classes):,} classes, more than {MAX_CLASSES:,}")
     unknown = sorted({char for char, _, _ in fortress.initial} - set(fortress.classes))
     if unknown:
         raise InputError(f"{where}: initial entities of undefined classes {', '.join(map(repr, unknown))}")

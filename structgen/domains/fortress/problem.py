@@ -23,7 +23,8 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.problem import Evaluation, Problem
-from structgen.domains.fortress.engine import POPULATION_CAP, Outcome, Rules, simulate
+from structgen.budget import check_memory
+from structgen.domains.fortress.engine import POPULATION_CAP, Outcome, Rules, memory_needed, simulate
 from structgen.domains.fortress.formats import EntityClass, FortressFile, format_fortress, parse_fortress
 from structgen.domains.fortress.world import (
     CHARACTERS,
@@ -118,6 +119,9 @@ class FortressProblem(Problem):
     def __init__(self, settings: FortressSettings = FortressSettings()) -> None:
         self.settings = settings
         self.rules, self.variation = settings.rules(), settings.variation()
+        # One world's evaluation at a time is the least a run needs: refused now, before a run folder is made.
+        what = f"problem steps = {settings.steps:,} x sims = {settings.sims}: one evaluation"
+        check_memory(memory_needed(1, settings.sims, settings.steps), what, "fewer steps or sims")
         n_types = len(node_types(CHARACTERS))
         if settings.measures == "entities_nodes":
             self.measure_names = ("entities", "nodes")
