@@ -198,7 +198,7 @@ def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
 def cmd_compare(args: argparse.Namespace) -> int:
     from evolution import atomic_write
     from evolution.plots import compare_figure, figure_png
-    from structgen.runs import open_run, summary_of
+    from structgen.runs import check_numbers, open_run, summary_of
 
     output = Path(args.output)
     if output.suffix.lower() != ".png":
@@ -209,6 +209,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         rows = folder.metrics()
         if not rows:
             raise InputError(f"{run_dir}: this run has no finished generation to compare")
+        check_numbers(folder / "metrics.jsonl", rows, ("generation", "evaluations", "best_objective"))
         label = folder.path.name
         while label in runs:  # two folders of the same name in different places
             label += "'"
@@ -223,19 +224,18 @@ def cmd_compare(args: argparse.Namespace) -> int:
                 "coverage": archive.get("coverage"),
             }
         )
-    atomic_write(output, figure_png(compare_figure(runs)))
-    if args.json:
-        print(json.dumps(table))
-        return EXIT_OK
-    print("| run | domain | optimizer | generations | evaluations | best objective | QD score | coverage |")
-    print("|---|---|---|---:|---:|---:|---:|---:|")
+    lines = ["| run | domain | optimizer | generations | evaluations | best objective | QD score | coverage |"]
+    lines.append("|---|---|---|---:|---:|---:|---:|---:|")
     for row in table:
-        qd = "-" if row["qd_score"] is None else f"{row['qd_score']:.4g}"
-        coverage = "-" if row["coverage"] is None else f"{row['coverage']:.1%}"
-        print(
+        qd = "-" if not isinstance(row["qd_score"], (int, float)) else f"{row['qd_score']:.4g}"
+        coverage = "-" if not isinstance(row["coverage"], (int, float)) else f"{row['coverage']:.1%}"
+        lines.append(
             f"| {row['run']} | {row['domain']} | {row['optimizer']} | {row['generations']} | {row['evaluations']:,} | "
             f"{row['best_objective']:.4g} | {qd} | {coverage} |"
         )
+    # Everything is read and checked before the picture is written: a refusal leaves no file behind.
+    atomic_write(output, figure_png(compare_figure(runs)))
+    print(json.dumps(table) if args.json else "\n".join(lines))
     log.info("wrote %s", output)
     return EXIT_OK
 

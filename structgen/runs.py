@@ -45,6 +45,7 @@ __all__ = [
     "open_run",
     "other_run_kind",
     "resume",
+    "check_numbers",
     "run_summary",
     "summary_of",
 ]
@@ -376,9 +377,24 @@ def run_summary(run_dir: str | Path) -> dict[str, Any]:
     return summary_of(folder, experiment, folder.metrics())
 
 
+def check_numbers(source: str | Path, rows: list[dict[str, Any]], names: tuple[str, ...], *, lines: bool = True) -> None:
+    """Every row holds these keys (where present) as finite numbers, or an InputFileError names the file, the row
+    and the key: a damaged or edited file is refused, not formatted into a traceback."""
+    import math
+
+    for number, row in enumerate(rows, start=1):
+        for name in names:
+            value = row.get(name, 0)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                where = f"{source}, line {number}" if lines else str(source)
+                raise InputFileError(f"{where}: {name} = {value!r} is not a finite number")
+
+
 def summary_of(folder: RunFolder, experiment: Experiment, rows: list[dict[str, Any]]) -> dict[str, Any]:
     """:func:`run_summary` of a run already opened, with its metrics already read."""
     manifest = folder.manifest()
+    numbers = ("generation", "evaluations", "best_objective", "wall_s", "qd_score", "coverage", "num_elites")
+    check_numbers(folder / RunFolder.METRICS, rows, numbers)
     last = rows[-1] if rows else {}
     summary: dict[str, Any] = {
         "run": str(folder.path),
@@ -398,6 +414,12 @@ def summary_of(folder: RunFolder, experiment: Experiment, rows: list[dict[str, A
 
         best = read_json(best_file, 1 << 24)
         if isinstance(best, dict):
+            check_numbers(best_file, [best], ("objective", "generation"), lines=False)
+            for key in ("measures", "fields"):
+                values = best.get(key) or {}
+                if not isinstance(values, dict):
+                    raise InputFileError(f"{best_file}: {key} must be an object of numbers")
+                check_numbers(f"{best_file}, {key}", [values], tuple(values), lines=False)
             summary["best"] = {key: best.get(key) for key in ("objective", "generation", "measures", "fields")}
     if "qd_score" in last:
         summary["archive"] = {"elites": last.get("num_elites"), "coverage": last["coverage"], "qd_score": last["qd_score"]}

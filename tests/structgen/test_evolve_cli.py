@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import signal
 import subprocess
 from pathlib import Path
@@ -289,6 +290,14 @@ def test_compare_tabulates_and_plots_several_runs(tmp_path, capsys, qd_run, ga_r
     assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
     code, _, err = cli(capsys, "compare", qd_run, tmp_path / "nowhere", "-o", tmp_path / "d.png")
     assert code == 2 and "nowhere" in err and not (tmp_path / "d.png").exists()
+    tampered = tmp_path / "tampered"
+    shutil.copytree(ga_run, tampered)
+    rows = (tampered / "metrics.jsonl").read_text().splitlines()
+    rows[-1] = rows[-1].replace('"best_objective": ', '"best_objective": "lots", "was": ', 1)
+    (tampered / "metrics.jsonl").write_text("\n".join(rows) + "\n")
+    code, _, err = cli(capsys, "compare", qd_run, tampered, "-o", tmp_path / "e.png")
+    assert code == 2 and f"metrics.jsonl, line {len(rows)}: best_objective = 'lots' is not a finite number" in err
+    assert not (tmp_path / "e.png").exists()
 
 
 @pytest.mark.parametrize(

@@ -254,3 +254,21 @@ def test_an_output_path_that_is_not_a_regular_file_is_refused_before_any_work(tm
     assert expected.get(kind, "no such folder") in err
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written, no folder made
     assert Path("/dev/null").is_char_device()
+
+
+@pytest.mark.parametrize(
+    ("target", "edit", "message"),
+    [
+        ("metrics.jsonl", lambda text: text.replace('"evaluations": ', '"evaluations": [1], "x": ', 1), "evaluations = [1]"),
+        ("best/best.json", lambda text: text.replace('"objective": ', '"objective": "high", "x": ', 1), "objective = 'high'"),
+        ("best/best.json", lambda text: text.replace('"generation": ', '"generation": null, "x": ', 1), "generation = None"),
+    ],
+)
+def test_info_refuses_a_run_whose_numbers_were_tampered_with_naming_the_file(tmp_path, capsys, target, edit, message):
+    run = tmp_path / "run"
+    assert main(["evolve", "--domain", "ones-v0", "--generations", "2", "--workers", "0", "--run-dir", str(run)]) == 0
+    (run / target).write_text(edit((run / target).read_text()))
+    capsys.readouterr()
+    assert main(["info", str(run)]) == 2
+    err = capsys.readouterr().err
+    assert target.split("/")[-1] in err and message in err and "Traceback" not in err

@@ -151,15 +151,15 @@ def cmd_show(args: argparse.Namespace) -> int:
     from evolution.plots import figure_png
     from structgen.domains.fortress.show import draw_world, population_figure
 
-    world, label = load_world(args)
     if args.output.suffix.lower() != ".png":
         raise InputError(f"{args.output}: show writes a .png")
+    if args.populations is not None and args.populations.suffix.lower() != ".png":
+        raise InputError(f"{args.populations}: --populations writes a .png")
+    world, label = load_world(args)
+    trace = _simulate(args, world, label).traces[0][0] if args.populations is not None else None
     draw_world(world, args.output)
     print(f"{args.output}: initial map and machine sizes")
-    if args.populations is not None:
-        if args.populations.suffix.lower() != ".png":
-            raise InputError(f"{args.populations}: --populations writes a .png")
-        trace = _simulate(args, world, label).traces[0][0]
+    if trace is not None:
         figure = population_figure(trace, list(world.classes), f"{Path(label).name}: population by class, seed {args.seed}")
         atomic_write(args.populations, figure_png(figure))
         print(f"{args.populations}: population of each class over {len(trace.entities) - 1} ticks")
