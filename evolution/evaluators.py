@@ -183,6 +183,8 @@ class DaskEvaluator(Evaluator):
             self.client = Client(address, timeout=f"{timeout}s")
         except OSError as err:
             raise UnreachableClusterError(f"cannot reach the Dask scheduler at {address}: {err}") from None
+        except (ValueError, TypeError) as err:  # not an address at all
+            raise UnreachableClusterError(f"{address!r} is not a Dask scheduler's address (tcp://host:port): {err}") from None
         self.slices = slices
         self._problem: Problem | None = None
         self._problem_future: Any = None

@@ -139,22 +139,43 @@ def parse_json(text: str, source: str) -> Any:
         raise InputFileError(f"{source}: not valid JSON ({err})") from None
     except RecursionError:
         raise InputFileError(f"{source}: JSON nested too deeply") from None
-    if _depth(data) > MAX_JSON_DEPTH:
+    depth, surrogate = _shape(data)
+    if depth > MAX_JSON_DEPTH:
         raise InputFileError(f"{source}: JSON nested more than {MAX_JSON_DEPTH} levels deep")
+    if surrogate is not None:
+        # JSON's \ud800 escapes can spell half a character, which no file or terminal can hold as text.
+        raise InputFileError(f"{source}: holds {ascii(surrogate)}, a lone UTF-16 surrogate, which is not text")
     return data
 
 
-def _depth(value: Any) -> int:
-    """How deeply ``value`` nests lists and objects, without recursion."""
-    deepest, stack = 0, [(value, 1)]
+def _shape(value: Any) -> tuple[int, str | None]:
+    """How deeply ``value`` nests lists and objects, and the first string (key or value) holding a lone surrogate,
+    found without recursion."""
+    deepest, stack, surrogate = 0, [(value, 1)], None
     while stack:
         item, depth = stack.pop()
         if isinstance(item, dict):
+            if surrogate is None:
+                surrogate = next((key for key in item if _has_surrogate(key)), None)
             item = list(item.values())
         if isinstance(item, list):
             deepest = max(deepest, depth)
-            stack.extend((child, depth + 1) for child in item if isinstance(child, (list, dict)))
-    return deepest
+            for child in item:
+                if isinstance(child, (list, dict)):
+                    stack.append((child, depth + 1))
+                elif surrogate is None and isinstance(child, str) and _has_surrogate(child):
+                    surrogate = child
+        elif isinstance(item, str) and surrogate is None and _has_surrogate(item):
+            surrogate = item
+    return deepest, surrogate
+
+
+def _has_surrogate(text: str) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return False
 
 
 def read_json(path: str | os.PathLike, limit: int, *, what: str = "JSON") -> Any:

@@ -16,7 +16,7 @@ from ribs.schedulers import Scheduler
 from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, start_genome
 from evolution.problem import Problem
 
-__all__ = ["ProblemMutationEmitter", "RibsOptimizer", "cma_mae", "map_elites"]
+__all__ = ["ProblemMutationEmitter", "RibsOptimizer", "archive_bytes", "cma_mae", "map_elites"]
 
 
 def _cells(settings: Any, problem: Problem) -> tuple[int, ...]:
@@ -29,6 +29,13 @@ def _cells(settings: Any, problem: Problem) -> tuple[int, ...]:
     if any(not isinstance(c, int) or isinstance(c, bool) or c < 1 for c in cells):
         raise ValueError(f"optimizer cells must be positive integers, got {list(cells)}")
     return cells
+
+
+def archive_bytes(problem: Problem, cells: tuple[int, ...], archives: int = 1) -> int:
+    """About what ``archives`` grid archives of ``cells`` take for ``problem``: pyribs allocates every cell's
+    solution, objective, measures, threshold, index and fields up front."""
+    per_cell = 8 * ((problem.n_params if problem.flat else 1) + 3 + len(problem.measure_names) + len(problem.field_names))
+    return archives * int(np.prod([int(c) for c in cells], dtype=np.float64)) * per_cell
 
 
 def _grid_archive(problem: Problem, cells: tuple[int, ...], seed: int, **options: Any) -> GridArchive:

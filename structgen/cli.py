@@ -400,7 +400,10 @@ def _verbose_first(argv: list[str]) -> list[str]:
 
 
 def _report(message: str) -> None:
-    print(f"structgen: error: {message}", file=sys.stderr)
+    # A message may quote input that is not valid text (half a surrogate pair): shown escaped, never a second error.
+    encoding = getattr(sys.stderr, "encoding", None) or "utf-8"
+    line = f"structgen: error: {message}".encode(encoding, errors="backslashreplace").decode(encoding)
+    print(line, file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -10,6 +10,7 @@ through the generic ``structgen export``. This module stays light: it is importe
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable, Collection, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -28,6 +29,8 @@ __all__ = [
     "InputError",
     "Parser",
     "add_set_option",
+    "device_name",
+    "finite_number",
     "output_path",
     "settings_from_args",
     "verbs_wanted",
@@ -61,6 +64,36 @@ def whole_number(low: int, high: int) -> Any:
         return value
 
     return parse
+
+
+def finite_number(low: float = -math.inf, high: float = math.inf, *, above: bool = False) -> Any:
+    """An argparse ``type`` for numbers from ``low`` (or above it, with ``above``) to ``high``; NaN, infinities and
+    anything else are usage errors naming the option."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+        if value < low or (above and value == low) or value > high:
+            bound = f"above {low:g}" if above else f"from {low:g}"
+            raise argparse.ArgumentTypeError(f"expected a number {bound}{f' to {high:g}' if high < math.inf else ''}, got {text}")
+        return value
+
+    return parse
+
+
+def device_name(text: str) -> str:
+    """An argparse ``type`` for torch device names (``cpu``, ``cuda``, ``cuda:N``, ``mps``); whether the machine has
+    the device is checked when the work starts."""
+    from structgen.devices import check_device_name
+
+    try:
+        return check_device_name(text, "device")
+    except InputError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def output_path(text: str) -> Path:

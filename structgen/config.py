@@ -67,11 +67,16 @@ class ConfigError(InputError):
 # -- text ---------------------------------------------------------------------------------------------------------------
 def parse_value(text: str) -> Any:
     """A ``--set`` value as TOML would read it (``3``, ``0.5``, ``true``, ``"x"``, ``[1, 2]``, ``inf``); anything
-    TOML cannot read is taken as a plain string, so ``--set optimizer.name=ga`` works without quotes."""
+    TOML cannot read is taken as a plain string, so ``--set optimizer.name=ga`` works without quotes. A value nested
+    too deeply, or a whole number too long to convert, is refused naming it."""
     try:
         return tomllib.loads(f"value = {text}")["value"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise ConfigError(f"--set value {text[:40]!r}...: nested too deeply") from None
+    except ValueError:  # Python refuses to convert whole numbers of more than 4,300 digits
+        raise ConfigError(f"--set value {text[:40]!r}...: a number too long to read") from None
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:

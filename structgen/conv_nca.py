@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from structgen.budget import check_memory
+from structgen.devices import resolve_device
 
 __all__ = ["ConvNCA", "parameter_count"]
 
@@ -119,7 +120,7 @@ class ConvNCA:
                     torch.tensor(genomes[start:stop]),
                     torch.tensor(np.array(seeds[start:stop], dtype=np.int64)),
                     iterations,
-                    torch.device(device or "cpu"),
+                    resolve_device(device or "cpu"),
                 ).numpy()
         return out[0] if single else out
 

@@ -55,7 +55,16 @@ class Experiment:
         return self.spec.make(self.problem_settings)
 
     def make_optimizer(self, problem: Problem) -> Optimizer:
-        """The optimiser, seeded with the run's seed; a combination that cannot work is a ConfigError."""
+        """The optimiser, seeded with the run's seed; a combination that cannot work is a ConfigError, and archives
+        beyond the memory budget are refused before they are allocated."""
+        cells = getattr(self.optimizer_settings, "cells", None)
+        if cells is not None:
+            from evolution.qd import archive_bytes
+            from structgen.budget import check_memory
+
+            archives = 2 if getattr(self.optimizer_settings, "result_archive", False) else 1
+            shape = " x ".join(f"{int(c):,}" for c in cells)
+            check_memory(archive_bytes(problem, tuple(cells), archives), f"optimizer cells = [{shape}] for {problem.name}")
         try:
             return make_optimizer(self.optimizer_name, problem, self.optimizer_settings, self.run.seed)
         except ValueError as err:
@@ -120,6 +129,8 @@ def parse_toml(text: str, source: str | os.PathLike) -> dict[str, Any]:
         raise ConfigError(f"{source}: not valid TOML ({err})") from None
     except RecursionError:
         raise ConfigError(f"{source}: not valid TOML (nested too deeply)") from None
+    except ValueError as err:  # a whole number of more than 4,300 digits
+        raise ConfigError(f"{source}: not valid TOML ({err})") from None
 
 
 def _table(tables: Mapping[str, Any], name: str, source: str) -> dict[str, Any]:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import logging
+import os
 import sys
 from collections.abc import Callable, Iterable
 from functools import cached_property
@@ -102,6 +103,25 @@ def _manifest(experiment: Experiment, start: tuple[str, bytes] | None) -> dict[s
     return manifest(experiment.domain, experiment.spec.libraries, **extra)
 
 
+#: What one local worker process may hold: the interpreter, torch and a domain's problem (30 to 450 MiB measured).
+WORKER_BYTES = 300 << 20
+
+
+def check_workers(workers: int, cluster: str = "") -> None:
+    """Refuse more local worker processes than this machine's available memory holds, before any starts."""
+    if cluster or workers <= 0 or not hasattr(os, "sysconf"):
+        return
+    try:
+        available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError):  # not reported on this system
+        return
+    if workers * WORKER_BYTES > available:
+        raise ConfigError(
+            f"run.workers = {workers}: that many worker processes need about {workers * WORKER_BYTES >> 20:,} MiB, and "
+            f"this machine has {available >> 20:,} MiB available; use fewer workers"
+        )
+
+
 def _advance(folder: RunFolder, experiment: Experiment, problem: Problem, state: RunState, **options: Any) -> RunState:
     timeout = experiment.run.evaluation_timeout or None
     with make_evaluator(experiment.run.workers, experiment.run.cluster, timeout) as evaluator:
@@ -122,6 +142,7 @@ def evolve(
     A problem and optimiser that cannot work together fail (ConfigError) before the folder is made. A run that fails
     before any generation has ended leaves nothing behind (a folder the user made stays, empty); one that fails later
     keeps its folder, which ``resume`` continues (from the beginning if no checkpoint was written yet)."""
+    check_workers(experiment.run.workers, experiment.run.cluster)
     problem = experiment.make_problem()
     try:
         optimizer = experiment.make_optimizer(problem)
@@ -230,6 +251,7 @@ def resume(
             runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
             if runtime:
                 experiment = experiment.with_run(**runtime)
+            check_workers(experiment.run.workers, experiment.run.cluster)
             folder.truncate_metrics(state.generation)
             if state.generation >= experiment.run.generations:
                 log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)

@@ -79,6 +79,7 @@ CORE = {
     "structgen.budget",
     "structgen.config",
     "structgen.conv_nca",
+    "structgen.devices",
     "structgen.errors",
     "structgen.grid",
     "structgen.lattice",

@@ -377,3 +377,28 @@ def test_bad_map_files_and_impossible_repairs_exit_2_and_write_nothing(tmp_path,
     code, out, err = run(capsys, "maze", "measure", tmp_path / "nothing.json")
     assert code == 2 and "no such file" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["full.json", "ragged.json"]
+
+
+def test_the_longest_shortest_path_is_found_a_block_at_a_time_as_over_the_whole_table(monkeypatch):
+    from scipy.sparse import csgraph
+
+    from structgen.domains.warehouse import maze as mazes
+    from structgen.errors import InputError
+
+    def whole_table(walls):
+        floor = walls == 0
+        dist = csgraph.shortest_path(mazes._floor_graph(floor), method="D", unweighted=True)
+        dist[~np.isfinite(dist)] = -np.inf
+        first, second = np.unravel_index(int(dist.argmax()), dist.shape)
+        cells = [tuple(int(i) for i in np.unravel_index(k, floor.shape)) for k in (first, second)]
+        return cells[0], cells[1], int(dist.max())
+
+    rng = np.random.default_rng(4)
+    monkeypatch.setattr(mazes, "_DISTANCES_AT_ONCE", 300)  # several blocks even on small mazes
+    for _ in range(20):
+        walls = (rng.random((13, 11)) < rng.uniform(0.1, 0.5)).astype(np.int64)
+        if (walls == 0).sum() > 1 and mazes.diameter(walls) is not None:
+            assert mazes.diameter(walls) == whole_table(walls)
+    monkeypatch.setattr(mazes, "MAX_DIAMETER_FLOOR", 50)
+    with pytest.raises(InputError, match="a maze of 64 floor cells"):
+        mazes.diameter(np.zeros((8, 8), dtype=np.int64))

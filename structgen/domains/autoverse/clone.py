@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -26,8 +27,10 @@ import numpy as np
 import torch
 from torch import nn
 
+from structgen.devices import resolve_device
 from structgen.domains.autoverse.engine import EPISODE_STEPS, Engine, Mechanics, Observation
 from structgen.domains.autoverse.game import check_game, game_key
+from structgen.errors import InputError
 
 __all__ = ["CloneSettings", "Policy", "clone_run", "collect_playtraces", "evaluate_policy", "normalisation", "split"]
 
@@ -44,6 +47,23 @@ class CloneSettings:
     eval_steps: int = 10_000
     min_fitness: float = 2.0
     original_pairing: bool = False
+
+    def __post_init__(self) -> None:
+        from structgen.devices import check_device_name
+
+        for name, low in (("steps", 1), ("batch_size", 1), ("eval_steps", 1), ("seed", 0)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < low:
+                raise InputError(f"clone {name} must be a whole number >= {low}, got {value!r}")
+        if self.window not in (-1, 5, 10, 20):
+            raise InputError(f"clone window must be -1 (the full map), 5, 10 or 20, got {self.window!r}")
+        rate = self.learning_rate
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate < math.inf:
+            raise InputError(f"clone learning_rate must be a positive finite number, got {rate!r}")
+        fitness = self.min_fitness
+        if isinstance(fitness, bool) or not isinstance(fitness, (int, float)) or not math.isfinite(fitness):
+            raise InputError(f"clone min_fitness must be a finite number, got {fitness!r}")
+        check_device_name(self.device, "clone device")
 
 
 class Policy(nn.Module):
@@ -227,10 +247,16 @@ def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress:
 
     from evolution.files import atomic_write
 
+    output = Path(output)
+    if output.exists() and not output.is_dir():
+        raise InputError(f"{output}: is a file; clone writes a folder (policy.pt, report.json)")
+    if output.is_dir() and {p.name for p in output.iterdir()} - {"policy.pt", "report.json"}:
+        raise InputError(f"{output}: holds other files; clone writes into a new folder or one it wrote before")
+    resolve_device(settings.device, "clone device")  # a GPU that is not there: refused before the data is read
     torch.manual_seed(settings.seed)
     parts = split(collect_playtraces(run_dir, settings.min_fitness))
     if not parts["train"]:
-        raise ValueError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
+        raise InputError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
     observation = Observation(window=settings.window, hide_rules=settings.hide_rules)
     views, flats, actions = transitions(
         parts["train"], observation, original_pairing=settings.original_pairing, device=settings.device
@@ -267,7 +293,6 @@ def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress:
                 f"{name}_std": float(returns.std()),
             }
         )
-    output = Path(output)
     output.mkdir(parents=True, exist_ok=True)
     import io
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, whole_number
+from structgen.commands import MAX_SEED, DomainCommands, InputError, device_name, finite_number, output_path, whole_number
 
 EXIT_OK = 0
 
@@ -195,7 +195,9 @@ def _add_search(subparsers: Any) -> None:
     _game_source(p)
     p.add_argument("--budget", type=whole_number(1, 10**7), default=200, metavar="N", help="expansions (default 200)")
     p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed of the child order (default 0)")
-    p.add_argument("--device", default="cpu", help="torch device of the engine (default cpu)")
+    p.add_argument(
+        "--device", type=device_name, default="cpu", help="torch device of the engine: cpu, cuda, cuda:N (default cpu)"
+    )
     p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animation of the best play")
     p.add_argument("--save", type=output_path, metavar="OUT.json", help="write the game as JSON")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -231,12 +233,14 @@ def _add_clone(subparsers: Any) -> None:
     p.add_argument("--hide-rules", action="store_true", help="zero the rules in the observation")
     p.add_argument("--steps", type=whole_number(1, 10**7), default=2000, metavar="N", help="gradient steps (default 2000)")
     p.add_argument("--batch-size", type=whole_number(1, 10**6), default=256, metavar="N", help="batch (default 256)")
-    p.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (default 1e-4, the original's)")
+    p.add_argument(
+        "--lr", type=finite_number(0, 1, above=True), default=1e-4, help="Adam learning rate (default 1e-4, the original's)"
+    )
     p.add_argument("--eval-steps", type=whole_number(1, 10**7), default=10_000, metavar="N", help="per game (default 10,000)")
-    p.add_argument("--min-fitness", type=float, default=2.0, help="games below this fitness are left out (default 2)")
+    p.add_argument("--min-fitness", type=finite_number(), default=2.0, help="games below this fitness are left out (default 2)")
     p.add_argument("--original-pairing", action="store_true", help="pair each observation with the action that led to it")
     p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed (default 0)")
-    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    p.add_argument("--device", type=device_name, default="cpu", help="torch device: cpu, cuda, cuda:N (default cpu)")
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
     p.set_defaults(handler=cmd_clone)
 

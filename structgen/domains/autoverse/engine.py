@@ -35,6 +35,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from structgen.devices import resolve_device
 from structgen.domains.autoverse.game import FORCE, N_TILES, PLAYER
 
 __all__ = ["DIRECTIONS", "EPISODE_STEPS", "Engine", "Mechanics", "Observation", "State", "codes", "multi_hot", "stack_games"]
@@ -185,7 +186,7 @@ class Engine:
         compile: bool = False,
     ) -> None:
         arrays = games if isinstance(games, dict) else stack_games(games)
-        self.device = torch.device(device)
+        self.device = resolve_device(device)
         if backend not in ("auto", "torch", "numba"):
             raise ValueError(f"backend must be 'auto', 'torch' or 'numba', got {backend!r}")
         if backend == "auto":

@@ -19,6 +19,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from structgen.devices import check_device_name
 from structgen.domains.autoverse.clone import Policy, normalisation
 from structgen.domains.autoverse.engine import EPISODE_STEPS, Observation
 from structgen.domains.autoverse.gym_env import TorchGames
@@ -47,6 +48,9 @@ class PPOSettings:
     hidden: int = 64
     seed: int = 0
     device: str = "cpu"
+
+    def __post_init__(self) -> None:
+        check_device_name(self.device, "ppo device")
 
 
 def train_ppo(

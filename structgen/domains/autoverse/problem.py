@@ -22,6 +22,7 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.problem import Evaluation, Problem
+from structgen.devices import check_device_name
 from structgen.domains.autoverse.game import MUTATIONS, game_from_json, game_to_json, mutate_game, random_game
 
 __all__ = ["AutoverseProblem", "AutoverseSettings", "PLAYTRACES"]
@@ -64,8 +65,7 @@ class AutoverseSettings:
         for name in ("fitness_tiebreak", "force_clear", "empty_rules_fire"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"problem {name} must be true or false, got {getattr(self, name)!r}")
-        if not isinstance(self.device, str) or not self.device:
-            raise ValueError(f"problem device must be a device name such as 'cpu' or 'cuda', got {self.device!r}")
+        check_device_name(self.device, "problem device")
 
     def mechanics(self) -> Any:
         from structgen.domains.autoverse.engine import Mechanics

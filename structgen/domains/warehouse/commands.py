@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import DomainCommands, InputError, output_path, verbs_wanted, whole_number
+from structgen.commands import DomainCommands, InputError, device_name, finite_number, output_path, verbs_wanted, whole_number
 from structgen.conv_nca import HIDDEN
 from structgen.domains.warehouse.layouts import KINDS, REPAIR_TIME_LIMIT, LayoutKind
 from structgen.grid import Grid
@@ -292,7 +292,7 @@ def _add_generate(subparsers: Any, kind: LayoutKind) -> None:
     p.add_argument(
         "--hidden", type=whole_number(1, 1024), default=HIDDEN, metavar="N", help=f"hidden channels (default {HIDDEN})"
     )
-    p.add_argument("--device", default=None, help="torch device, e.g. cuda (default: the CPU)")
+    p.add_argument("--device", type=device_name, default=None, help="torch device: cpu, cuda, cuda:N (default: the CPU)")
     p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
     p.set_defaults(handler=cmd_generate, kind=kind.name)
 
@@ -309,7 +309,7 @@ def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
     p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
     p.add_argument(
         "--time-limit",
-        type=float,
+        type=finite_number(0, 86400, above=True),
         default=REPAIR_TIME_LIMIT,
         metavar="S",
         help=f"seconds for HiGHS (default {REPAIR_TIME_LIMIT:g})",

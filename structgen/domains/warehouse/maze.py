@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from structgen.errors import InputError
+
 __all__ = ["AGENTS", "EpisodeStats", "MazeAgent", "diameter", "run_episodes"]
 
 # Directions in (row, column) steps, clockwise from north; facing index 0..3.
@@ -43,21 +45,42 @@ def _floor_graph(floor: np.ndarray):
     return csr_matrix((np.ones(2 * len(a)), (np.concatenate([a, b]), np.concatenate([b, a]))), shape=(n, n))
 
 
+#: The most floor cells :func:`diameter` takes: it searches from every floor cell (time grows with their square).
+MAX_DIAMETER_FLOOR = 20_000
+# Searches run a block of starting cells at a time, so memory stays at about this many distances.
+_DISTANCES_AT_ONCE = 1 << 24
+
+
 def diameter(maze: np.ndarray) -> tuple[tuple[int, int], tuple[int, int], int] | None:
     """(start, goal, distance) of the longest shortest path between floor cells (tile 0) of a grown maze, or None if
-    no two floor cells are connected."""
+    no two floor cells are connected. Of equally long paths, the one whose start, then goal, comes first in row order.
+    Searched from every floor cell, a block at a time: memory stays small; a maze of more than
+    :data:`MAX_DIAMETER_FLOOR` floor cells is refused."""
     from scipy.sparse import csgraph
 
     floor = np.asarray(maze) == 0
-    dist = csgraph.shortest_path(_floor_graph(floor), method="D", unweighted=True)
-    dist[~np.isfinite(dist)] = -np.inf
-    if dist.max() < 1:
+    starts = np.flatnonzero(floor.ravel())
+    if len(starts) > MAX_DIAMETER_FLOOR:
+        raise InputError(
+            f"a maze of {len(starts):,} floor cells: its longest shortest path searches from every one of them, and "
+            f"more than {MAX_DIAMETER_FLOOR:,} would take hours"
+        )
+    graph = _floor_graph(floor)
+    block = max(1, _DISTANCES_AT_ONCE // max(floor.size, 1))
+    best, first, second = 0.0, -1, -1
+    for at in range(0, len(starts), block):
+        rows = starts[at : at + block]
+        dist = csgraph.shortest_path(graph, method="D", unweighted=True, indices=rows)
+        dist[~np.isfinite(dist)] = -np.inf
+        row, column = np.unravel_index(int(dist.argmax()), dist.shape)
+        if dist[row, column] > best:  # strictly: the first of equals in row order is kept, as over the whole table
+            best, first, second = float(dist[row, column]), int(rows[row]), int(column)
+    if best < 1:
         return None
-    first, second = np.unravel_index(int(dist.argmax()), dist.shape)
     shape = floor.shape
     start = tuple(int(i) for i in np.unravel_index(first, shape))
     goal = tuple(int(i) for i in np.unravel_index(second, shape))
-    return start, goal, int(dist.max())
+    return start, goal, int(best)
 
 
 @dataclass
