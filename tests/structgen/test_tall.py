@@ -173,7 +173,7 @@ def test_a_second_writer_is_refused_while_a_search_holds_its_folder(small_run):
 
 @pytest.mark.parametrize(
     ("changes", "message"),
-    [({"levels": 1}, "levels must be a whole number of at least 2, got 1"), ({"refine": "yes"}, "refine must be true or false")],
+    [({"levels": 1}, "levels must be a whole number from 2 to 50, got 1"), ({"refine": "yes"}, "refine must be true or false")],
 )
 def test_settings_out_of_range_are_refused(changes, message):
     with pytest.raises(InputError, match=message):
@@ -249,3 +249,17 @@ def test_info_on_a_search_folder_lists_each_height_and_says_how_far_it_got(small
     (tmp_path / "search.json").write_text("[1, 2]")
     assert main(["info", str(tmp_path)]) == 2
     assert "search.json: not a tall search checkpoint" in capsys.readouterr().err
+
+
+def test_a_checkpoint_holding_a_design_no_search_writes_is_refused_before_it_is_built(small_run, tmp_path, capsys):
+    import shutil
+
+    run_dir, _ = small_run
+    folder = shutil.copytree(run_dir, tmp_path / "copy")
+    state = json.loads((folder / "checkpoint.json").read_text())
+    state["designs"]["300"] = {"rules": ["VSC"] * 299, "tied": 0, "static_load": 1.0, "peak": 1.0}
+    (folder / "checkpoint.json").write_text(json.dumps(state))
+    assert main(["info", str(folder)]) == 2
+    assert "a design of 300 levels" in capsys.readouterr().err
+    with pytest.raises(InputError, match="levels must be a whole number from 2 to 50"):
+        TallSettings(levels=300)

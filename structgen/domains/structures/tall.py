@@ -55,7 +55,7 @@ from physics import PhysicsConfig, check_transient
 from physics.statics import bounding_loads
 from structgen.config import ConfigError, build, flatten, to_table
 from structgen.domains.structures.samples import LEVEL_RULES, by_level_rules, by_level_rules_one_taller
-from structgen.domains.structures.tall_settings import TallSettings
+from structgen.domains.structures.tall_settings import MAX_LEVELS, TallSettings
 from structgen.domains.structures.teach import TeachError, TeachResult, growth_config, growth_schedule, local_rules, teach
 from structgen.errors import InputError
 from structgen.structure import Structure
@@ -376,6 +376,15 @@ def _restore(state: Any, where: Path) -> tuple[int, list, dict[int, TallDesign],
         refined = [int(levels) for levels in state.get("refined", [])]
     except (TypeError, ValueError, KeyError, AttributeError) as err:
         raise InputError(f"{where / CHECKPOINT_FILE}: not a tall search checkpoint ({err})") from None
+    # Each design is rebuilt from its rules: only what a search can have written is taken.
+    for rules, tied in [*kept, *((d.rules, d.tied) for d in designs.values())]:
+        if len(rules) >= MAX_LEVELS or not set(rules) <= set(LEVEL_RULES) or not 0 <= tied <= 2:
+            raise InputError(
+                f"{where / CHECKPOINT_FILE}: a design of {len(rules) + 1} levels, rules {list(rules)[:5]}..., tied {tied}: "
+                f"not one a search writes (at most {MAX_LEVELS} levels of {', '.join(LEVEL_RULES)}, 0 to 2 tied)"
+            )
+    if any(levels != design.levels for levels, design in designs.items()) or not 1 <= done <= MAX_LEVELS:
+        raise InputError(f"{where / CHECKPOINT_FILE}: its heights do not match its designs' levels")
     return done, kept, designs, refined
 
 

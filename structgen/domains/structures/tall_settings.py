@@ -8,7 +8,10 @@ from dataclasses import dataclass, field
 from physics.config import PhysicsConfig
 from structgen.errors import InputError
 
-__all__ = ["TallSettings"]
+__all__ = ["MAX_LEVELS", "TallSettings"]
+
+#: The tallest design a search may look for (a design of more grows past what the statics and simulation can hold).
+MAX_LEVELS = 50
 
 
 @dataclass(frozen=True)
@@ -35,10 +38,11 @@ class TallSettings:
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
 
     def __post_init__(self) -> None:
-        for name, smallest in (("levels", 2), ("beam", 1), ("candidates", 1), ("max_vertices", 2)):
+        limits = (("levels", 2, MAX_LEVELS), ("beam", 1, 10_000), ("candidates", 1, 10_000), ("max_vertices", 2, 100_000))
+        for name, smallest, largest in limits:
             value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < smallest:
-                raise InputError(f"{name} must be a whole number of at least {smallest}, got {value!r}")
+            if not isinstance(value, int) or isinstance(value, bool) or not smallest <= value <= largest:
+                raise InputError(f"{name} must be a whole number from {smallest} to {largest:,}, got {value!r}")
         if not isinstance(self.refine, bool):
             raise InputError(f"refine must be true or false, got {self.refine!r}")
         if not isinstance(self.physics, PhysicsConfig):

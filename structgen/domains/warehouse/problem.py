@@ -17,10 +17,12 @@ from typing import Any
 import numpy as np
 
 from evolution.problem import Evaluation, Problem
+from structgen.budget import check_memory
 from structgen.conv_nca import HIDDEN, ConvNCA
 from structgen.domains.warehouse.layouts import KINDS, REPAIR_TIME_LIMIT, LayoutKind
+from structgen.domains.warehouse.maze import MAX_DIAMETER_FLOOR
 from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity
-from structgen.domains.warehouse.repair import RepairError, repair
+from structgen.domains.warehouse.repair import REPAIR_BYTES_PER_CELL, RepairError, repair
 from structgen.errors import InputError
 
 __all__ = ["LayoutProblem", "ManufacturingSettings", "MazeSettings", "WarehouseSettings"]
@@ -140,6 +142,16 @@ class LayoutProblem(Problem):
         self.shelves = getattr(settings, "shelves", 0) or self.size.shelves
         self._scored_best: tuple[float, bytes, Any] | None = None  # (objective, genome key, its repair), see record()
         full = self.kind.complete(self.seed_tiles).shape
+        # Refused now, before a run folder is made, rather than in the first evaluation.
+        if self.kind.name == "maze":
+            if full[0] * full[1] > MAX_DIAMETER_FLOOR:
+                raise InputError(
+                    f"problem size = {settings.size!r}: a {full[0]}x{full[1]} maze may have more than "
+                    f"{MAX_DIAMETER_FLOOR:,} floor cells, and finding its start and goal searches from every one"
+                )
+        else:
+            where = f"problem size = {settings.size!r}: repairing one {full[0]}x{full[1]} layout"
+            check_memory(full[0] * full[1] * REPAIR_BYTES_PER_CELL, where, "a smaller size")
         if self.kind.name == "warehouse":
             low, high = (140.0, 240.0) if settings.size == "33x36" and self.shelves == 240 else (0.0, float(max(self.shelves, 1)))
             self.measure_names = ("shelf_components", "entropy")

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
+from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, REPAIR_TIME_LIMIT, WAREHOUSE, LayoutKind
 from structgen.domains.warehouse.measures import violations
 from structgen.errors import InputError
@@ -206,6 +207,10 @@ class _Solution:
     objective: float
 
 
+#: Memory a repair takes per cell of the map (model and solver), measured at 33x36 and 101x102 with room to spare.
+REPAIR_BYTES_PER_CELL = 24 << 10
+
+
 def repair(
     tiles: np.ndarray,
     kind: LayoutKind = WAREHOUSE,
@@ -260,6 +265,8 @@ def repair(
         raise ValueError(f"time_limit must be positive, got {time_limit!r}")
     if good_enough is not None and not (isinstance(good_enough, (int, np.integer)) and good_enough >= 0):
         raise ValueError(f"good_enough must be a whole number of changed cells, 0 or more, got {good_enough!r}")
+    # About 30 nonzeros a cell, and HiGHS's work on them: 210 MiB for a 101x102 map, measured (beside Python's own).
+    check_memory(tiles.size * REPAIR_BYTES_PER_CELL, f"the repair of a {tiles.shape[0]}x{tiles.shape[1]} map", "a smaller map")
     model, decode, encode = build(tiles, shelves=shelves, agents=agents)
     # HiGHS checks its clock between steps, and at 101x102 one presolve step can run 1 to 2.5 s past its limit
     # (measured): keep a margin so that a repair of two minutes ends within its limit.
