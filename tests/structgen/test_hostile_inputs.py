@@ -272,3 +272,59 @@ def test_info_refuses_a_run_whose_numbers_were_tampered_with_naming_the_file(tmp
     assert main(["info", str(run)]) == 2
     err = capsys.readouterr().err
     assert target.split("/")[-1] in err and message in err and "Traceback" not in err
+
+
+def _files(tmp_path: Path) -> None:
+    """What the cases below refer to, written into their scratch folder."""
+    (tmp_path / "surrogate.json").write_text('{"tiles": ".@ersw", "layout": ["\\ud800....", "....."]}')
+    (tmp_path / "structure.json").write_text('{"vertices": [[0, 0, 0]], "edges": [], "metadata": {"\\udc80": 1}}')
+    (tmp_path / "big.json").write_text(json.dumps({"tiles": ".@ersw", "layout": ["." * 1000] * 1000}))
+    (tmp_path / "deep.toml").write_text("[run]\nseed = " + "9" * 5000 + "\n")
+    from structgen.domains.autoverse.game import game_to_json, random_game
+
+    game = game_to_json(random_game(np.random.default_rng(0)))
+    (tmp_path / "budget.json").write_text(json.dumps({**game, "budget": "many"}))
+    (tmp_path / "rewards.json").write_text(json.dumps({**game, "rewards": [None] * 5}))
+    (tmp_path / "old-tall").mkdir()
+    (tmp_path / "old-tall" / "settings.json").write_text("[1, 2]")
+    (tmp_path / "afile").write_text("not a folder")
+
+
+HOSTILE = [
+    (["warehouse", "measure", "surrogate.json"], "a lone UTF-16 surrogate"),
+    (["info", "structure.json"], "a lone UTF-16 surrogate"),
+    (["warehouse", "generate", "--device", "bogus", "-o", "g.json"], "expected cpu, cuda, cuda:N or mps"),
+    (["warehouse", "generate", "--device", "meta", "-o", "g.json"], "expected cpu, cuda, cuda:N or mps"),
+    (["autoverse", "evolve", "--set", "device=bogus", "--print-config"], "problem device = 'bogus'"),
+    (["warehouse", "repair", "big.json", "-o", "r.json", "--time-limit", "nan"], "expected a finite number"),
+    (["warehouse", "repair", "big.json", "-o", "r.json", "--time-limit", "0"], "expected a number above 0"),
+    (["warehouse", "repair", "big.json", "-o", "r.json", "--shelves", "10"], "the repair of a 1000x1000 map needs about"),
+    (["evolve", "--set", "seed=" + "[" * 5000 + "]" * 5000, "--print-config"], "nested too deeply"),
+    (["evolve", "--set", "seed=" + "9" * 5000, "--print-config"], "a number too long to read"),
+    (["evolve", "deep.toml", "--print-config"], "deep.toml: not valid TOML"),
+    (["evolve", "--domain", "ones-v0", "--cluster", "not an address", "--run-dir", "c"], "is not a Dask scheduler's address"),
+    (["evolve", "--optimizer", "map_elites", "--set", "cells=[100000,100000]", "--run-dir", "c"], "optimizer cells = [100,000"),
+    (["evolve", "--domain", "ones-v0", "--workers", "1000", "--run-dir", "c"], "run.workers = 1000: that many worker"),
+    (["warehouse", "evolve", "--set", "size=2000x2000", "--run-dir", "c"], "problem size = '2000x2000'"),
+    (["autoverse", "play", "budget.json", "--steps", "3"], "budget.json.budget = 'many'"),
+    (["autoverse", "play", "rewards.json", "--steps", "3"], "rewards.json.rewards: must hold numbers"),
+    (["autoverse", "clone", "c", "-o", "bc", "--lr", "nan"], "argument --lr: expected a finite number"),
+    (["autoverse", "clone", "c", "-o", "bc", "--min-fitness", "inf"], "argument --min-fitness: expected a finite number"),
+    (["info", "old-tall"], "settings.json: expected an object of settings, got list"),
+    (["fortress", "run", "x" * 300], "file name too long"),
+]
+
+
+@pytest.mark.parametrize(("argv", "message"), HOSTILE, ids=[" ".join(argv)[:50] for argv, _ in HOSTILE])
+def test_hostile_input_is_refused_in_one_line_with_exit_2_and_nothing_written(tmp_path, monkeypatch, capsys, argv, message):
+    _files(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    try:
+        code = main(argv)
+    except SystemExit as usage:
+        code = usage.code
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before

@@ -139,6 +139,8 @@ def check_game(game: Any, where: str = "game") -> dict[str, np.ndarray]:
             array = np.asarray(game[key])
         except (TypeError, ValueError) as err:
             raise InputError(f"{where}.{key}: not an array ({err})") from None
+        if not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating) or array.dtype == bool):
+            raise InputError(f"{where}.{key}: must hold numbers, got {array.dtype} values")
         if shape is not None and array.shape != shape:
             raise InputError(f"{where}.{key}: expected shape {shape}, got {array.shape}")
         if key == "map" and (array.ndim != 3 or array.shape[0] != N_TILES or array.shape[1] != array.shape[2]):
@@ -179,5 +181,8 @@ def game_to_json(game: dict[str, Any]) -> dict[str, Any]:
 def game_from_json(data: Any, where: str = "game") -> dict[str, Any]:
     game = check_game(data, where)
     if isinstance(data, dict) and "budget" in data:
-        game["budget"] = int(data["budget"])
+        budget = data["budget"]
+        if not isinstance(budget, int) or isinstance(budget, bool) or not 1 <= budget <= 10**7:
+            raise InputError(f"{where}.budget = {budget!r}: expected a whole number of expansions from 1 to 10,000,000")
+        game["budget"] = budget
     return game

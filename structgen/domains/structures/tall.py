@@ -449,7 +449,9 @@ def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
         raise RunFolderError(f"{folder.path}: not a tall search folder")
     if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
         saved = read_json(folder / _OLD_SETTINGS, 16 * MiB)
-        settings = build(TallSettings, saved if isinstance(saved, dict) else {}, "settings")
+        if not isinstance(saved, dict):
+            raise InputError(f"{folder / _OLD_SETTINGS}: expected an object of settings, got {type(saved).__name__}")
+        settings = build(TallSettings, saved, "settings")
         state: Any = read_json(folder / _OLD_CHECKPOINT, 16 * MiB) if (folder / _OLD_CHECKPOINT).exists() else {}
         checkpoint = folder.path / _OLD_CHECKPOINT
     else:
