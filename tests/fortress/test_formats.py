@@ -166,3 +166,9 @@ def test_a_file_without_classes_or_with_too_many_is_refused():
     many = "\n\n".join(f"{chr(0x4E00 + k)}\n-- NODES --\n0: idle\n-- EDGES --\n0-0: none" for k in range(10_001))
     with pytest.raises(InputError, match="defines 10,001 classes, more than 10,000"):
         parse_fortress(many, "many.txt")
+
+
+def test_a_map_block_larger_than_the_map_is_refused():
+    big = "A\n-- NODES --\n0: idle\n-- EDGES --\n0-0: none\n\n-- INIT FORT --\n" + "\n".join(["#" + "A" * 30 + "#"] * 20)
+    with pytest.raises(InputError, match="its map block is larger than the 15x8 map"):
+        parse_fortress(big, "big.txt")

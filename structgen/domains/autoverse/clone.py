@@ -27,8 +27,9 @@ import numpy as np
 import torch
 from torch import nn
 
+from structgen.budget import check_memory
 from structgen.devices import resolve_device
-from structgen.domains.autoverse.engine import EPISODE_STEPS, Engine, Mechanics, Observation
+from structgen.domains.autoverse.engine import EPISODE_STEPS, VIEW, Engine, Mechanics, Observation
 from structgen.domains.autoverse.game import check_game, game_key
 from structgen.errors import InputError
 
@@ -258,6 +259,9 @@ def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress:
     if not parts["train"]:
         raise InputError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
     observation = Observation(window=settings.window, hide_rules=settings.hide_rules)
+    # Every step's view and flat observation is kept for the fit (and copied once as it is gathered).
+    steps = sum(len(entry["actions"]) for entry in parts["train"])
+    check_memory(steps * (5 * VIEW * VIEW + 1811 + 8) * 2, f"{steps:,} observed steps of {len(parts['train']):,} games")
     views, flats, actions = transitions(
         parts["train"], observation, original_pairing=settings.original_pairing, device=settings.device
     )

@@ -196,9 +196,12 @@ def _positions(block: list[str], where: str) -> list[tuple[str, int, int]]:
     return found
 
 
-def _from_map(block: list[str], classes: dict[str, EntityClass]) -> list[tuple[str, int, int]]:
+def _from_map(block: list[str], classes: dict[str, EntityClass], where: str) -> list[tuple[str, int, int]]:
+    rows = block[1:]
+    if len(rows) > _MAP_HEIGHT or any(len(line.strip()) > _MAP_WIDTH for line in rows):
+        raise InputError(f"{where}: its map block is larger than the {_MAP_WIDTH}x{_MAP_HEIGHT} map")
     found = []
-    for row, line in enumerate(block[1:]):
+    for row, line in enumerate(rows):
         for col, char in enumerate(line.strip()):
             if char not in "#." and char in classes:
                 found.append((char, col, row))
@@ -216,7 +219,7 @@ def parse_fortress(text: str, where: str = "fortress") -> FortressFile:
         if "-- INIT ENT POS --" in chunk:
             placed, kind = _positions(block, where), "pos"
         elif "FORT" in header and header.startswith("--"):
-            placed, kind = _from_map(block, fortress.classes), "fort"
+            placed, kind = _from_map(block, fortress.classes, where), "fort"
         else:
             entity = parse_entity(chunk, where)
             fortress.classes[entity.char] = entity
