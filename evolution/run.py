@@ -55,7 +55,8 @@ class RunSettings:
             the last generation and an interrupted one are always checkpointed.
         checkpoint_seconds: also write one at the end of a generation when this many seconds of the run have passed
             since the last (0: only by ``checkpoint_every``), so a crash loses minutes, not hours, of a run whose
-            generations are long or whose ``checkpoint_every`` is large.
+            generations are long or whose ``checkpoint_every`` is large; at least nine times as long as the last
+            checkpoint took, so that checkpoints of a large run cost at most about a tenth of it.
         workers: local evaluation processes; 0 evaluates in the main process.
         cluster: address of a Dask scheduler; when set, evaluation goes there instead of local processes.
         plot_every: redraw the plots every this many generations (and always at the end).
@@ -161,6 +162,9 @@ def advance(
     optimizer.attach(problem)
     bar = _progress_bar(state.generation, until) if progress else None
     last_checkpoint = time.monotonic()  # a session starts from a checkpoint (or from nothing to lose)
+    # A checkpoint on the clock waits at least nine times as long as the last one took, so writing large run
+    # folders never takes more than about a tenth of a run.
+    wait = settings.checkpoint_seconds
     try:
         while state.generation < until:
             started = time.perf_counter()
@@ -195,10 +199,12 @@ def advance(
             folder.append_metrics(metrics)
             stopping = stop_requested()
             last = state.generation >= until or stopping
-            overdue = settings.checkpoint_seconds > 0 and time.monotonic() - last_checkpoint >= settings.checkpoint_seconds
+            overdue = settings.checkpoint_seconds > 0 and time.monotonic() - last_checkpoint >= wait
             if state.generation % settings.checkpoint_every == 0 or last or overdue:
+                began = time.monotonic()
                 _checkpoint(folder, problem, state)
                 last_checkpoint = time.monotonic()
+                wait = max(settings.checkpoint_seconds, 9 * (last_checkpoint - began))
             if state.generation % settings.plot_every == 0 or last:
                 write_plots(folder, problem, optimizer.archive)
             _report(bar, metrics, until)

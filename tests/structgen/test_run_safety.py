@@ -156,10 +156,14 @@ def test_a_run_killed_before_its_first_checkpoint_resumes_from_the_beginning_to_
     assert metrics(run) == metrics(straight)
 
 
-def test_a_checkpoint_is_written_when_its_time_has_come_whatever_checkpoint_every_says(tmp_path, monkeypatch):
+def test_a_checkpoint_is_written_when_its_time_has_come_and_waits_longer_after_a_slow_one(tmp_path, monkeypatch):
+    import itertools
+    import types
+
+    import evolution.run
     from evolution import RunFolder
 
-    experiment = load_experiment(config(tmp_path, 3), overrides=["run.checkpoint_every=100", "run.checkpoint_seconds=1e-9"])
+    experiment = load_experiment(config(tmp_path, 4), overrides=["run.checkpoint_every=100", "run.checkpoint_seconds=1.5"])
     seen = []
     original = RunFolder.save_checkpoint
 
@@ -167,12 +171,20 @@ def test_a_checkpoint_is_written_when_its_time_has_come_whatever_checkpoint_ever
         seen.append(state.generation)
         original(self, state)
 
+    # The run loop's clock reads 0, 1, 2, ... seconds, a second a reading: each generation's check costs one, each
+    # checkpoint two (its start and its end).
+    clock = itertools.count()
+    monkeypatch.setattr(
+        evolution.run, "time", types.SimpleNamespace(monotonic=lambda: next(clock), perf_counter=time.perf_counter)
+    )
     monkeypatch.setattr(RunFolder, "save_checkpoint", save)
     evolve(experiment, tmp_path / "run", progress=False)
-    assert seen == [1, 2, 3]
+    # 1.5 s after the start (0): at generation 2 (reading 2); that one took a second, so the next waits 9 s, and only
+    # the last generation is checkpointed again.
+    assert seen == [2, 4]
     seen.clear()
     evolve(experiment.with_run(checkpoint_seconds=0.0), tmp_path / "other", progress=False)
-    assert seen == [3]  # by checkpoint_every (100) alone: only the last generation
+    assert seen == [4]  # by checkpoint_every (100) alone: only the last generation
 
 
 def test_a_run_that_fails_later_keeps_its_folder_to_resume(tmp_path, monkeypatch):
