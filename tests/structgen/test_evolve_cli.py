@@ -141,13 +141,17 @@ def test_two_plus_two_generations_equal_four(tmp_path, capsys, optimizer):
 
 
 @pytest.mark.slow
-def test_killed_run_resumes_to_the_same_result(tmp_path, capsys):
+@pytest.mark.parametrize("stage", ["between checkpoints", "before the first checkpoint"])
+def test_killed_run_resumes_to_the_same_result(tmp_path, capsys, stage):
     config = tiny_config(tmp_path)
     cli(capsys, "evolve", config, "--run-dir", tmp_path / "whole", "--generations", 12)
     run = tmp_path / "killed"
-    kill_during_evolve(config, run, 3, "--generations", "12")
+    never = ["--set", "run.checkpoint_every=100", "--set", "run.checkpoint_seconds=0"] if stage.startswith("before") else []
+    kill_during_evolve(config, run, 3, "--generations", "12", *never)
+    assert (run / "checkpoint.pkl").exists() == (not never)
     code, out, err = cli(capsys, "resume", run)
     assert code == 0, err
+    assert ("starting again from the beginning" in err) == bool(never)
     assert outcome(run) == outcome(tmp_path / "whole")
 
 
