@@ -2,13 +2,11 @@
 benchmark pages.
 
 Each page runs in a scratch folder of its own that sees the repository's configs/, docs/ and examples/, its blocks in
-the order a reader meets them: every `structgen` line of a ``bash`` block (through the same entry point as the console
-script) and every ``python`` block (in one namespace per page). Two changes keep the suite short, and nothing else is
-changed: evolution runs stop after one generation on one process (``--generations 1 --workers 0`` appended; a resume
-with ``--generations`` continues to 2), and an ``--elite index:I`` whose cell the short run did not fill takes a cell
-it did fill. A command whose comment says ``exits N`` must exit with N; every other one with 0. ``console`` blocks
-are shown, not run (they take minutes, or install a package: tests/test_plugins.py runs the plugin's). Every ``toml``
-block is a configuration that loads as written.
+the order a reader meets them, exactly as written: every `structgen` line of a ``bash`` block (through the same entry
+point as the console script) and every ``python`` block (in one namespace per page; a block that uses another's
+names says that it continues it). A command whose comment says ``exits N`` must exit with N; every other one with 0.
+``console`` blocks are shown, not run: the docs put there what takes minutes (saying how long) or installs a package
+(tests/test_plugins.py runs the plugin's). Every ``toml`` block is a configuration that loads as written.
 """
 
 from __future__ import annotations
@@ -59,23 +57,6 @@ def commands(text: str) -> list[tuple[list[str], int]]:
     return found
 
 
-def shortened(argv: list[str], scratch: Path) -> list[str]:
-    """The command with its evolution cut short and its archive cell taken from the run at hand."""
-    argv = list(argv)
-    verb = argv[1] if argv[0] not in ("evolve", "resume", "export", "grow") and len(argv) > 1 else argv[0]
-    if verb == "evolve" and "--print-config" not in argv:
-        argv += ["--generations", "1", "--workers", "0"]
-    if verb == "resume" and "--generations" in argv:
-        argv[argv.index("--generations") + 1] = "2"
-    if "--elite" in argv and argv[argv.index("--elite") + 1].startswith("index:"):
-        run = scratch / (argv[argv.index("--run") + 1] if "--run" in argv else argv[1])
-        cells = [line.split(",")[0] for line in (run / "archive.csv").read_text().splitlines()[1:]]
-        cell = argv[argv.index("--elite") + 1].split(":")[1]
-        if cell not in cells:
-            argv[argv.index("--elite") + 1] = f"index:{cells[0]}"
-    return argv
-
-
 RUNNABLE = [
     page for page in PAGES if any(commands(text) or language == "python" for language, text in blocks(page, "bash", "python"))
 ]
@@ -101,7 +82,7 @@ def test_every_example_of_the_page_runs_in_order(page, tmp_path, monkeypatch, ca
         for argv, expected in commands(text):
             out, err = io.StringIO(), io.StringIO()
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-                code = main(shortened(argv, tmp_path))
+                code = main(argv)
             assert code == expected, f"{where}: structgen {shlex.join(argv)} exited {code}:\n{err.getvalue()[-2000:]}"
 
 
