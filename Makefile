@@ -14,8 +14,13 @@ ARGS ?=
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
-install: $(BIN)/python
+# Installed once, and again when what it depends on changes (structgen itself is installed editable).
+$(VENV)/.installed: $(BIN)/python pyproject.toml constraints.txt
+	@echo "installing structgen, its test and docs tools into $(VENV) (a few minutes the first time)"
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,docs]'
+	@touch $@
+
+install: $(VENV)/.installed
 
 run: install
 	$(BIN)/structgen evolve $(ARGS)

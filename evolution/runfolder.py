@@ -161,6 +161,13 @@ def library_versions(names: list[str]) -> dict[str, str | None]:
     return versions
 
 
+def _same_file(descriptor: int, path: Path) -> bool:
+    try:
+        return os.fstat(descriptor).st_ino == os.stat(path, follow_symlinks=False).st_ino
+    except FileNotFoundError:
+        return False
+
+
 def _npy_bytes(array: np.ndarray) -> bytes:
     buffer = io.BytesIO()
     np.save(buffer, array, allow_pickle=False)
@@ -243,24 +250,34 @@ class RunFolder:
     def locked(self) -> Iterator[RunFolder]:
         """Hold the run folder's lock (an OS file lock on ``.lock``) for the block: only one process writes a run
         at a time, and a second gets a RunFolderError saying which process holds it. The lock goes with the
-        process, so a killed run never leaves it held."""
+        process, so a killed run never leaves it held; a run that ends removes the file."""
         path = self / self.LOCK
-        try:
-            descriptor = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0), 0o644)
-        except OSError as err:
-            raise RunFolderError(f"{path}: cannot open the run's lock ({err.strerror})") from None
-        try:
+        flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+        while True:
+            try:
+                descriptor = os.open(path, flags, 0o644)
+            except OSError as err:
+                raise RunFolderError(f"{path}: cannot open the run's lock ({err.strerror})") from None
             try:
                 fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 holder = os.pread(descriptor, 64, 0).decode("ascii", "replace").strip() or "another process"
+                os.close(descriptor)
                 raise RunFolderError(
                     f"{self.path}: another process (pid {holder}) is writing this run; wait for it to end or stop it"
                 ) from None
+            # The lock file goes when its holder is done; one locked just as it went is not the folder's lock any
+            # more, and a process that got it must try the new one.
+            if _same_file(descriptor, path):
+                break
+            os.close(descriptor)
+        try:
             os.ftruncate(descriptor, 0)
             os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)
             yield self
         finally:
+            if _same_file(descriptor, path):  # gone already if the block removed the folder
+                path.unlink(missing_ok=True)
             os.close(descriptor)  # closing releases the lock
 
     def remove_temporary_files(self) -> list[Path]:

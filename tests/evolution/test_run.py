@@ -314,3 +314,46 @@ def test_an_unreachable_cluster_is_an_evaluation_error():
 
     with pytest.raises(EvaluationError, match="cannot reach the Dask scheduler"):
         DaskEvaluator("tcp://127.0.0.1:9", timeout=1.0)
+
+
+def test_the_lock_file_goes_with_its_holder_and_two_writers_never_hold_the_folder_at_once(tmp_path, monkeypatch):
+    import fcntl
+    import threading
+    import time
+
+    folder = RunFolder.create(tmp_path / "run", "", {})
+    with folder.locked():
+        assert (folder / ".lock").exists()
+    assert not (folder / ".lock").exists()  # a finished run leaves no lock behind
+
+    inside, most, errors = [0], [0], []
+    guard = threading.Lock()
+    real_flock = fcntl.flock
+
+    def slow_flock(descriptor, operation):  # widens the moment between opening the lock file and locking it
+        time.sleep(0.0005)
+        return real_flock(descriptor, operation)
+
+    monkeypatch.setattr(fcntl, "flock", slow_flock)
+
+    def writer() -> None:
+        for _ in range(200):
+            try:
+                with folder.locked():
+                    with guard:
+                        inside[0] += 1
+                        most[0] = max(most[0], inside[0])
+                    time.sleep(0.0005)  # a moment of writing
+                    with guard:
+                        inside[0] -= 1
+            except RunFolderError:
+                pass  # held by another: refused, as a second process is
+            except Exception as err:  # anything else is a bug
+                errors.append(err)
+
+    threads = [threading.Thread(target=writer) for _ in range(8)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == [] and most[0] == 1

@@ -409,3 +409,19 @@ def test_grow_takes_settings_by_set_as_every_command_does(tmp_path, capsys):
     assert code == 0 and Structure.load(tmp_path / "b.json").metadata["growth"]["iterations"] == 2  # the option wins
     code, _, err = run(capsys, "grow", "--set", "sphere_radius=0.2", "-o", tmp_path / "c.json")
     assert code == 2 and "mesh options (dimensions, --solid) only apply to mesh formats" in err
+
+
+def test_a_reader_that_closes_the_pipe_early_ends_the_command_quietly(tmp_path):
+    import subprocess
+    import sys
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "structgen", "fortress", "replay", "--random", "1", "--steps", "300", "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=tmp_path,
+    )
+    assert process.stdout.read(10)  # `| head -c 10`: more than the pipe holds is still to come
+    process.stdout.close()
+    err = process.stderr.read().decode()
+    assert process.wait(timeout=120) == 141 and "Error" not in err and "Traceback" not in err, err
