@@ -162,32 +162,52 @@ def render_growth(
     return written
 
 
+def _after_segments(report: StabilityReport) -> np.ndarray:
+    """Each edge's cylinder at the end, drawn from its vertices where its joints hold: a cylinder that broke away at
+    one end still hangs from the vertex at the other (drawn from its centre, as the intact ones are), and only a
+    cylinder loose at both ends is drawn where its own body lies."""
+    ends = report.final_edge_ends.copy()
+    edges, after = report.edges, report.final_positions
+    loose = np.zeros((len(edges), 2), dtype=bool)
+    for joint in report.broken_joints:
+        loose[joint.edge, 0 if edges[joint.edge][0] == joint.vertex else 1] = True
+    for side in (0, 1):
+        held = ~loose[:, side]
+        ends[held, side] = after[edges[held, side]]
+    return ends
+
+
 def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int = 110) -> Path:
     """Draw the structure as placed and as it ended up, side by side, and write a PNG to ``path`` atomically.
 
     Edges with a broken joint are red, in both pictures; in the first, a red cross marks each broken joint (when
-    there are at most 200).
+    there are at most 200). The title spells out the paper's measures (integrity, height, complexity, score) and a
+    legend says what the colours are.
     """
+    from matplotlib.lines import Line2D
+
     edges = report.edges
     before, after = report.initial_positions, report.final_positions
     broken_edges = np.zeros(len(edges), dtype=bool)
     broken_edges[report.broken_edges] = True
     start_segments = np.stack([before[edges[:, 0]], before[edges[:, 1]]], axis=1) if len(edges) else np.zeros((0, 2, 3))
+    after_segments = _after_segments(report) if len(edges) else np.zeros((0, 2, 3))
 
-    middle, half, top, size = _scene(np.concatenate([before, after, report.final_edge_ends.reshape(-1, 3)]))
-
-    figure = new_figure(figsize=(10, 5.2))
-    summary = (
-        f"{report.verdict()}   I = {report.integrity:.2f}, H = {report.height:.2f}, C = {report.complexity}, "
-        f"Q = {report.score:.2f}"
+    middle, half, top, size = _scene(np.concatenate([before, after, after_segments.reshape(-1, 3)]))
+    # A flat structure gets a low picture: the 3D boxes are as wide as they are deep, and only as tall as the structure.
+    height = 3.4 + 2.2 * min(1.0, top / (2 * half))
+    figure = new_figure(figsize=(10, height))
+    figure.suptitle(
+        f"{report.verdict()}\nintegrity I = {report.integrity:.3f} (share of joints intact), height H = {report.height:.2f}, "
+        f"complexity C = {report.complexity} (vertices), score Q = {report.score:.2f}",
+        fontsize=10,
     )
-    figure.suptitle(summary, fontsize=11)
     panels = [
         (before, start_segments, "before (as placed on the ground)"),
-        (after, report.final_edge_ends, _after_title(report)),
+        (after, after_segments, _after_title(report)),
     ]
     for column, (centres, segments, title) in enumerate(panels, start=1):
-        axes = figure.add_subplot(1, 2, column, projection="3d")
+        axes = figure.add_axes([(column - 1) * 0.5, 0.02, 0.5, 0.78], projection="3d")
         _stage(axes, middle, half, top)
         _draw(axes, centres, segments, broken_edges, size, title, top)
         if column == 1 and 0 < len(report.broken_joints) <= _MAX_CROSSES:
@@ -198,4 +218,12 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
                 here, there = (before[a], before[b]) if joint.vertex == a else (before[b], before[a])
                 joints.append(here + radius * (there - here) / np.linalg.norm(there - here))
             axes.scatter(*np.array(joints).T, marker="x", s=60, color=BROKEN, depthshade=False, linewidths=2)
+    legend = [
+        Line2D([], [], color=INTACT, linewidth=2, label="edge, joints intact"),
+        Line2D([], [], color=BROKEN, linewidth=2, label="edge with a broken joint"),
+        Line2D([], [], marker="o", color="none", markerfacecolor=VERTEX, markeredgecolor="black", label="vertex"),
+    ]
+    if report.broken_joints:
+        legend.append(Line2D([], [], marker="x", color="none", markeredgecolor=BROKEN, markeredgewidth=2, label="broken joint"))
+    figure.legend(handles=legend, loc="lower center", ncol=len(legend), fontsize=8, frameon=False)
     return atomic_write(path, figure_png(figure, dpi))
