@@ -152,8 +152,12 @@ class AutoverseProblem(Problem):
         return game_from_json(data)
 
     def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
+        from structgen.domains.autoverse.search import search
         from structgen.domains.autoverse.show import draw_game
 
+        # The best play search finds in the game, at the budget it was scored with, drawn with the return along it.
+        budget = int(genome.get("budget", self.settings.budget)) if isinstance(genome, dict) else self.settings.budget
+        result = search([genome], budgets=budget, seeds=[0], mechanics=self.settings.mechanics(), device=self.settings.device)[0]
         path = Path(folder) / "game.png"
-        draw_game(genome, path)
+        draw_game(genome, path, result.actions, mechanics=self.settings.mechanics(), device=self.settings.device)
         return [path]

@@ -47,47 +47,52 @@ def _pattern_image(kernel: np.ndarray, scale: int = 16) -> np.ndarray:
 
 
 def draw_game(game: dict[str, Any], path: str | Path, actions: np.ndarray | None = None, **engine: Any) -> Path:
-    """A PNG of the game: its initial map, and each rule (rotation 0) as input -> output with its reward. With
-    ``actions``, also the map at the end of the playtrace and the return along it."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """A PNG of the game, written atomically: its initial map, and each rule (rotation 0) as the 3x3 pattern it
+    matches and what the matched cells become, with its reward. With ``actions`` (a playtrace), also the map at the end
+    of the play and the return along it."""
+    from evolution.files import atomic_write
+    from evolution.plots import figure_png, new_figure
 
     rules, rewards = np.asarray(game["rules"]), np.asarray(game["rewards"])
-    panels = 2 if actions is None else 3
-    figure = plt.figure(figsize=(4.2 * panels, 4.6))
-    grid = figure.add_gridspec(len(rules), 2 * panels, width_ratios=[3, 1] * panels)
-    axis = figure.add_subplot(grid[:, 0])
+    played = actions is not None and len(np.asarray(actions).reshape(-1)) > 0
+    figure = new_figure(figsize=(11 if played else 8, 7.2 if played else 5.0))
+    rows = len(rules) + (3 if played else 0)
+    columns = [3, 1, 1, 3] if played else [3, 1, 1]
+    grid = figure.add_gridspec(rows, len(columns), width_ratios=columns, hspace=0.6, wspace=0.15)
+    axis = figure.add_subplot(grid[: len(rules), 0])
     axis.imshow(map_image(game["map"], rot=0))
-    axis.set_title("initial map")
+    axis.set_title("initial map (the dot: the way the player faces)", fontsize=9)
     axis.axis("off")
     for index, rule in enumerate(rules):
-        before = figure.add_subplot(grid[index, 2])
-        after = figure.add_subplot(grid[index, 3])
-        inputs = rule[0, 0]
-        outputs = np.clip(rule[0, 0] + rule[0, 1], 0, 1)  # what the matched cells hold afterwards
-        before.imshow(_pattern_image(inputs))
-        after.imshow(_pattern_image(outputs))
-        before.set_title(f"rule {'ABCDE'[index]} (reward {int(rewards[index]):+d})", fontsize=8, loc="left")
-        before.axis("off")
-        after.axis("off")
-    if actions is not None:
+        before = figure.add_subplot(grid[index, 1])
+        after = figure.add_subplot(grid[index, 2])
+        before.imshow(_pattern_image(rule[0, 0]))
+        after.imshow(_pattern_image(np.clip(rule[0, 0] + rule[0, 1], 0, 1)))  # what the matched cells hold after
+        before.set_ylabel(f"{'ABCDE'[index]}: {int(rewards[index]):+d}", rotation=0, ha="right", va="center", fontsize=8)
+        for part in (before, after):
+            part.set_xticks([])
+            part.set_yticks([])
+        if index == 0:
+            before.set_title("matches", fontsize=8)
+            after.set_title("becomes", fontsize=8)
+    if played:
         maps, returns, rots = replay(game, actions, **engine)
-        axis = figure.add_subplot(grid[: len(rules) // 2 + 1, 4])
+        axis = figure.add_subplot(grid[: len(rules), 3])
         axis.imshow(map_image(maps[-1], rot=rots[-1]))
-        axis.set_title(f"after {len(actions)} actions")
+        axis.set_title(f"after the {len(returns) - 1} actions of the play", fontsize=9)
         axis.axis("off")
-        axis = figure.add_subplot(grid[len(rules) // 2 + 1 :, 4:])
-        axis.plot(np.arange(len(returns)), returns)
-        axis.set_xlabel("step")
-        axis.set_ylabel("return")
-    legend = ", ".join(f"{name}" for name in TILE_NAMES[1:N_TILES])
-    figure.suptitle(f"tiles: {legend} (red, green, blue, yellow); white: player; grey: any", fontsize=9)
-    path = Path(path)
-    figure.savefig(path, dpi=100)
-    plt.close(figure)
-    return path
+        axis = figure.add_subplot(grid[len(rules) + 1 :, :])
+        axis.plot(np.arange(len(returns)), returns, color="#3060a0")
+        axis.set_xlabel("step of the play")
+        axis.set_ylabel("return so far")
+        axis.set_title(f"return along the play: {returns[-1]:g}", fontsize=9)
+    names = ", ".join(f"{name} {colour}" for name, colour in zip(TILE_NAMES[1:N_TILES], ("red", "green", "blue", "yellow")))
+    figure.suptitle(
+        f"tiles: {names}; a cell holding several shows their mean colour, an empty one is black; white: the player.\n"
+        "Rules (letter: reward a match) match a 3x3 pattern (grey: any tile) and rewrite it, in all four rotations.",
+        fontsize=9,
+    )
+    return atomic_write(Path(path), figure_png(figure, 100))
 
 
 def replay(game: dict[str, Any], actions: np.ndarray, **engine: Any) -> tuple[list[np.ndarray], list[float], list[int]]:
