@@ -38,11 +38,13 @@ def _colours(chars: Sequence[str]) -> dict[str, tuple[int, int, int]]:
 def map_image(entities: Sequence[tuple], chars: Sequence[str], scale: int = _SCALE) -> np.ndarray:
     """``(HEIGHT*scale, WIDTH*scale, 3)`` uint8: walls dark, floor light, each tile with entities in the colour of
     the first created there, its class character written on it, and a count when several share it."""
-    from PIL import Image, ImageDraw
+    from PIL import Image, ImageDraw, ImageFont
 
     colours = _colours(chars)
     image = Image.new("RGB", (WIDTH * scale, HEIGHT * scale), (235, 232, 225))
     draw = ImageDraw.Draw(image)
+    # The class characters must read at the size a strip of frames shows them: most of the tile's height.
+    glyph, count = ImageFont.load_default(size=max(8, int(scale * 0.62))), ImageFont.load_default(size=max(6, scale // 3))
     for x in range(WIDTH):
         for y in range(HEIGHT):
             if x in (0, WIDTH - 1) or y in (0, HEIGHT - 1):
@@ -53,9 +55,9 @@ def map_image(entities: Sequence[tuple], chars: Sequence[str], scale: int = _SCA
     for (x, y), found in on_tile.items():
         box = [x * scale + 1, y * scale + 1, (x + 1) * scale - 2, (y + 1) * scale - 2]
         draw.rectangle(box, fill=colours.get(found[0], (128, 128, 128)))
-        draw.text((x * scale + scale // 3, y * scale + scale // 5), found[0], fill=(0, 0, 0))
-        if len(found) > 1:
-            draw.text((x * scale + 2, y * scale + scale // 2), str(len(found)), fill=(255, 255, 255))
+        draw.text(((x + 0.5) * scale, (y + 0.5) * scale), found[0], fill=(0, 0, 0), font=glyph, anchor="mm")
+        if len(found) > 1:  # several entities on one tile: how many, in the corner
+            draw.text(((x + 1) * scale - 3, (y + 1) * scale - 2), str(len(found)), fill=(255, 255, 255), font=count, anchor="rd")
     return np.asarray(image)
 
 
@@ -74,11 +76,13 @@ def trace_gif(trace: Trace, chars: Sequence[str], path: str | Path, *, frame_ms:
 def trace_strip(trace: Trace, chars: Sequence[str], path: str | Path, *, frames: int = 6) -> Path:
     """A PNG of ``frames`` evenly spaced ticks side by side, each labelled with its tick."""
     ticks = np.unique(np.linspace(0, len(trace.entities) - 1, frames).round().astype(int))
-    figure = new_figure(figsize=(2.6 * len(ticks), 1.9))
+    columns = min(3, len(ticks))
+    rows = -(-len(ticks) // columns)
+    figure = new_figure(figsize=(4.6 * columns, 2.7 * rows))
     for i, t in enumerate(ticks):
-        axes = figure.add_subplot(1, len(ticks), i + 1)
+        axes = figure.add_subplot(rows, columns, i + 1)
         axes.imshow(map_image(trace.entities[t], chars))
-        axes.set_title(f"tick {t}: {len(trace.entities[t])} entities", fontsize=8)
+        axes.set_title(f"tick {t}: {len(trace.entities[t])} entities", fontsize=10)
         axes.axis("off")
     figure.tight_layout()
     return atomic_write(path, figure_png(figure))
@@ -112,9 +116,12 @@ def draw_world(world: FortressFile, path: str | Path) -> Path:
     axes.set_title(f"initial map: {len(entities)} entities", fontsize=9)
     axes.axis("off")
     bars = figure.add_subplot(1, 2, 2)
-    bars.bar(chars, [len(e.nodes) for e in world.classes.values()], label="nodes")
-    bars.bar(chars, [len(e.edges) for e in world.classes.values()], alpha=0.4, label="edges")
-    bars.set_title("machine size per class", fontsize=9)
+    nodes = [len(e.nodes) for e in world.classes.values()]
+    bars.bar(chars, nodes, color="#4c72b0", label="nodes")
+    bars.bar(chars, [len(e.edges) for e in world.classes.values()], bottom=nodes, color="#f2a65a", label="edges")
+    bars.set_title("machine size per class: nodes, and edges stacked on them", fontsize=9)
+    bars.set_xlabel("class")
+    bars.set_ylabel("nodes + edges")
     bars.legend(fontsize=7)
     figure.tight_layout()
     return atomic_write(path, figure_png(figure))
