@@ -224,16 +224,24 @@ def normalisation(engine: Engine, seed: int = 0) -> tuple[torch.Tensor, torch.Te
 
 @torch.no_grad()
 def evaluate_policy(
-    policy: Policy, entries: list[dict[str, Any]], observation: Observation, steps: int, seed: int = 0, device: str = "cpu"
+    policy: Policy,
+    entries: list[dict[str, Any]],
+    observation: Observation,
+    steps: int,
+    seed: int = 0,
+    device: str = "cpu",
+    progress: str | None = None,
 ) -> np.ndarray:
     """Sum of normalised reward over ``steps`` steps of each game (episodes restart where they end), actions sampled
-    from the policy."""
+    from the policy; ``progress`` names a progress bar on standard error (None: none)."""
+    from tqdm import tqdm
+
     engine = Engine(entries, device=device, mechanics=Mechanics())
     bias, scale = normalisation(engine, seed)
     generator = torch.Generator(device=engine.device).manual_seed(seed)
     state, start = engine.reset(), engine.reset()
     total = torch.zeros(engine.n_games, device=engine.device)
-    for _ in range(steps):
+    for _ in tqdm(range(steps), desc=progress, disable=progress is None, leave=False):
         logits, _ = policy(*engine.observe(state, observation))
         action = torch.multinomial(torch.softmax(logits, dim=1), 1, generator=generator).squeeze(1)
         state, reward, done = engine.step(state, action)
@@ -287,7 +295,8 @@ def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress:
     for name, entries in parts.items():
         if not entries:
             continue
-        returns = evaluate_policy(policy, entries, observation, settings.eval_steps, settings.seed, settings.device)
+        label = f"evaluate on {len(entries)} {name} games" if progress else None
+        returns = evaluate_policy(policy, entries, observation, settings.eval_steps, settings.seed, settings.device, label)
         report.update(
             {
                 f"{name}_games": len(entries),
