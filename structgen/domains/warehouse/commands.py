@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import logging
 import time
 from collections.abc import Collection
 from pathlib import Path
@@ -99,9 +98,6 @@ def cmd_repair(args: argparse.Namespace) -> int:
         if named is None or not named[1].shelves:
             raise InputError(f"{args.file}: a {grid.shape[0]}x{grid.shape[1]} map is none of the paper's sizes; give --shelves")
         shelves = named[1].shelves
-    logging.getLogger("structgen").info(
-        "repairing %s (%dx%d) with HiGHS, at most %g s", args.file, grid.shape[0], grid.shape[1], args.time_limit
-    )
     result = repair(
         grid.tiles,
         kind,

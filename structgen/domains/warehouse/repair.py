@@ -27,6 +27,7 @@ independent :func:`~structgen.domains.warehouse.measures.violations`).
 from __future__ import annotations
 
 import dataclasses
+import logging
 import time
 from dataclasses import dataclass
 
@@ -37,6 +38,8 @@ from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, REPAIR_TIME_LIMIT, WAREHOUSE, LayoutKind
 from structgen.domains.warehouse.measures import violations
 from structgen.errors import InputError
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "GREEDY_FIRST_CELLS",
@@ -267,6 +270,7 @@ def repair(
         raise ValueError(f"good_enough must be a whole number of changed cells, 0 or more, got {good_enough!r}")
     # About 30 nonzeros a cell, and HiGHS's work on them: 210 MiB for a 101x102 map, measured (beside Python's own).
     check_memory(tiles.size * REPAIR_BYTES_PER_CELL, f"the repair of a {tiles.shape[0]}x{tiles.shape[1]} map", "a smaller map")
+    log.info("repairing a %dx%d %s layout with HiGHS, at most %g s", *tiles.shape, kind.name, time_limit)
     model, decode, encode = build(tiles, shelves=shelves, agents=agents)
     # HiGHS checks its clock between steps, and at 101x102 one presolve step can run 1 to 2.5 s past its limit
     # (measured): keep a margin so that a repair of two minutes ends within its limit.
