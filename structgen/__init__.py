@@ -10,6 +10,10 @@ from typing import TYPE_CHECKING, Any
 
 from structgen._version import __version__
 from structgen.structure import Structure, StructureError
+from structgen.threads import apply_thread_policy
+
+# Before anything loads torch or numba (the imports above do not): their thread pools read these variables once, at start.
+apply_thread_policy()
 
 __all__ = [
     "LocalNCA",

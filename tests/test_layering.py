@@ -12,8 +12,9 @@ Layers, lowest first; a module may import from its own layer's modules and from 
 
 Imports inside functions count (they are edges all the same); those under ``if TYPE_CHECKING:`` do not (they never
 run).
-``import structgen`` stays light: no physics, pybullet, ribs, trimesh or torch until they are needed, and of evolution
-only the file gate (``evolution.files``), which every file structgen reads and writes goes through.
+``import structgen`` stays light (so its thread policy is set before torch or numba can start): no physics, pybullet,
+ribs, trimesh, torch or numba until they are needed, and of evolution only the file gate (``evolution.files``), which
+every file structgen reads and writes goes through.
 """
 
 from __future__ import annotations
@@ -88,6 +89,7 @@ CORE = {
     "structgen.nca_config",
     "structgen.reference_data",
     "structgen.structure",
+    "structgen.threads",
 }
 #: Old names of modules that moved into a domain, kept for one release (structgen._moved): the top layer, so that no
 #: module of the project imports them.
@@ -237,7 +239,7 @@ def engine_modules(loaded: set[str]) -> set[str]:
 
 def test_import_structgen_pulls_in_neither_library_nor_heavy_dependencies():
     loaded = loaded_after("import structgen", full=True)
-    assert not {m.split(".")[0] for m in loaded} & {"physics", "pybullet", "ribs", "trimesh", "torch"}
+    assert not {m.split(".")[0] for m in loaded} & {"physics", "pybullet", "ribs", "trimesh", "torch", "numba"}
     assert not engine_modules(loaded)
 
 

@@ -46,6 +46,9 @@ DIRECTIONS = ((0, -1), (1, 0), (0, 1), (-1, 0))
 EPISODE_STEPS = 100
 _TURN = (1, -1, 0, 0, 0)
 _MOVE = (0, 0, 1, -1, 0)
+# Below this many games the numba step runs on one thread: on the 2-core box 16 games gained 15 % from a second
+# thread when the machine was idle and lost 11 % when another process kept a core busy (benchmarks/threads.py).
+_PARALLEL_FROM_BATCH = 32
 
 
 @dataclass(frozen=True)
@@ -365,7 +368,8 @@ class Engine:
             count = len(state)
             codes, rot, pos = torch.empty_like(state.map), torch.empty_like(state.rot), torch.empty_like(state.pos)
             reward = np.empty(count, dtype=np.int64)
-            _kernels.step(
+            kernel = _kernels.step if count >= _PARALLEL_FROM_BATCH else _kernels.step_serial
+            kernel(
                 state.map.numpy(),
                 state.rot.numpy(),
                 state.pos.numpy(),
