@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from structgen import conv_nca
 from structgen.cli import main
 from structgen.conv_nca import ConvNCA, parameter_count
 from structgen.domains.warehouse.layouts import MANUFACTURING, MAZE, WAREHOUSE
@@ -73,6 +74,46 @@ def test_a_batch_grows_what_the_reference_grows_one_by_one(kind):
     for genome, layout in zip(genomes, batched):
         assert np.array_equal(layout, reference_grow(genome, seed, 12, kind.nca_tiles))
     assert np.array_equal(nca.grow(genomes, seed, 12, chunk=1), batched)
+
+
+@pytest.mark.parametrize("scale", [0.2, 1.0], ids=["settling", "chaotic"])
+def test_stopping_settled_genomes_early_changes_no_layout(scale):
+    nca = ConvNCA(3)
+    genomes = np.random.default_rng(11).normal(0, scale, (8, nca.n_params))
+    seed = WAREHOUSE.seed((24, 26))
+    full, full_steps = nca.grow(genomes, seed, 80, settle=False, return_steps=True)
+    early, steps = nca.grow(genomes, seed, 80, return_steps=True)
+    assert np.array_equal(early, full) and (full_steps == 80).all()
+    if scale == 0.2:  # genomes near the search's start settle within a few dozen steps
+        assert np.median(steps) < 40
+    else:  # chaotic genomes keep moving and run every step
+        assert (steps == 80).sum() >= 6
+
+
+def test_a_genome_that_goes_quiet_stops_growing():
+    nca = ConvNCA(3)
+    genome = np.zeros(nca.n_params)  # every cell reads sigmoid(0) = 0.5 on every tile: quiet, but a three-way tie
+    _, steps = nca.grow(genome, WAREHOUSE.seed((12, 14)), 50, return_steps=True)
+    assert steps == 50  # a tie could go either way, so it is never taken as settled
+    genome[-3:] = (4.0, 0.0, -4.0)  # a bias that makes tile 0 win everywhere by a wide margin
+    tiles, steps = nca.grow(genome, WAREHOUSE.seed((12, 14)), 50, return_steps=True)
+    # its first step moves far (so the next few are not looked at), then every step is quiet
+    assert (tiles == 0).all() and steps == conv_nca.SETTLE_SKIP + conv_nca.SETTLE_PATIENCE
+
+
+def test_the_batched_gpu_path_grows_the_cpus_layouts():
+    import torch
+
+    nca = ConvNCA(3)
+    genomes = np.random.default_rng(4).normal(0, 0.2, (5, nca.n_params)).astype(np.float32)
+    seed = WAREHOUSE.seed((20, 22))
+    on_cpu, cpu_steps = nca.grow(genomes, seed, 60, return_steps=True)
+    with torch.no_grad():
+        batched, steps = nca._grow_batch(
+            torch.tensor(genomes), torch.tensor(np.broadcast_to(seed, (5, *seed.shape)).astype(np.int64)), 60, "cpu"
+        )
+    assert np.array_equal(batched.numpy(), on_cpu)
+    assert (steps.numpy() < 60).all() and (cpu_steps < 60).all()
 
 
 def test_the_same_weights_grow_at_training_and_evaluation_size():
