@@ -8,7 +8,7 @@ configurations in alternation so that a noisy neighbour touches all of them alik
 - autoverse (numba): the engine's CPU kernel, 64 games, a step and its observation, env-steps/s;
 - autoverse (torch): the same on the tensor code (what runs on GPUs), env-steps/s;
 - fortress (numba): 10 random worlds x 5 seeds x 100 ticks, fortress steps/s;
-- growth (torch): the warehouse conv NCA, 50 layouts of 33x36 grown 50 steps, layouts/s.
+- growth (torch): the warehouse conv NCA, 20 layouts of 101x102 grown 200 steps (genomes of sd 0.2), layouts/s.
 
     python benchmarks/threads.py [--repeats 3] [--engines autoverse-numba autoverse-torch fortress growth]
 """
@@ -57,15 +57,14 @@ def fortress():
     return 50 * 100 / (time.perf_counter() - began)
 
 def growth():
-    from structgen import domains
-    from structgen.config import build
-    spec = domains.spec("warehouse-v0")
-    problem = spec.make(build(spec.settings_type(), {"iterations": 50}, "problem"))
-    genomes = problem.initial_genomes(50, np.random.default_rng(0))
-    problem.grow(genomes[:2])
+    from structgen.conv_nca import ConvNCA
+    from structgen.domains.warehouse.layouts import WAREHOUSE
+    nca, seed = ConvNCA(3), WAREHOUSE.seed(WAREHOUSE.size("101x102").grown)
+    genomes = np.random.default_rng(0).normal(0, 0.2, (20, nca.n_params))
+    nca.grow(genomes[:2], seed, 2)
     began = time.perf_counter()
-    problem.grow(genomes)
-    return 50 / (time.perf_counter() - began)
+    nca.grow(genomes, seed, 200)
+    return 20 / (time.perf_counter() - began)
 
 work = {"autoverse-numba": lambda: autoverse("numba"), "autoverse-torch": lambda: autoverse("torch"),
         "fortress": fortress, "growth": growth}[engine]

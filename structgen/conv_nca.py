@@ -40,6 +40,9 @@ SETTLE_PATIENCE = 10
 # later: the check costs a tenth of a step at 101x102 and a quarter at 33x36, which chaotic genomes would pay always.
 SETTLE_FAR = 1e-2
 SETTLE_SKIP = 4
+# Maps smaller than this grow on one thread: at 33x36 a step's operations are so short that a second thread only
+# fought the first for Python's lock (no faster alone, 10 % slower beside a busy process, on 2 cores).
+_THREADS_FROM_CELLS = 4096
 
 
 def parameter_count(tiles: int, hidden: int = HIDDEN) -> int:
@@ -94,8 +97,9 @@ class ConvNCA:
             seeds: the starting layout(s) as tile numbers below ``tiles``: one ``(H, W)`` for all, or ``(P, H, W)``.
             iterations: NCA steps.
             device: torch device (``"cpu"``, ``"cuda"``); None for the CPU.
-            chunk: genomes per batched computation on a GPU (None: all that fit in 1 GiB); the CPU grows one
-                genome at a time whatever this says, and the layouts do not depend on it.
+            chunk: genomes per batched computation on a GPU (None: all that fit in 1 GiB); the CPU grows each
+                genome on its own (spread over ``torch.get_num_threads()`` threads) whatever this says, and the
+                layouts do not depend on it.
             settle: stop a genome's growth once its state has settled (see ``SETTLE_CHANGE``); False runs every
                 step of every genome.
             return_steps: also return how many steps each genome ran.
@@ -127,27 +131,53 @@ class ConvNCA:
         check_memory(per_genome, f"growing a {height} x {width} layout")
         where = resolve_device(device or "cpu")
         on_gpu = where.type != "cpu"
-        # A GPU wants every genome at once (up to 1 GiB of working set); the CPU grows one genome at a time, with
-        # its activations in cache (see _grow_on_cpu).
-        if chunk is None:
-            chunk = max(1, min(population, (1 << 30) // per_genome)) if on_gpu else 1
         out = np.empty((population, height, width), dtype=np.uint8)
         steps = np.empty(population, dtype=np.int64)
+        seeds = np.asarray(seeds, dtype=np.int64)
+
+        def grow_rows(rows: range) -> None:
+            grow = self._grow_batch if on_gpu else self._grow_on_cpu
+            tiles, ran = grow(torch.tensor(genomes[rows]), torch.tensor(seeds[rows]), iterations, where, settle)
+            out[rows], steps[rows] = tiles.numpy(), ran.numpy()
+
         with torch.no_grad():
-            for start in range(0, population, chunk):
-                stop = min(population, start + chunk)
-                grow = self._grow_batch if on_gpu else self._grow_on_cpu
-                tiles, ran = grow(
-                    torch.tensor(genomes[start:stop]),
-                    torch.tensor(np.array(seeds[start:stop], dtype=np.int64)),
-                    iterations,
-                    where,
-                    settle,
-                )
-                out[start:stop], steps[start:stop] = tiles.numpy(), ran.numpy()
+            if on_gpu:  # every genome at once, up to 1 GiB of working set
+                chunk = chunk or max(1, min(population, (1 << 30) // per_genome))
+                for start in range(0, population, chunk):
+                    grow_rows(range(start, min(population, start + chunk)))
+            else:
+                self._grow_on_cores(grow_rows, population, parallel=height * width >= _THREADS_FROM_CELLS)
         if single:
             return (out[0], int(steps[0])) if return_steps else out[0]
         return (out, steps) if return_steps else out
+
+    @staticmethod
+    def _grow_on_cores(grow_rows: Any, population: int, parallel: bool = True) -> None:
+        """Genomes spread over threads, each running torch on one thread of its own. Torch's own threads inside
+        each small operation of a step cost more than they gave: on 2 cores, growth ran 1.5 to 3 times slower on two
+        of them than on one (benchmarks/threads.py). Whole genomes per thread keep both cores busy, and a core
+        taken by another process only slows its share. Results do not depend on the thread count."""
+        import torch
+
+        workers = min(population, torch.get_num_threads()) if parallel else 1
+        previous = torch.get_num_threads()
+        torch.set_num_threads(1)
+        try:
+            if workers <= 1:
+                grow_rows(range(population))
+                return
+            from concurrent.futures import ThreadPoolExecutor
+
+            def one_thread_each(rows: range) -> None:
+                torch.set_num_threads(1)  # OpenMP's thread count is kept per calling thread
+                with torch.no_grad():
+                    grow_rows(rows)
+
+            with ThreadPoolExecutor(workers, thread_name_prefix="structgen-grow") as pool:
+                # genomes dealt out one by one (settling makes their costs uneven)
+                list(pool.map(one_thread_each, (range(i, i + 1) for i in range(population))))
+        finally:
+            torch.set_num_threads(previous)
 
     def _grow_batch(self, genomes: Any, seeds: Any, iterations: int, device: Any, settle: bool = True) -> Any:
         """Growth on a GPU: every genome at once, as a grouped convolution and batched matrix products in

@@ -101,6 +101,24 @@ def test_a_genome_that_goes_quiet_stops_growing():
     assert (tiles == 0).all() and steps == conv_nca.SETTLE_SKIP + conv_nca.SETTLE_PATIENCE
 
 
+def test_growth_on_several_threads_grows_the_same_layouts_and_leaves_torchs_threads_alone():
+    import torch
+
+    nca = ConvNCA(3)
+    genomes = np.random.default_rng(8).normal(0, 0.5, (4, nca.n_params))
+    seed = WAREHOUSE.seed((64, 66))  # above the size from which genomes are spread over threads
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(1)
+        alone = nca.grow(genomes, seed, 30)
+        torch.set_num_threads(2)
+        spread = nca.grow(genomes, seed, 30)
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
+    assert np.array_equal(alone, spread)
+
+
 def test_the_batched_gpu_path_grows_the_cpus_layouts():
     import torch
 
