@@ -1,4 +1,4 @@
-"""The 2D convolutional NCA of the warehouse paper's code, a whole population in one batched computation.
+"""The 2D convolutional NCA of the warehouse paper's code, grown for a whole population in one call.
 
 One step maps a ``(tiles, H, W)`` state to a new one of the same shape: a 3x3 convolution to 32 hidden channels (zero
 padding), ReLU, a 1x1 convolution 32 -> 32, ReLU, a 1x1 convolution back to one channel per tile, sigmoid. Growth
@@ -8,8 +8,9 @@ size. This is the original code's network, not the paper text's (three 3x3 layer
 
 A genome is one flat vector in the original's order: first layer weights ``(32, tiles, 3, 3)`` then bias, second
 ``(32, 32)`` then bias, third ``(tiles, 32)`` then bias, each row-major: 2051 parameters for 3 tiles, 2693 for 5,
-1730 for 2. A population of ``P`` genomes runs as one grouped convolution and two batched matrix products in float32,
-on the CPU or on a GPU (``device="cuda"``).
+1730 for 2. On a GPU (``device="cuda"``) a population of ``P`` genomes runs as one grouped convolution and two
+batched matrix products in float32; on a CPU each genome runs on its own, spread over threads, in the layout that
+gives the original's own arithmetic (and layouts). A genome stops once its state has settled (``SETTLE_CHANGE``).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ HIDDEN = 32
 # the last place near 1: the rounding noise that a converged state keeps making), and in every cell the winning tile
 # leads the next by more than the remaining steps could close if each moved both values by SETTLE_CHANGE. Genomes
 # near the search's start settle in 15 to 40 steps; chaotic ones never do and run every step. Full growth and
-# settled growth are compared layout for layout in tests/layouts/test_conv_nca.py and benchmarks/growth.py.
+# settled growth are compared layout for layout in tests/layouts/test_layouts.py.
 SETTLE_CHANGE = 4e-7
 SETTLE_PATIENCE = 10
 # A genome that moved by more than SETTLE_FAR is far from settled, and is looked at again only SETTLE_SKIP steps
