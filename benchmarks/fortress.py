@@ -8,8 +8,8 @@ Prints a Markdown table:
 - one MAP-Elites generation of the original's shape (9 mutants + 1 random world, 5 x 100 ticks each, archive of
   100 x 100), measured over a short run from a random start and from worlds evolved for a while.
 
-The original's code runs about 100 fortress-steps/s on this machine when timed in alternation with ours on the same
-worlds (benchmarks/anchors/README.md, recorded); speed-ups are against that. Both sides are the median of
+The original's code runs 78 fortress-steps/s on this machine when timed in alternation with ours on the same worlds
+(``benchmarks/anchors/fortress.py``, 2026-11-24); speed-ups are against that. Both sides are the median of
 ``--repeats`` runs.
 
     python benchmarks/fortress.py [--worlds 30 200] [--threads 1 2] [--generations 200]
@@ -30,11 +30,11 @@ from structgen.domains.fortress.world import random_world
 
 # The original's speed: the research notes' measurement (one process, a 2-core AMD EPYC VM); an earlier run of its
 # code alone on its own random worlds here (Intel Xeon 2 vCPU, 2026-11-22: 14,830 steps in 47.7 s, 311/s); and the
-# figure speed-ups use, its code timed in alternation with ours on the same worlds, one thread each (about 100/s,
-# recorded in benchmarks/anchors/README.md: no anchor script drives it yet).
+# figure speed-ups use, its code timed in alternation with ours on the same 10 random worlds x 5 seeds, one thread
+# each, median of 3 (benchmarks/anchors/fortress.py, AMD EPYC 2 vCPU, 2026-11-24: 4,951 steps in 63.1 s).
 ORIGINAL = {"steps_per_s": 103, "updates_per_s": 2500, "generation_s": 50}
 ORIGINAL_ALONE = {"steps_per_s": 311, "updates_per_s": 8505}
-ORIGINAL_HERE = {"steps_per_s": 100, "generation_s": 5000 / 100}
+ORIGINAL_HERE = {"steps_per_s": 78, "generation_s": 5000 / 78}
 
 
 def engine_rows(worlds_counts: list[int], threads: list[int], repeats: int) -> list[str]:
@@ -106,7 +106,9 @@ def main() -> None:
         f"| original alone on its own worlds, this machine | 1 | 14,830 | 47.7 | {ORIGINAL_ALONE['steps_per_s']} | "
         f"{ORIGINAL_ALONE['updates_per_s']:,} | |"
     )
-    print(f"| original in alternation with ours, this machine (recorded) | 1 | | | about {ORIGINAL_HERE['steps_per_s']} | | 1x |")
+    print(
+        f"| original in alternation with ours, this machine (anchors/fortress.py) | 1 | 4,951 | 63.1 | {ORIGINAL_HERE['steps_per_s']} | | 1x |"
+    )
     for row in engine_rows(args.worlds, args.threads, args.repeats):
         print(row)
     print()
@@ -116,7 +118,9 @@ def main() -> None:
     print("|---|---|---|---|---|")
     print(f"| original (notes B8, AMD EPYC) | 1 | {ORIGINAL['generation_s']} s | 139 h | |")
     here = ORIGINAL_HERE["generation_s"]
-    print(f"| original, this machine (5,000 steps at about 100/s) | 1 | {here:.0f} s | {here * 10_000 / 3600:.0f} h | 1x |")
+    print(
+        f"| original, this machine (5,000 steps at {ORIGINAL_HERE['steps_per_s']}/s) | 1 | {here:.0f} s | {here * 10_000 / 3600:.0f} h | 1x |"
+    )
     for row in generation_rows(args.generations, max(args.threads)):
         print(row)
 
