@@ -12,10 +12,11 @@ import pytest
 ANCHORS = Path(__file__).resolve().parents[1] / "benchmarks" / "anchors"
 
 
-@pytest.mark.parametrize("script", ["growth.py", "fortress.py"])
+@pytest.mark.parametrize("script", ["growth.py", "fortress.py", "autoverse.py"])
 def test_an_anchor_refuses_a_folder_that_is_not_the_original(script, tmp_path):
+    extra = ["--python", sys.executable] if script == "autoverse.py" else []
     done = subprocess.run(
-        [sys.executable, str(ANCHORS / script), "--original", str(tmp_path), "--repeats", "1"],
+        [sys.executable, str(ANCHORS / script), "--original", str(tmp_path), "--repeats", "1", *extra],
         capture_output=True,
         text=True,
         timeout=120,
@@ -24,7 +25,7 @@ def test_an_anchor_refuses_a_folder_that_is_not_the_original(script, tmp_path):
     assert str(tmp_path) in done.stderr and "not a checkout of https://github.com/" in done.stderr
 
 
-@pytest.mark.parametrize("script", ["growth.py", "fortress.py"])
+@pytest.mark.parametrize("script", ["growth.py", "fortress.py", "autoverse.py"])
 def test_an_anchor_explains_its_options(script):
     done = subprocess.run([sys.executable, str(ANCHORS / script), "--help"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and "--original" in done.stdout and "median" in done.stdout

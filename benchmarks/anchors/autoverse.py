@@ -1,0 +1,139 @@
+"""Autoverse's engine: ours beside the original's JAX engine, one step and its observation, in alternation.
+
+    python benchmarks/anchors/autoverse.py --python PATH/TO/JAX/ENV/bin/python [--original PATH]
+                                           [--batches 64 512] [--repeats 5] [--core 0]
+
+The original (``smearle/autoverse``) runs ``jit(vmap(env.step_env))``, which returns the observation with the step,
+on random games from its own generator (``gen_rand_env_params`` on the evolution config's 16x16 blank game); ours
+runs ``Engine.step`` and ``Engine.observe`` on random games from ``random_game``, the same distribution as its
+initial population. One random action per game and step, 100 timed steps after an untimed one (which compiles the
+original). Both are pinned to one core (``--core``) with one thread, and each repeat times the original (in a
+fresh process of the interpreter given by ``--python``, which needs jax, chex, gym, opencv, einops, imageio and
+flax: the original's imports) and then ours; the table gives the median of the repeats.
+
+The search is not timed here: the original's search is a Python loop around the same step, and its speed is
+recorded in benchmarks/anchors/README.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+# Run as a script, this file's folder comes first on sys.path; the repository root must be importable instead.
+ROOT = Path(__file__).resolve().parents[2]
+sys.path = [str(ROOT)] + [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+
+REPOSITORY = "https://github.com/smearle/autoverse"
+ORIGINAL = r"""
+import sys, time, warnings
+warnings.simplefilter("ignore")
+sys.path.insert(0, sys.argv[1])
+import jax
+from gen_env.configs.config import GenEnvConfig
+from gen_env.utils import gen_rand_env_params, init_base_env, init_config
+batch = int(sys.argv[2])
+cfg = GenEnvConfig()
+init_config(cfg)
+env, params = init_base_env(cfg)
+keys = jax.random.split(jax.random.PRNGKey(0), batch)
+games = jax.vmap(lambda key: gen_rand_env_params(cfg, key, env.game_def, params.rules))(keys)
+_, state = jax.vmap(env.reset_env)(keys, games)
+step = jax.jit(jax.vmap(env.step_env))
+actions = jax.random.randint(jax.random.PRNGKey(1), (101, batch), 0, env.num_actions)
+out = jax.block_until_ready(step(keys, state, actions[0], games))
+state = out[1]
+began = time.perf_counter()
+for i in range(1, 101):
+    out = step(keys, state, actions[i], games)
+    state = out[1]
+jax.block_until_ready(out)
+print(100 * batch / (time.perf_counter() - began))
+"""
+
+
+def checkout_of_original(given: Path | None, scratch: Path) -> Path:
+    if given is not None:
+        if not (given / "gen_env" / "utils.py").is_file():
+            raise SystemExit(f"--original {given}: not a checkout of {REPOSITORY} (no gen_env/utils.py)")
+        return given
+    target = scratch / "autoverse"
+    done = subprocess.run(["git", "clone", "--quiet", "--depth", "1", REPOSITORY, str(target)], capture_output=True, text=True)
+    if done.returncode:
+        raise SystemExit(
+            f"could not clone {REPOSITORY}: {done.stderr.strip()} (the recorded figures: benchmarks/anchors/README.md)"
+        )
+    return target
+
+
+def time_original(python: str, checkout: Path, batch: int, core: int) -> float:
+    # One thread for XLA too: its CPU client otherwise starts a pool as wide as the machine.
+    env = dict(os.environ, XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1", JAX_PLATFORMS="cpu")
+    done = subprocess.run(
+        ["taskset", "-c", str(core), python, "-c", ORIGINAL, str(checkout), str(batch)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=checkout,  # the original reads its palette files from the working folder
+    )
+    if done.returncode:
+        raise SystemExit(f"the original failed under {python}:\n{done.stderr.strip()[-2000:]}")
+    return float(done.stdout.strip().splitlines()[-1])
+
+
+def time_ours(batch: int) -> float:
+    import torch
+
+    from structgen.domains.autoverse.engine import Engine
+    from structgen.domains.autoverse.game import random_game
+
+    rng = np.random.default_rng(batch)
+    engine = Engine([random_game(rng) for _ in range(batch)])
+    state, actions = engine.reset(), torch.as_tensor(rng.integers(0, 5, size=(101, batch)))
+    state, _, _ = engine.step(state, actions[0])
+    engine.observe(state)
+    began = time.perf_counter()
+    for i in range(1, 101):
+        state, _, _ = engine.step(state, actions[i])
+        engine.observe(state)
+    return 100 * batch / (time.perf_counter() - began)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--python", required=True, help="an interpreter with the original's imports (jax, chex, gym, ...)")
+    parser.add_argument("--original", type=Path, help="a checkout of the original repository (default: clone it)")
+    parser.add_argument("--batches", type=int, nargs="+", default=[64, 512], help="games stepped together (default 64 512)")
+    parser.add_argument("--repeats", type=int, default=5, help="timed runs of each; the median is shown (default 5)")
+    parser.add_argument("--core", type=int, default=0, help="the core both run on (default 0)")
+    args = parser.parse_args()
+    import numba
+    import torch
+
+    os.sched_setaffinity(0, {args.core})
+    torch.set_num_threads(1)
+    numba.set_num_threads(1)
+    with tempfile.TemporaryDirectory(prefix="structgen-anchor-") as scratch:
+        checkout = checkout_of_original(args.original, Path(scratch))
+        print(f"one step and its observation, 100 steps, one thread each on core {args.core}, median of {args.repeats}")
+        print("| batch | original env-steps/s | ours env-steps/s | speed-up |")
+        print("|---:|---:|---:|---:|")
+        for batch in args.batches:
+            theirs, ours = [], []
+            for _ in range(args.repeats):
+                theirs.append(time_original(args.python, checkout, batch, args.core))
+                ours.append(time_ours(batch))
+            t, o = statistics.median(theirs), statistics.median(ours)
+            print(f"| {batch} | {t:,.0f} | {o:,.0f} | {o / t:.0f}x |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
