@@ -28,11 +28,12 @@ from structgen.domains.autoverse.search import search
 # The original on this 2-core machine (JAX 0.10.2 CPU) and on one H100 (JAX 0.11.2), from the research notes (A11).
 ORIGINAL_CPU = {64: 2430, 512: 1634}
 ORIGINAL_H100 = {64: 69525, 1024: 509463, 16384: 559237, 65536: 359346}
-# The original's search, timed in lockstep with ours on this machine (benchmarks/anchors/README.md, recorded): 141 to
-# 198 node expansions a second; the research notes' 5.4 s per 200-expansion search (37/s), which this file divided
-# by before, is four to five times slower than what the lockstep timing saw. A generation is 40 such searches.
-ORIGINAL_SEARCH_PER_S = (141, 198)
-ORIGINAL_GENERATION_S = tuple(40 * 200 / per_s for per_s in reversed(ORIGINAL_SEARCH_PER_S))
+# The original's search (its best-first search, one game at a time, one thread, pinned to one core), timed in
+# alternation with ours by benchmarks/anchors/autoverse.py on 40 random games of budget 200: 206 node expansions a
+# second (AMD EPYC 2 vCPU, 2026-11-24). The research notes' 5.4 s per 200-expansion search (37/s), which this file
+# divided by before, is five times slower than that. A generation is 40 such searches.
+ORIGINAL_SEARCH_PER_S = 206
+ORIGINAL_GENERATION_S = 40 * 200 / ORIGINAL_SEARCH_PER_S
 
 
 def env_steps_per_second(
@@ -99,12 +100,11 @@ def main() -> None:
     seconds = time.perf_counter() - started
     expansions = sum(r.expansions for r in results)
     ours_per_s = expansions / seconds
-    low, high = ORIGINAL_SEARCH_PER_S
     print("\n| search (40 games, budget 200) | seconds | expansions/s | original expansions/s | speed-up |")
     print("|---|---:|---:|---:|---:|")
     print(
-        f"| lockstep best-first | {seconds:.2f} | {ours_per_s:,.0f} | {low}-{high} | "
-        f"{ours_per_s / high:.0f}-{ours_per_s / low:.0f}x |"
+        f"| lockstep best-first | {seconds:.2f} | {ours_per_s:,.0f} | {ORIGINAL_SEARCH_PER_S} | "
+        f"{ours_per_s / ORIGINAL_SEARCH_PER_S:.0f}x |"
     )
 
     problem = AutoverseProblem()
@@ -115,8 +115,7 @@ def main() -> None:
     seconds = time.perf_counter() - started
     print("\n| one generation (40 children, budget 200) | seconds | original seconds | speed-up |")
     print("|---|---:|---:|---:|")
-    fast, slow = ORIGINAL_GENERATION_S
-    print(f"| AutoverseProblem.evaluate | {seconds:.2f} | {fast:.0f}-{slow:.0f} | {fast / seconds:.0f}-{slow / seconds:.0f}x |")
+    print(f"| AutoverseProblem.evaluate | {seconds:.2f} | {ORIGINAL_GENERATION_S:.0f} | {ORIGINAL_GENERATION_S / seconds:.0f}x |")
 
 
 if __name__ == "__main__":

@@ -11,8 +11,9 @@ original). Both are pinned to one core (``--core``) with one thread, and each re
 fresh process of the interpreter given by ``--python``, which needs jax, chex, gym, opencv, einops, imageio and
 flax: the original's imports) and then ours; the table gives the median of the repeats.
 
-The search is not timed here: the original's search is a Python loop around the same step, and its speed is
-recorded in benchmarks/anchors/README.md.
+Then the search: the original's best-first search (``search_agent.bfs``, one game at a time, as its evaluation
+runs it) and ours (``search``, the games in lockstep) on ``--games`` random games each with a budget of
+``--budget`` expansions, in node expansions a second; the original also needs ``fire``, ``gymnax`` and ``distrax``.
 """
 
 from __future__ import annotations
@@ -58,6 +59,30 @@ for i in range(1, 101):
 jax.block_until_ready(out)
 print(100 * batch / (time.perf_counter() - began))
 """
+ORIGINAL_SEARCH = r"""
+import contextlib, io, sys, time, warnings
+warnings.simplefilter("ignore")
+sys.path.insert(0, sys.argv[1])
+import jax
+from gen_env.configs.config import GenEnvConfig
+from gen_env.utils import gen_rand_env_params, init_base_env, init_config
+from search_agent import bfs
+count, budget = int(sys.argv[2]), int(sys.argv[3])
+cfg = GenEnvConfig()
+init_config(cfg)
+env, params = init_base_env(cfg)
+keys = jax.random.split(jax.random.PRNGKey(0), count + 1)
+games = [gen_rand_env_params(cfg, key, env.game_def, params.rules) for key in keys]
+def expansions(game):
+    _, state = env.reset(key=keys[0], params=game)
+    with contextlib.redirect_stdout(io.StringIO()):
+        found = bfs(env, state, game, max_steps=budget, n_best_to_keep=1)
+    return min(found[3], budget)
+expansions(games[0])  # compiles
+began = time.perf_counter()
+total = sum(expansions(game) for game in games[1:])
+print(total / (time.perf_counter() - began))
+"""
 
 
 def checkout_of_original(given: Path | None, scratch: Path) -> Path:
@@ -74,11 +99,11 @@ def checkout_of_original(given: Path | None, scratch: Path) -> Path:
     return target
 
 
-def time_original(python: str, checkout: Path, batch: int, core: int) -> float:
+def time_original(python: str, checkout: Path, core: int, program: str, *arguments: int) -> float:
     # One thread for XLA too: its CPU client otherwise starts a pool as wide as the machine.
     env = dict(os.environ, XLA_FLAGS="--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1", JAX_PLATFORMS="cpu")
     done = subprocess.run(
-        ["taskset", "-c", str(core), python, "-c", ORIGINAL, str(checkout), str(batch)],
+        ["taskset", "-c", str(core), python, "-c", program, str(checkout), *map(str, arguments)],
         capture_output=True,
         text=True,
         env=env,
@@ -107,13 +132,30 @@ def time_ours(batch: int) -> float:
     return 100 * batch / (time.perf_counter() - began)
 
 
+def search_ours(count: int, budget: int) -> float:
+    from structgen.domains.autoverse.game import random_game
+    from structgen.domains.autoverse.search import search
+
+    rng = np.random.default_rng(0)
+    games = [random_game(rng) for _ in range(count + 1)]
+    search(games[:1], 5)
+    began = time.perf_counter()
+    results = search(games[1:], budget, list(range(count)))
+    return sum(r.expansions for r in results) / (time.perf_counter() - began)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--python", required=True, help="an interpreter with the original's imports (jax, chex, gym, ...)")
     parser.add_argument("--original", type=Path, help="a checkout of the original repository (default: clone it)")
-    parser.add_argument("--batches", type=int, nargs="+", default=[64, 512], help="games stepped together (default 64 512)")
+    parser.add_argument(
+        "--batches", type=int, nargs="*", default=[64, 512], help="games stepped together (default 64 512; none: search only)"
+    )
     parser.add_argument("--repeats", type=int, default=5, help="timed runs of each; the median is shown (default 5)")
     parser.add_argument("--core", type=int, default=0, help="the core both run on (default 0)")
+    parser.add_argument("--games", type=int, default=40, help="games searched (default 40, a generation)")
+    parser.add_argument("--budget", type=int, default=200, help="expansions per game's search (default 200)")
+    parser.add_argument("--search-repeats", type=int, default=3, help="timed searches of each; the median is shown (default 3)")
     args = parser.parse_args()
     import numba
     import torch
@@ -129,10 +171,19 @@ def main() -> None:
         for batch in args.batches:
             theirs, ours = [], []
             for _ in range(args.repeats):
-                theirs.append(time_original(args.python, checkout, batch, args.core))
+                theirs.append(time_original(args.python, checkout, args.core, ORIGINAL, batch))
                 ours.append(time_ours(batch))
             t, o = statistics.median(theirs), statistics.median(ours)
             print(f"| {batch} | {t:,.0f} | {o:,.0f} | {o / t:.0f}x |", flush=True)
+        theirs, ours = [], []
+        for _ in range(args.search_repeats):
+            theirs.append(time_original(args.python, checkout, args.core, ORIGINAL_SEARCH, args.games, args.budget))
+            ours.append(search_ours(args.games, args.budget))
+        t, o = statistics.median(theirs), statistics.median(ours)
+        print(f"\nbest-first search, {args.games} games, budget {args.budget}, median of {args.search_repeats}")
+        print("| search | original expansions/s | ours expansions/s | speed-up |")
+        print("|---|---:|---:|---:|")
+        print(f"| original one game at a time, ours in lockstep | {t:,.0f} | {o:,.0f} | {o / t:.0f}x |")
 
 
 if __name__ == "__main__":
