@@ -171,3 +171,19 @@ def test_bad_games_are_refused_with_the_field_named():
 def test_compiling_the_numba_backend_is_refused():
     with pytest.raises(ValueError, match="numba backend is compiled already"):
         Engine(_games(np.random.default_rng(0), 1), backend="numba", compile=True)
+
+
+def test_the_numba_steps_parallel_and_serial_kernels_agree():
+    rng = np.random.default_rng(21)
+    games = [random_game(rng) for _ in range(40)]  # enough games for the engine to choose between kernels
+    engines = {way: Engine(games, backend="numba") for way in ("serial", "parallel")}
+    for way, engine in engines.items():
+        engine._kernel_choice.pick = lambda way=way: way
+    states = {way: engine.reset() for way, engine in engines.items()}
+    for step in range(30):
+        actions = torch.as_tensor(rng.integers(0, 5, size=40))
+        outcomes = {way: engines[way].step(states[way], actions) for way in engines}
+        (serial, serial_reward, _), (parallel, parallel_reward, _) = outcomes["serial"], outcomes["parallel"]
+        assert torch.equal(serial.map, parallel.map) and torch.equal(serial.pos, parallel.pos), step
+        assert torch.equal(serial_reward, parallel_reward)
+        states = {"serial": serial, "parallel": parallel}

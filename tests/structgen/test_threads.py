@@ -67,3 +67,46 @@ def test_a_nested_openmp_thread_list_is_not_handed_to_numba():
     environ = {"OMP_NUM_THREADS": "4,2"}
     threads.apply_thread_policy(environ, cores=1)
     assert "NUMBA_NUM_THREADS" not in environ
+
+
+def test_faster_of_times_each_way_then_uses_the_cheaper_and_looks_at_the_other_now_and_then():
+    choice = threads.FasterOf(("serial", "parallel"), explore_every=10, trials=2)
+    cost = {"serial": 2.0, "parallel": 1.0}
+    picks = []
+    for _ in range(40):
+        way = choice.pick()
+        picks.append(way)
+        choice.record(way, cost[way] * 64 + (100.0 if picks.count(way) == 1 else 0.0), 64)  # a slow first call
+    assert picks[:4] == ["serial", "serial", "parallel", "parallel"]  # each warmed up, then counted
+    assert choice.cost == pytest.approx({"serial": 2.0, "parallel": 1.0})  # the first calls left out
+    later = picks[10:]
+    assert later.count("parallel") > 20 and 2 <= later.count("serial") <= 8  # the other way is still tried
+    cost["parallel"] = 5.0  # the machine got busy: the parallel way slowed down
+    picks = []
+    for _ in range(60):
+        way = choice.pick()
+        picks.append(way)
+        choice.record(way, cost[way] * 64, 64)
+    assert choice.cost["serial"] < choice.cost["parallel"]
+    assert picks[-20:].count("serial") >= 16  # it went over to the serial way
+
+
+def test_faster_of_refuses_settings_that_never_use_the_best_way():
+    with pytest.raises(ValueError, match="more calls between explorations"):
+        threads.FasterOf(explore_every=2, trials=2)
+
+
+def test_one_torch_thread_restores_the_callers_count():
+    import torch
+
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(2)
+        with threads.one_torch_thread():
+            assert torch.get_num_threads() == 1
+        assert torch.get_num_threads() == 2
+        with pytest.raises(RuntimeError), threads.one_torch_thread():
+            raise RuntimeError("the block failed")
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)

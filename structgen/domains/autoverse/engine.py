@@ -27,6 +27,7 @@ many small tensor operations; ``backend="torch"`` keeps the tensor code there to
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -37,6 +38,7 @@ import torch.nn.functional as F
 
 from structgen.devices import resolve_device
 from structgen.domains.autoverse.game import FORCE, N_TILES, PLAYER
+from structgen.threads import FasterOf, one_torch_thread
 
 __all__ = ["DIRECTIONS", "EPISODE_STEPS", "Engine", "Mechanics", "Observation", "State", "codes", "multi_hot", "stack_games"]
 
@@ -48,6 +50,7 @@ _TURN = (1, -1, 0, 0, 0)
 _MOVE = (0, 0, 1, -1, 0)
 # Below this many games the numba step runs on one thread: on the 2-core box 16 games gained 15 % from a second
 # thread when the machine was idle and lost 11 % when another process kept a core busy (benchmarks/threads.py).
+# From there on, each engine times its parallel and serial kernels as it goes and uses the faster (FasterOf).
 _PARALLEL_FROM_BATCH = 32
 
 
@@ -199,6 +202,7 @@ class Engine:
         if compile and backend == "numba":
             raise ValueError("compile=True compiles the tensor code; the numba backend is compiled already")
         self.backend = backend
+        self._kernel_choice = FasterOf()
         # torch.compile fuses the rules' forty-odd gathers and shifts into a few kernels: 2.7x the env-steps/s on an
         # H100 at large batches, for about 20 s of compiling on first use (benchmarks/autoverse.md).
         self._rules = torch.compile(self._rules_on_codes, dynamic=False) if compile else self._rules_on_codes
@@ -363,13 +367,17 @@ class Engine:
         """``(next state, reward, done)`` for one action per row; rewards are the rules' raw rewards."""
         done = state.step >= self.episode_steps
         if self.backend == "numba":
+            import numba
+
             from structgen.domains.autoverse import _kernels
 
             count = len(state)
             codes, rot, pos = torch.empty_like(state.map), torch.empty_like(state.rot), torch.empty_like(state.pos)
             reward = np.empty(count, dtype=np.int64)
-            kernel = _kernels.step if count >= _PARALLEL_FROM_BATCH else _kernels.step_serial
-            kernel(
+            choosing = count >= _PARALLEL_FROM_BATCH and numba.get_num_threads() > 1
+            way = self._kernel_choice.pick() if choosing else "serial"
+            began = time.perf_counter()
+            (_kernels.step if way == "parallel" else _kernels.step_serial)(
                 state.map.numpy(),
                 state.rot.numpy(),
                 state.pos.numpy(),
@@ -382,6 +390,8 @@ class Engine:
                 pos.numpy(),
                 reward,
             )
+            if choosing:
+                self._kernel_choice.record(way, time.perf_counter() - began, count)
             return State(codes, rot, pos, state.step + 1, state.game), torch.from_numpy(reward).float(), done
         moved = self.act(state, actions)
         next_maps, reward = self.apply_rules(moved.map, state.game)
@@ -392,7 +402,12 @@ class Engine:
         """``(view (B, 5, 31, 31) uint8, flat (B, 1811) int8)``: the map around the player (not turned with it;
         the player at the centre) and the rotation one-hot, rules and rewards. Small integers, so a batch is a
         quarter of its float32 size; networks convert them on their device."""
-        observation = observation or Observation()
+        if self.device.type != "cpu":
+            return self._observe(state, observation or Observation())
+        with one_torch_thread():  # a handful of small operations: more threads only wait for each other
+            return self._observe(state, observation or Observation())
+
+    def _observe(self, state: State, observation: Observation) -> tuple[torch.Tensor, torch.Tensor]:
         count, n, half = len(state), self.size, VIEW // 2
         offsets = torch.arange(-half, half + 1, device=self.device)
         rows = (state.pos[:, 0:1] + offsets).unsqueeze(2)  # (B, 31, 1)
