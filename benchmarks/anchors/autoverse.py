@@ -33,6 +33,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path = [str(ROOT)] + [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
+from benchmarks.anchors._original import checkout_of_original  # noqa: E402
+
 REPOSITORY = "https://github.com/smearle/autoverse"
 ORIGINAL = r"""
 import sys, time, warnings
@@ -83,20 +85,6 @@ began = time.perf_counter()
 total = sum(expansions(game) for game in games[1:])
 print(total / (time.perf_counter() - began))
 """
-
-
-def checkout_of_original(given: Path | None, scratch: Path) -> Path:
-    if given is not None:
-        if not (given / "gen_env" / "utils.py").is_file():
-            raise SystemExit(f"--original {given}: not a checkout of {REPOSITORY} (no gen_env/utils.py)")
-        return given
-    target = scratch / "autoverse"
-    done = subprocess.run(["git", "clone", "--quiet", "--depth", "1", REPOSITORY, str(target)], capture_output=True, text=True)
-    if done.returncode:
-        raise SystemExit(
-            f"could not clone {REPOSITORY}: {done.stderr.strip()} (the recorded figures: benchmarks/anchors/README.md)"
-        )
-    return target
 
 
 def time_original(python: str, checkout: Path, core: int, program: str, *arguments: int) -> float:
@@ -164,7 +152,7 @@ def main() -> None:
     torch.set_num_threads(1)
     numba.set_num_threads(1)
     with tempfile.TemporaryDirectory(prefix="structgen-anchor-") as scratch:
-        checkout = checkout_of_original(args.original, Path(scratch))
+        checkout = checkout_of_original(args.original, Path(scratch), REPOSITORY, ("gen_env/utils.py",))
         print(f"one step and its observation, 100 steps, one thread each on core {args.core}, median of {args.repeats}")
         print("| batch | original env-steps/s | ours env-steps/s | speed-up |")
         print("|---:|---:|---:|---:|")

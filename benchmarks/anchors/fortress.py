@@ -22,7 +22,6 @@ import importlib
 import io
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -34,6 +33,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path = [str(ROOT)] + [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
+from benchmarks.anchors._original import checkout_of_original  # noqa: E402
 from structgen.domains.fortress.engine import simulate  # noqa: E402
 from structgen.domains.fortress.formats import format_fortress  # noqa: E402
 from structgen.domains.fortress.world import random_world  # noqa: E402
@@ -41,20 +41,6 @@ from structgen.domains.fortress.world import random_world  # noqa: E402
 REPOSITORY = "https://github.com/dipikarajesh18/amorphous-fortress"
 SEEDS = range(5)
 TICKS = 100
-
-
-def checkout_of_original(given: Path | None, scratch: Path) -> Path:
-    if given is not None:
-        if not (given / "engine.py").is_file() or not (given / "CONFIGS" / "beta_config.yaml").is_file():
-            raise SystemExit(f"--original {given}: not a checkout of {REPOSITORY} (no engine.py or CONFIGS/beta_config.yaml)")
-        return given
-    target = scratch / "amorphous-fortress"
-    done = subprocess.run(["git", "clone", "--quiet", "--depth", "1", REPOSITORY, str(target)], capture_output=True, text=True)
-    if done.returncode:
-        raise SystemExit(
-            f"could not clone {REPOSITORY}: {done.stderr.strip()} (the recorded figure: benchmarks/anchors/README.md)"
-        )
-    return target
 
 
 def original_runner(checkout: Path):
@@ -99,7 +85,9 @@ def main() -> None:
     worlds = [random_world(rng) for _ in range(args.worlds)]
     with tempfile.TemporaryDirectory(prefix="structgen-anchor-") as scratch:
         scratch = Path(scratch)
-        run_original = original_runner(checkout_of_original(args.original, scratch))
+        run_original = original_runner(
+            checkout_of_original(args.original, scratch, REPOSITORY, ("engine.py", "CONFIGS/beta_config.yaml"))
+        )
         paths = []
         for index, world in enumerate(worlds):
             paths.append(scratch / f"world_{index}.txt")

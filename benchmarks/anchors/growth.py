@@ -12,7 +12,6 @@ alike tile for tile (chaotic genomes amplify float rounding, so two correct impl
 
 The original is ``lunjohnzhang/warehouse_env_gen_nca_public``: pass a checkout with ``--original``, or the script
 clones it into a scratch folder (network needed). Its module imports ``gin``: install ``structgen[anchors]``.
-Without it the recorded table below is printed instead, with its date and machine.
 """
 
 from __future__ import annotations
@@ -20,7 +19,6 @@ from __future__ import annotations
 import argparse
 import importlib
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -32,14 +30,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path = [str(ROOT)] + [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
+from benchmarks.anchors._original import checkout_of_original  # noqa: E402
 from structgen.conv_nca import ConvNCA  # noqa: E402
 from structgen.domains.warehouse.layouts import WAREHOUSE  # noqa: E402
 
 REPOSITORY = "https://github.com/lunjohnzhang/warehouse_env_gen_nca_public"
 STEPS = {"33x36": 50, "101x102": 200}
-RECORDED = """\
-Recorded 2026-11-24 on the 2-vCPU development box (AMD EPYC, no GPU), torch 2.13.0+cpu, one thread, 50 genomes at
-101x102, 200 steps, median of 5 (this script, against the original at ed22e68): see benchmarks/layouts.md."""
 
 
 def original_network(checkout: Path):
@@ -50,19 +46,6 @@ def original_network(checkout: Path):
     except ModuleNotFoundError as error:
         raise SystemExit(f"cannot import the original from {checkout}: {error} (pip install 'structgen[anchors]')") from None
     return module.WarehouseNCA
-
-
-def checkout_of_original(given: Path | None, scratch: Path) -> Path:
-    if given is not None:
-        if not (given / "env_search").is_dir():
-            raise SystemExit(f"--original {given}: not a checkout of {REPOSITORY} (no env_search/ folder)")
-        return given
-    target = scratch / "warehouse_env_gen_nca_public"
-    done = subprocess.run(["git", "clone", "--quiet", "--depth", "1", REPOSITORY, str(target)], capture_output=True, text=True)
-    if done.returncode:
-        print(f"could not clone {REPOSITORY}: {done.stderr.strip()}\n\n{RECORDED}")
-        raise SystemExit(1)
-    return target
 
 
 def main() -> None:
@@ -78,7 +61,7 @@ def main() -> None:
 
     torch.set_num_threads(args.threads)
     with tempfile.TemporaryDirectory(prefix="structgen-anchor-") as scratch:
-        network = original_network(checkout_of_original(args.original, Path(scratch)))
+        network = original_network(checkout_of_original(args.original, Path(scratch), REPOSITORY, ("env_search",)))
         original = network(nc=3, n_aux_chan=0, kernel_size=3, n_hid_chan=32)
         ours = ConvNCA(3)
         seed = WAREHOUSE.seed(WAREHOUSE.size(args.size).grown)
