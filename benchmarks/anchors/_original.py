@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import importlib
 import subprocess
+import sys
 from pathlib import Path
+from types import ModuleType
 
 
 def checkout_of_original(given: Path | None, scratch: Path, repository: str, needs: tuple[str, ...]) -> Path:
@@ -21,3 +24,13 @@ def checkout_of_original(given: Path | None, scratch: Path, repository: str, nee
             f"could not clone {repository}: {done.stderr.strip()} (figures recorded without it: benchmarks/anchors/README.md)"
         )
     return target
+
+
+def import_from_original(checkout: Path, module: str) -> ModuleType:
+    """``module`` imported from the original's checkout; exits naming what is missing (usually a dependency that
+    ``pip install 'structgen[anchors]'`` brings)."""
+    sys.path.insert(0, str(checkout))
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as error:
+        raise SystemExit(f"cannot import the original from {checkout}: {error} (pip install 'structgen[anchors]')") from None

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib
 import io
 import os
 import statistics
@@ -33,7 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path = [str(ROOT)] + [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
-from benchmarks.anchors._original import checkout_of_original  # noqa: E402
+from benchmarks.anchors._original import checkout_of_original, import_from_original  # noqa: E402
 from structgen.domains.fortress.engine import simulate  # noqa: E402
 from structgen.domains.fortress.formats import format_fortress  # noqa: E402
 from structgen.domains.fortress.world import random_world  # noqa: E402
@@ -45,11 +44,7 @@ TICKS = 100
 
 def original_runner(checkout: Path):
     """A function that runs one fortress file under every seed with the original's engine; returns the ticks run."""
-    sys.path.insert(0, str(checkout))
-    try:
-        engine_module = importlib.import_module("engine")
-    except ModuleNotFoundError as error:
-        raise SystemExit(f"cannot import the original from {checkout}: {error} (pip install 'structgen[anchors]')") from None
+    engine_module = import_from_original(checkout, "engine")
     config = str(checkout / "CONFIGS" / "beta_config.yaml")
 
     def run(path: Path) -> int:

@@ -17,7 +17,6 @@ clones it into a scratch folder (network needed). Its module imports ``gin``: in
 from __future__ import annotations
 
 import argparse
-import importlib
 import statistics
 import sys
 import tempfile
@@ -30,7 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path = [str(ROOT)] + [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
-from benchmarks.anchors._original import checkout_of_original  # noqa: E402
+from benchmarks.anchors._original import checkout_of_original, import_from_original  # noqa: E402
 from structgen.conv_nca import ConvNCA  # noqa: E402
 from structgen.domains.warehouse.layouts import WAREHOUSE  # noqa: E402
 
@@ -40,12 +39,7 @@ STEPS = {"33x36": 50, "101x102": 200}
 
 def original_network(checkout: Path):
     """The original's ``WarehouseNCA`` class, imported from a checkout of its repository."""
-    sys.path.insert(0, str(checkout))
-    try:
-        module = importlib.import_module("env_search.warehouse.generator.nca_generator")
-    except ModuleNotFoundError as error:
-        raise SystemExit(f"cannot import the original from {checkout}: {error} (pip install 'structgen[anchors]')") from None
-    return module.WarehouseNCA
+    return import_from_original(checkout, "env_search.warehouse.generator.nca_generator").WarehouseNCA
 
 
 def main() -> None:
