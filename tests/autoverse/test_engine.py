@@ -187,3 +187,20 @@ def test_the_numba_steps_parallel_and_serial_kernels_agree():
         assert torch.equal(serial.map, parallel.map) and torch.equal(serial.pos, parallel.pos), step
         assert torch.equal(serial_reward, parallel_reward)
         states = {"serial": serial, "parallel": parallel}
+
+
+def test_the_observation_is_the_same_on_one_torch_thread_and_on_several():
+    rng = np.random.default_rng(22)
+    engine = Engine([random_game(rng) for _ in range(8)], backend="numba")
+    state = engine.reset()
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(2)
+        seen = {}
+        for way in ("one thread", "torch's threads"):
+            engine._observe_choice.pick = lambda way=way: way
+            seen[way] = engine.observe(state)
+            assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)
+    assert all(torch.equal(a, b) for a, b in zip(seen["one thread"], seen["torch's threads"]))

@@ -203,6 +203,7 @@ class Engine:
             raise ValueError("compile=True compiles the tensor code; the numba backend is compiled already")
         self.backend = backend
         self._kernel_choice = FasterOf()
+        self._observe_choice = FasterOf(("one thread", "torch's threads"))
         # torch.compile fuses the rules' forty-odd gathers and shifts into a few kernels: 2.7x the env-steps/s on an
         # H100 at large batches, for about 20 s of compiling on first use (benchmarks/autoverse.md).
         self._rules = torch.compile(self._rules_on_codes, dynamic=False) if compile else self._rules_on_codes
@@ -402,10 +403,21 @@ class Engine:
         """``(view (B, 5, 31, 31) uint8, flat (B, 1811) int8)``: the map around the player (not turned with it;
         the player at the centre) and the rotation one-hot, rules and rewards. Small integers, so a batch is a
         quarter of its float32 size; networks convert them on their device."""
+        observation = observation or Observation()
         if self.device.type != "cpu":
-            return self._observe(state, observation or Observation())
-        with one_torch_thread():  # a handful of small operations: more threads only wait for each other
-            return self._observe(state, observation or Observation())
+            return self._observe(state, observation)
+        # A handful of gathers and shifts: on small batches, or beside a busy process, torch's threads wait for each
+        # other longer than they work (64 games: 0.2 ms on one thread, 0.4 on two); at thousands of games on an idle
+        # machine they pay. Both ways give the same tensors, so the faster one of the moment is used.
+        way = self._observe_choice.pick()
+        began = time.perf_counter()
+        if way == "one thread":
+            with one_torch_thread():
+                seen = self._observe(state, observation)
+        else:
+            seen = self._observe(state, observation)
+        self._observe_choice.record(way, time.perf_counter() - began, len(state))
+        return seen
 
     def _observe(self, state: State, observation: Observation) -> tuple[torch.Tensor, torch.Tensor]:
         count, n, half = len(state), self.size, VIEW // 2
