@@ -22,6 +22,7 @@ import numpy as np
 
 from structgen.budget import check_memory
 from structgen.devices import resolve_device
+from structgen.threads import one_torch_thread
 
 __all__ = ["ConvNCA", "parameter_count"]
 
@@ -161,9 +162,7 @@ class ConvNCA:
         import torch
 
         workers = min(population, torch.get_num_threads()) if parallel else 1
-        previous = torch.get_num_threads()
-        torch.set_num_threads(1)
-        try:
+        with one_torch_thread():
             if workers <= 1:
                 grow_rows(range(population))
                 return
@@ -177,8 +176,6 @@ class ConvNCA:
             with ThreadPoolExecutor(workers, thread_name_prefix="structgen-grow") as pool:
                 # genomes dealt out one by one (settling makes their costs uneven)
                 list(pool.map(one_thread_each, (range(i, i + 1) for i in range(population))))
-        finally:
-            torch.set_num_threads(previous)
 
     def _grow_batch(self, genomes: Any, seeds: Any, iterations: int, device: Any, settle: bool = True) -> Any:
         """Growth on a GPU: every genome at once, as a grouped convolution and batched matrix products in
