@@ -74,19 +74,20 @@ def load(name: str) -> np.ndarray:
     return Grid.load(MAPS / name, kind_of(name).vocabulary).tiles
 
 
-def fidelity(cases, seeds: int) -> None:
-    print("| layout | agents | steps | ours, pp: mean ± sd | congested | RHCR (PBS) | ours, pibt: mean ± sd | congested |")
-    print("|---|---|---|---|---|---|---|---|")
+def fidelity(cases, seeds: int, planners=PLANNERS) -> None:
+    head = " | ".join(f"{p}: mean ± sd | congested" for p in planners)
+    print(f"| layout | agents | steps | RHCR (PBS) | {head} |")
+    print("|---|---|---|---|" + "---|---|" * len(planners))
     for label, name, agents, steps, uneven, theirs in cases:
         cells = []
-        for planner in PLANNERS:
+        for planner in planners:
             runs = [
                 simulate(load(name), agents, steps, kind=kind_of(name), seed=s, uneven=uneven, planner=planner)
                 for s in range(seeds)
             ]
             values = np.array([r.throughput for r in runs])
             cells.append(f"{values.mean():.3f} ± {values.std():.3f} | {sum(r.congested for r in runs)} of {seeds}")
-        print(f"| {label} | {agents} | {steps:,} | {cells[0]} | {theirs} | {cells[1]} |", flush=True)
+        print(f"| {label} | {agents} | {steps:,} | {theirs} | {' | '.join(cells)} |", flush=True)
 
 
 def speed() -> None:
@@ -108,15 +109,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=5, help="simulations per row (seeds 0, 1, ...)")
     parser.add_argument("--skip-large", action="store_true", help="leave out the 101x102 rows with 1,000 agents")
+    parser.add_argument(
+        "--planners",
+        default=",".join(PLANNERS),
+        help=f"comma-separated planners for the fidelity table (default {','.join(PLANNERS)})",
+    )
+    parser.add_argument("--skip-speed", action="store_true", help="leave out the speed table")
     args = parser.parse_args()
     if not MAPS.is_dir():
         parser.error("needs the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
     print(f"machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}; Python {platform.python_version()}")
     for planner in PLANNERS:  # compile (or load the compiled planners) before timing anything
         simulate(load(CMA_MAE), 10, 10, planner=planner)
-    speed()
-    print()
-    fidelity(FIDELITY + ([] if args.skip_large else LARGE_FIDELITY), args.seeds)
+    planners = tuple(args.planners.split(","))
+    if unknown := set(planners) - set(PLANNERS):
+        parser.error(f"unknown planners {sorted(unknown)}; choose from {', '.join(PLANNERS)}")
+    if not args.skip_speed:
+        speed()
+        print()
+    fidelity(FIDELITY + ([] if args.skip_large else LARGE_FIDELITY), args.seeds, planners)
 
 
 if __name__ == "__main__":

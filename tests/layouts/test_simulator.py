@@ -58,7 +58,7 @@ def check_moves(tiles: np.ndarray, positions: np.ndarray, kind=WAREHOUSE) -> Non
         assert not any((b, a) in swapped for a, b in swapped), "two agents swapped cells"
 
 
-@pytest.mark.parametrize("planner", ["pp", "pibt"])
+@pytest.mark.parametrize("planner", ["pp", "pibt", "pbs"])
 def test_moves_are_collision_free_and_goals_count_as_tasks(planner):
     tiles = small_warehouse()
     result = simulate(tiles, 30, 200, seed=3, trace=True, planner=planner)
@@ -68,7 +68,7 @@ def test_moves_are_collision_free_and_goals_count_as_tasks(planner):
     assert result.tasks > 30 and result.throughput == result.tasks / 200
 
 
-@pytest.mark.parametrize("planner", ["pp", "pibt"])
+@pytest.mark.parametrize("planner", ["pp", "pibt", "pbs"])
 def test_manufacturing_robots_visit_station_kinds_in_turn_and_stand_for_each_task(planner):
     tiles = small_factory()
     rows, cols = tiles.shape
@@ -87,6 +87,38 @@ def test_manufacturing_robots_visit_station_kinds_in_turn_and_stand_for_each_tas
         # It arrived at least the task's wait before and stood still since.
         wait = STATION_WAITS[kind]
         assert step >= wait and (result.positions[step - wait : step + 1, agent] == cell).all()
+
+
+def test_pbs_that_runs_out_of_nodes_carries_out_its_paths_with_waiting():
+    # A crowded floor and a budget of one node: most rounds give up and fall back, and every move stays legal.
+    tiles = small_warehouse()
+    result = simulate(tiles, 60, 100, seed=4, trace=True, planner="pbs", node_budget=1)
+    assert result.fallbacks > 0
+    check_moves(tiles, result.positions)
+    rounds = -(-result.stopped_at // 5)
+    assert result.fallbacks == rounds - int(result.stopped_at < 100 and not result.congested)
+    full = simulate(tiles, 60, 100, seed=4, planner="pbs")  # searching on finds collision-free plans more often
+    assert full.fallbacks / 20 < result.fallbacks / rounds and full.throughput > result.throughput
+
+
+def test_waiting_out_colliding_paths_keeps_each_agents_cells_in_order():
+    from structgen.domains.warehouse._pbs import _wait_out
+
+    # Cells are plain numbers here. Agents 0 and 1 want cell 1 at the first step and 1 comes first in the order;
+    # agent 2 follows agent 0, so it waits as well; agents 4 and 5 would swap, so neither moves.
+    plan = np.array([[0, 1, 3, 3], [2, 1, 4, 4], [5, 0, 6, 6], [7, 7, 7, 7], [10, 11, 11, 11], [11, 10, 10, 10]], dtype=np.int32)
+    scratch = np.zeros((2, 12), np.int64), np.full((2, 12), -1, np.int64)
+    out = _wait_out(plan, plan[:, 0].copy(), 3, np.array([1, 0, 2, 3, 4, 5]), *scratch, 0)
+    for before, after in zip(out.T[:-1], out.T[1:]):
+        assert len(set(after.tolist())) == len(after)
+        moved = {(a, b) for a, b in zip(before.tolist(), after.tolist()) if a != b}
+        assert not any((b, a) in moved for a, b in moved)
+    for agent in range(6):  # each walks its own plan, maybe late: its cells are a prefix of the plan, repeats aside
+        walked = [c for i, c in enumerate(out[agent].tolist()) if i == 0 or c != out[agent, i - 1]]
+        planned = [c for i, c in enumerate(plan[agent].tolist()) if i == 0 or c != plan[agent, i - 1]]
+        assert walked == planned[: len(walked)]
+    assert out[0].tolist() == [0, 0, 1, 3] and out[1].tolist() == [2, 1, 4, 4] and out[2].tolist() == [5, 5, 0, 6]
+    assert (out[4] == 10).all() and (out[5] == 11).all()
 
 
 def test_standing_for_a_task_is_not_congestion():
@@ -126,6 +158,27 @@ def test_bad_settings_are_clear_errors():
     )
     with pytest.raises(ValueError, match="beside a station of kind 2"):
         simulate(no_kind_2, 3, 10, kind=MANUFACTURING)
+
+
+@needs_maps
+@pytest.mark.parametrize(
+    "name, agents, rhcr",
+    [
+        ("warehouse/ours/nca_to_show/cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5.json", 200, 6.698),
+        ("warehouse/ours/nca_to_show/dsage_comp/kiva_large_200_agents_dsage_opt_entropy_throughput_hamming_a=5.json", 200, 6.323),
+        ("warehouse/human/kiva_large_w_mode.json", 150, 4.887),
+        ("warehouse/human/kiva_large_w_mode.json", 100, 3.346),
+        ("warehouse/human/kiva_large_w_mode.json", 200, None),
+    ],
+)
+def test_pbs_gives_the_throughput_rhcr_gives_on_the_originals_layouts(name, agents, rhcr):
+    """RHCR's values measured with the authors' code at 1,000 steps (benchmarks/layouts.md); None: it congests."""
+    tiles = Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles
+    result = simulate(tiles, agents, 1000, seed=0, planner="pbs")
+    if rhcr is None:
+        assert result.congested and result.throughput < 2
+    else:
+        assert not result.congested and abs(result.throughput - rhcr) <= 0.025 * rhcr
 
 
 @needs_maps

@@ -120,7 +120,8 @@ def _search(
     and the remaining distance and task waits (ignoring other agents) beyond it, as in rolling-horizon planning.
     A goal with ``waits[k] > 0`` (a manufacturing task) is finished by standing on it that many steps, one move in
     the search; ``pinned`` agents are in the middle of such a task and may only finish it. Writes the best path into
-    ``path`` (``window + 1`` cells) and returns whether one exists."""
+    ``path`` (``window + 1`` cells) and returns its cost (the estimated time at which the last goal is finished), or
+    -1 if no path exists."""
     n = neighbours.shape[0]
     levels = n_goals + 1
     # rest[k]: moves and waits from goal k-1 to the end of the last goal, along the goal sequence.
@@ -135,6 +136,7 @@ def _search(
     size = _heap_push(heap_keys, heap_states, size, h0 * (window + 2) + window, first)
     slab = n * levels  # states per time step
     while size > 0:
+        key = heap_keys[0]
         state, size = _heap_pop(heap_keys, heap_states, size)
         t = state // slab
         cell = (state % slab) // levels
@@ -148,7 +150,7 @@ def _search(
                     path[back] = here
                 high = s // slab - 1
                 s = parent[s]
-            return True
+            return key // (window + 2)
         if k < n_goals and cell == goals[k] and waits[k] > 0:
             end = min(t + waits[k], window)
             free = True
@@ -181,7 +183,7 @@ def _search(
             parent[child] = state
             h = 0 if nk == n_goals else dist[target_of[goals[nk]], nxt] + waits[nk] + rest[nk + 1]
             size = _heap_push(heap_keys, heap_states, size, (t + 1 + h) * (window + 2) + window - (t + 1), child)
-    return False
+    return -1
 
 
 @nb.njit(cache=True)
@@ -220,7 +222,7 @@ def plan_window(positions, goals, waits, n_goals, pinned, target_of, dist, neigh
             if held[a]:
                 continue
             stamp += 1
-            ok = _search(
+            cost = _search(
                 positions[a],
                 goals[a],
                 waits[a],
@@ -238,7 +240,7 @@ def plan_window(positions, goals, waits, n_goals, pinned, target_of, dist, neigh
                 heap_states,
                 path,
             )
-            if not ok:
+            if cost < 0:
                 failed = i
                 break
             for t in range(window + 1):

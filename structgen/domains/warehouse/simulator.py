@@ -32,7 +32,7 @@ from structgen.errors import InputError
 
 __all__ = ["PLANNERS", "SimulationResult", "simulate"]
 
-PLANNERS = ("pp", "pibt")
+PLANNERS = ("pp", "pibt", "pbs")
 #: Steps a manufacturing task takes at a station of each kind (the original's ``station_wait_times``).
 STATION_WAITS = (2, 5, 10)
 #: Goals queued ahead per agent at most (the queue is filled until it is longer than one replanning interval).
@@ -59,6 +59,8 @@ class SimulationResult:
     held: int
     positions: np.ndarray | None = None
     finished: np.ndarray | None = None
+    nodes: int = 0
+    fallbacks: int = 0
 
 
 class _WarehouseTasks:
@@ -157,6 +159,7 @@ def simulate(
     restarts: int | None = None,
     priority: str = "waiting",
     trace: bool = False,
+    node_budget: int | None = None,
 ) -> SimulationResult:
     """Simulate ``agents`` robots on a whole warehouse map for ``steps`` steps and return the throughput.
 
@@ -173,10 +176,12 @@ def simulate(
             kind-0 stations; with five restarts the human layout jammed there in all runs, where RHCR scores 5.92.)
         priority: ``"waiting"`` (agents that reached a goal longest ago plan first; the calibrated default) or
             ``"random"`` (a fresh random order each round).
+        node_budget: nodes the ``pbs`` planner may plan in one round before it gives up and carries out the paths it
+            has with waiting (None: 10 per agent, at least 1,000).
         trace: keep every agent's cell at every step (``result.positions``, ``(steps + 1, agents)`` flat cells) and
             the tasks finished (``result.finished``).
     """
-    from structgen.domains.warehouse import _mapf
+    from structgen.domains.warehouse import _mapf, _pbs
 
     if planner not in PLANNERS:
         raise InputError(f"unknown planner {planner!r}; choose from {', '.join(PLANNERS)}")
@@ -198,6 +203,10 @@ def simulate(
         tasks_of = _WarehouseTasks(tiles, kind, uneven, rng)
     if restarts is None:
         restarts = max(5, agents // tasks_of.agents_per_restart)
+    if node_budget is None:
+        node_budget = max(1000, 10 * agents)
+    if not isinstance(node_budget, int) or node_budget < 1:
+        raise InputError(f"node_budget must be a positive integer, got {node_budget!r}")
     neighbours = _mapf.grid_neighbours(passable)
     targets = tasks_of.targets
     target_of = np.full(rows * cols, -1, dtype=np.int32)
@@ -214,7 +223,7 @@ def simulate(
     def manhattan(a: int, b: int) -> int:
         return abs(a // cols - b // cols) + abs(a % cols - b % cols)
 
-    tasks = restarts_used = held_total = 0
+    tasks = restarts_used = held_total = nodes_total = fallbacks = 0
     trail = [positions.copy()] if trace else None
     finished: list[tuple[int, int, int]] = []
     last_done = np.zeros(agents, dtype=np.int64)
@@ -238,14 +247,22 @@ def simulate(
         if priority == "waiting":  # longest since its last goal first; ties in random order
             order = order[np.argsort(last_done[order], kind="stable")]
         order = order.astype(np.int64)
-        if planner == "pp":
+        if planner in ("pp", "pbs"):
             # An agent part-way through a task finishes it first, with the steps it has left.
             pinned = served > 0
             left = waits.copy()
             left[pinned, 0] -= served[pinned].astype(np.int32)
-            paths, used, held = _mapf.plan_window(
-                positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, restarts
-            )
+            if planner == "pp":
+                paths, used, held = _mapf.plan_window(
+                    positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, restarts
+                )
+            else:
+                paths, nodes, fell_back = _pbs.pbs_window(
+                    positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, node_budget
+                )
+                used = held = 0
+                nodes_total += nodes
+                fallbacks += int(fell_back)
         else:  # PIBT decides one step at a time: its "plan" is the interval itself
             waited = (t - last_done).astype(np.int64)
             paths = _mapf.pibt_window(
@@ -292,4 +309,6 @@ def simulate(
         held=held_total,
         positions=None if trail is None else np.stack(trail),
         finished=None if trail is None else np.array(finished, dtype=np.int64).reshape(-1, 3),
+        nodes=nodes_total,
+        fallbacks=fallbacks,
     )
