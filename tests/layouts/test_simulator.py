@@ -92,13 +92,17 @@ def test_manufacturing_robots_visit_station_kinds_in_turn_and_stand_for_each_tas
 def test_pbs_that_runs_out_of_nodes_carries_out_its_paths_with_waiting():
     # A crowded floor and a budget of one node: most rounds give up and fall back, and every move stays legal.
     tiles = small_warehouse()
-    result = simulate(tiles, 60, 100, seed=4, trace=True, planner="pbs", node_budget=1)
+    result = simulate(tiles, 60, 100, seed=4, trace=True, planner="pbs", node_budget=1, fallback="wait")
     assert result.fallbacks > 0
     check_moves(tiles, result.positions)
     rounds = -(-result.stopped_at // 5)
     assert result.fallbacks == rounds - int(result.stopped_at < 100 and not result.congested)
     full = simulate(tiles, 60, 100, seed=4, planner="pbs")  # searching on finds collision-free plans more often
     assert full.fallbacks / 20 < result.fallbacks / rounds and full.throughput > result.throughput
+    # The default falls back to prioritized planning instead.
+    planned = simulate(tiles, 60, 100, seed=4, trace=True, planner="pbs", node_budget=1)
+    check_moves(tiles, planned.positions)
+    assert planned.fallbacks > 0 and planned.restarts + planned.held >= 0 and planned.throughput > result.throughput
 
 
 def test_waiting_out_colliding_paths_keeps_each_agents_cells_in_order():
@@ -176,7 +180,7 @@ def test_pbs_gives_the_throughput_rhcr_gives_on_the_originals_layouts(name, agen
     tiles = Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles
     result = simulate(tiles, agents, 1000, seed=0, planner="pbs")
     if rhcr is None:
-        assert result.congested and result.throughput < 2
+        assert result.congested and result.stopped_at < 1000
     else:
         assert not result.congested and abs(result.throughput - rhcr) <= 0.025 * rhcr
 

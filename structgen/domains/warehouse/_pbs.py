@@ -96,7 +96,9 @@ def _collect(start, heads, nexts, ends, mark, stamp, queue):
 
 
 @nb.njit(cache=True)
-def pbs_window(positions, goals, waits, n_goals, pinned, target_of, dist, neighbours, window, order, node_budget):
+def pbs_window(
+    positions, goals, waits, n_goals, pinned, target_of, dist, neighbours, window, order, node_budget, dead_end_budget
+):
     """Collision-free paths for all agents over ``window`` steps by Priority-Based Search (``waits`` and ``pinned``
     as in :func:`._mapf._search`; ``order`` breaks ties between children). Returns ``(paths, nodes, fell_back)``:
     ``(agents, window + 1)`` cells, the nodes planned, and whether the round fell back to waiting (module notes)."""
@@ -161,6 +163,7 @@ def pbs_window(positions, goals, waits, n_goals, pinned, target_of, dist, neighb
     indegree = np.zeros(n_agents, dtype=np.int64)
     collision_stamp = 0
     nodes = 0
+    dead_ends = 0
 
     while True:
         collision_stamp += window + 2
@@ -230,8 +233,9 @@ def pbs_window(positions, goals, waits, n_goals, pinned, target_of, dist, neighb
                 )  # fmt: skip
             continue
         # Neither child works: return to the newest child left on the stack.
+        dead_ends += 1
         resumed = False
-        while n_alt > 0 and nodes < node_budget:
+        while n_alt > 0 and nodes < node_budget and dead_ends <= dead_end_budget:
             n_alt -= 1
             n_undo, total = _undo_to(alt_undo[n_alt], n_undo, undo_agent, undo_cost, undo_path, paths, costs, total)
             n_edges = _pop_edges_to(alt_edges[n_alt], n_edges, edge_hi, edge_lo, next_up, next_down, head_up, head_down)
