@@ -105,6 +105,7 @@ CLASSES = frozenset(
         ("evolution.optimizers", "GASettings"),
         ("evolution.optimizers", "GeneticAlgorithm"),
         ("evolution.optimizers", "_Normal"),
+        ("evolution.qd", "FieldRankedArchive"),
         ("evolution.qd", "ProblemMutationEmitter"),
         ("evolution.qd", "RibsOptimizer"),
         ("ribs.archives._archive_stats", "ArchiveStats"),

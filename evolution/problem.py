@@ -99,6 +99,9 @@ class Problem:
         measure_ranges: ``(low, high)`` for each measure; they lay out quality-diversity archives.
         field_names: names of the extra per-candidate fields :meth:`evaluate` reports.
         plot_fields: fields of the best candidate worth plotting over generations.
+        result_objective: the name of a field that ranks candidates in a quality-diversity result archive instead of
+            the objective (the layout domains search on throughput plus similarity but keep the best throughput per
+            cell, as the original does); None: the objective.
         objective_floor: the lowest objective the problem gives. Quality-diversity archives start their acceptance
             thresholds just below it (so even the worst candidates are kept while nothing better exists) and
             measure their QD score from it.
@@ -114,6 +117,7 @@ class Problem:
     field_names: tuple[str, ...] = ()
     plot_fields: tuple[str, ...] = ()
     objective_floor: float = 0.0
+    result_objective: str | None = None
     genome_types: tuple[type, ...] = ()
 
     @property

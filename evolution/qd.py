@@ -6,6 +6,7 @@ Imported only when a quality-diversity optimiser is built (pyribs pulls in numba
 from __future__ import annotations
 
 import copy
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -16,7 +17,7 @@ from ribs.schedulers import Scheduler
 from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, start_genome
 from evolution.problem import Problem
 
-__all__ = ["ProblemMutationEmitter", "RibsOptimizer", "archive_bytes", "cma_mae", "map_elites"]
+__all__ = ["FieldRankedArchive", "ProblemMutationEmitter", "RibsOptimizer", "archive_bytes", "cma_mae", "map_elites"]
 
 
 def _cells(settings: Any, problem: Problem) -> tuple[int, ...]:
@@ -38,11 +39,16 @@ def archive_bytes(problem: Problem, cells: tuple[int, ...], archives: int = 1) -
     return archives * int(np.prod([int(c) for c in cells], dtype=np.float64)) * per_cell
 
 
-def _grid_archive(problem: Problem, cells: tuple[int, ...], seed: int, **options: Any) -> GridArchive:
+def _grid_archive(
+    problem: Problem, cells: tuple[int, ...], seed: int, ranked_by: str | None = None, **options: Any
+) -> GridArchive:
+    """A grid archive over the problem's measures; ``ranked_by`` names a field that ranks its elites instead of
+    the objective (:class:`FieldRankedArchive`)."""
     if not problem.measure_names:
         raise ValueError(f"quality diversity needs measures, and {problem.name} defines none")
     solution = {"solution_dim": problem.n_params} if problem.flat else {"solution_dim": (), "solution_dtype": object}
-    return GridArchive(
+    kind: Any = GridArchive if ranked_by is None else partial(FieldRankedArchive, ranked_by)
+    return kind(
         **solution,
         dims=cells,
         ranges=problem.measure_ranges,
@@ -51,6 +57,23 @@ def _grid_archive(problem: Problem, cells: tuple[int, ...], seed: int, **options
         seed=seed,
         **options,
     )
+
+
+class FieldRankedArchive(GridArchive):
+    """A grid archive whose elites are ranked by one of the candidates' fields instead of their objective: the
+    scheduler hands every archive the same data, and this one swaps the objective for ``ranked_by`` on the way in."""
+
+    def __init__(self, ranked_by: str, **options: Any) -> None:
+        super().__init__(**options)
+        if ranked_by not in self.field_list:
+            raise ValueError(f"result archive ranked by {ranked_by!r}, which is not one of its fields {self.field_list}")
+        self.ranked_by = ranked_by
+
+    def add(self, solution: Any, objective: Any, measures: Any, **fields: Any) -> Any:
+        return super().add(solution, fields[self.ranked_by], measures, **fields)
+
+    def add_single(self, solution: Any, objective: Any, measures: Any, **fields: Any) -> Any:
+        return super().add_single(solution, fields[self.ranked_by], measures, **fields)
 
 
 class RibsOptimizer(Optimizer):
@@ -139,7 +162,9 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
     if threshold is None:  # a hair below the floor: a candidate scoring exactly the floor must still get in
         threshold = problem.objective_floor - 1e-6 * max(1.0, abs(problem.objective_floor))
     archive = _grid_archive(problem, cells, int(seeds[0]), learning_rate=settings.learning_rate, threshold_min=threshold)
-    result_archive = _grid_archive(problem, cells, int(seeds[1])) if settings.result_archive else None
+    result_archive = None
+    if settings.result_archive:
+        result_archive = _grid_archive(problem, cells, int(seeds[1]), ranked_by=problem.result_objective)
     x0 = start_genome(problem, settings.x0, np.random.default_rng(int(seeds[2])))
     emitters = [
         EvolutionStrategyEmitter(

@@ -192,6 +192,26 @@ def test_cma_mae_learns_in_one_archive_and_keeps_results_in_another():
     assert optimizer.archive.stats.num_elites > 0
 
 
+def test_a_result_archive_can_rank_by_a_field_instead_of_the_objective():
+    # The layout domains search on throughput + alpha * similarity and keep the best throughput per cell.
+    class FarthestKept(Sphere):
+        result_objective = "distance"
+
+    problem = FarthestKept()
+    optimizer = make_optimizer("cma_mae", problem, SMALL["cma_mae"], seed=0)
+    for g in range(5):
+        step(optimizer, problem, g)
+    elites = optimizer.archive.data()
+    assert len(elites["objective"]) > 0
+    np.testing.assert_array_equal(elites["objective"], elites["distance"])
+    learning = optimizer.scheduler.archive.data()
+    assert not np.array_equal(learning["objective"], learning["distance"])
+    from evolution import checkpoint
+
+    restored = checkpoint.loads(pickle.dumps(optimizer))  # the checkpoint loader admits the archive's class
+    assert restored.archive.ranked_by == "distance"
+
+
 def test_cma_me_settings_reach_the_emitters_and_report_the_learning_archive():
     # The maze run of the warehouse paper: 2imp ranking, filter selection, learning rate 0.5, no result archive.
     settings = CMAMAESettings(

@@ -218,6 +218,31 @@ def test_simulate_from_the_command_line(tmp_path, capsys):
     assert not (tmp_path / "no.png").exists()
 
 
+def test_evaluate_reports_the_success_rate_and_the_throughput_of_successful_runs(tmp_path, capsys):
+    from structgen.domains.warehouse.simulator import evaluate_layout
+
+    tiles = small_warehouse()
+    free = int((~np.isin(tiles, WAREHOUSE.blocking_tiles())).sum())
+    jammed = evaluate_layout(tiles, free - 2, 3, 200)
+    assert jammed.success_rate == 0 and jammed.mean is None and jammed.congested.all()
+    fine = evaluate_layout(tiles, 10, 4, 100, seed=5, planner="pbs")
+    seeds = np.random.SeedSequence(5).generate_state(4)
+    expected = np.array([simulate(tiles, 10, 100, seed=int(s), planner="pbs").throughput for s in seeds])
+    np.testing.assert_array_equal(fine.throughputs, expected)
+    assert fine.success_rate == 1 and fine.mean == pytest.approx(expected.mean())
+    assert fine.standard_error == pytest.approx(expected.std(ddof=1) / 2)
+    layout = tmp_path / "small.json"
+    Grid(tiles, WAREHOUSE.vocabulary).save(layout)
+    code = main(
+        ["warehouse", "evaluate", str(layout), "--agents", "10", "--steps", "100", "--simulations", "4", "--seed", "5", "--json"]
+    )
+    printed = json.loads(capsys.readouterr().out)
+    assert code == 0 and printed["planner"] == "pbs" and printed["throughputs"] == [round(t, 6) for t in expected]
+    assert printed["success_rate"] == 1 and printed["throughput_mean"] == pytest.approx(expected.mean())
+    code = main(["warehouse", "evaluate", str(layout), "--agents", str(free - 2), "--steps", "200", "--simulations", "2"])
+    assert code == 0 and "success 0 of 2 (0 %), throughput N/A" in capsys.readouterr().out
+
+
 def test_the_warehouse_objective_is_throughput_plus_alpha_times_similarity():
     from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
 

@@ -23,6 +23,7 @@ from structgen.domains.warehouse.layouts import KINDS, REPAIR_TIME_LIMIT, Layout
 from structgen.domains.warehouse.maze import MAX_DIAMETER_FLOOR
 from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity
 from structgen.domains.warehouse.repair import REPAIR_BYTES_PER_CELL, RepairError, repair
+from structgen.domains.warehouse.simulator import PLANNERS
 from structgen.errors import InputError
 
 __all__ = ["LayoutProblem", "ManufacturingSettings", "MazeSettings", "WarehouseSettings"]
@@ -44,6 +45,7 @@ class WarehouseSettings:
     simulations: simulations per layout, their throughputs averaged (5 in the paper; 0: the objective is the
         similarity term alone).
     simulation_steps: steps of each simulation (1,000 in the paper's training).
+    planner: the simulator's planner (``pp``, ``pbs`` or ``pibt``; see ``structgen warehouse simulate --help``).
     uneven: left workstations five times likelier as goals.
     repair_time_limit: seconds HiGHS may spend on one layout.
     repair_threads: HiGHS's threads per repair.
@@ -59,6 +61,7 @@ class WarehouseSettings:
     agents: int = 200
     simulations: int = 5
     simulation_steps: int = 1000
+    planner: str = "pp"
     uneven: bool = False
     repair_time_limit: float = REPAIR_TIME_LIMIT
     repair_threads: int = 1
@@ -77,6 +80,8 @@ class WarehouseSettings:
         _positive_int("agents", self.agents, 0, 10**7)
         _positive_int("simulations", self.simulations, 0, 1000)
         _positive_int("simulation_steps", self.simulation_steps, 1, 10**7)
+        if self.planner not in PLANNERS:
+            raise ValueError(f"problem planner must be one of {', '.join(PLANNERS)}, got {self.planner!r}")
         if not (isinstance(self.alpha, (int, float)) and np.isfinite(self.alpha)):
             raise ValueError(f"problem alpha must be a finite number, got {self.alpha!r}")
         if not (isinstance(self.repair_time_limit, (int, float)) and 0 < self.repair_time_limit <= 86400):
@@ -157,10 +162,13 @@ class LayoutProblem(Problem):
             self.measure_names = ("shelf_components", "entropy")
             self.measure_ranges = ((low, high), (0.0, 1.0))
             self.field_names = ("throughput", "congested", "similarity", "hamming", "optimal", "failed")
+            # The original's result archive keeps each cell's best throughput, without the similarity term.
+            self.result_objective = "throughput" if settings.simulations else None
         elif self.kind.name == "manufacturing":
             self.measure_names = ("stations", "entropy")
             self.measure_ranges = ((0.0, 600.0 if settings.size == "33x36" else float(full[0] * full[1])), (0.0, 1.0))
             self.field_names = ("throughput", "congested", "similarity", "hamming", "optimal", "failed")
+            self.result_objective = "throughput" if settings.simulations else None
         else:
             self.measure_names = ("entropy", "path_length")
             self.measure_ranges = ((0.0, 1.0), (0.0, float(2 * full[0] * full[1])))
@@ -286,7 +294,15 @@ class LayoutProblem(Problem):
             return 0.0, 0.0
         try:
             runs = [
-                simulate(tiles, settings.agents, settings.simulation_steps, kind=self.kind, seed=int(s), uneven=settings.uneven)
+                simulate(
+                    tiles,
+                    settings.agents,
+                    settings.simulation_steps,
+                    kind=self.kind,
+                    seed=int(s),
+                    uneven=settings.uneven,
+                    planner=settings.planner,
+                )
                 for s in np.random.SeedSequence(seed).generate_state(settings.simulations)
             ]
         except InputError:  # the simulator refuses the layout (too little floor for the robots): it cannot work

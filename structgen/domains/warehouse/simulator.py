@@ -30,9 +30,9 @@ from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
 from structgen.errors import InputError
 
-__all__ = ["PLANNERS", "SimulationResult", "simulate"]
+__all__ = ["PLANNERS", "LayoutEvaluation", "SimulationResult", "evaluate_layout", "simulate"]
 
-PLANNERS = ("pp", "pibt", "pbs")
+PLANNERS = ("pp", "pbs", "pibt")
 #: Steps a manufacturing task takes at a station of each kind (the original's ``station_wait_times``).
 STATION_WAITS = (2, 5, 10)
 #: Goals queued ahead per agent at most (the queue is filled until it is longer than one replanning interval).
@@ -329,4 +329,52 @@ def simulate(
         finished=None if trail is None else np.array(finished, dtype=np.int64).reshape(-1, 3),
         nodes=nodes_total,
         fallbacks=fallbacks,
+    )
+
+
+@dataclass(frozen=True)
+class LayoutEvaluation:
+    """Many simulations of one layout, summed up as the paper's tables are: ``success_rate`` is the share of runs
+    that did not congest, and ``mean``/``standard_error`` are the throughput of those runs alone (None when none
+    succeeded: the tables' "N/A"). ``throughputs`` and ``congested`` hold every run, in seed order."""
+
+    simulations: int
+    successes: int
+    success_rate: float
+    mean: float | None
+    standard_error: float | None
+    throughputs: np.ndarray
+    congested: np.ndarray
+    seconds: float
+
+
+def evaluate_layout(
+    tiles: np.ndarray, agents: int, simulations: int = 50, steps: int = 5000, *, seed: int = 0, progress: bool = False, **options
+) -> LayoutEvaluation:
+    """Run ``simulations`` simulations of ``steps`` steps (seeds drawn from ``seed``, as training's are) and sum
+    them up as :class:`LayoutEvaluation`; ``options`` go to :func:`simulate` (``kind``, ``planner``, ``uneven``,
+    ...). ``progress`` shows a bar on the terminal."""
+    if not isinstance(simulations, int) or simulations < 1:
+        raise InputError(f"simulations must be a positive integer, got {simulations!r}")
+    began = time.perf_counter()
+    seeds = np.random.SeedSequence(seed).generate_state(simulations)
+    if progress:
+        from tqdm import tqdm
+
+        seeds = tqdm(seeds, desc="simulations", unit="run", leave=False)
+    runs = [simulate(tiles, agents, steps, seed=int(s), **options) for s in seeds]
+    throughputs = np.array([r.throughput for r in runs])
+    congested = np.array([r.congested for r in runs])
+    good = throughputs[~congested]
+    mean = float(good.mean()) if len(good) else None
+    error = float(good.std(ddof=1) / np.sqrt(len(good))) if len(good) > 1 else (0.0 if len(good) else None)
+    return LayoutEvaluation(
+        simulations=simulations,
+        successes=len(good),
+        success_rate=len(good) / simulations,
+        mean=mean,
+        standard_error=error,
+        throughputs=throughputs,
+        congested=congested,
+        seconds=time.perf_counter() - began,
     )
