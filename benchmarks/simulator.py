@@ -2,8 +2,8 @@
 
     python benchmarks/simulator.py [--seeds 5] [--skip-large]
 
-Prints two tables. Speed: wall time and agent-steps per second at 200 agents (33x36) and 1,000 agents (101x102),
-with the process's peak memory. Fidelity: the original's layouts, our throughput with each planner (mean and
+Prints two tables. Speed: wall time and agent-steps per second of 1,000 steps at 200 agents (33x36) and 1,000 and
+2,000 agents (101x102), with the process's peak memory and RHCR's recorded time where there is one. Fidelity: the original's layouts, our throughput with each planner (mean and
 standard deviation over seeds, and how many runs congested; PIBT apart, never mixed into the first's numbers) beside
 RHCR's: measured with the authors' code at 1,000 steps (research notes 1.8) and the paper's README values at 5,000
 steps.
@@ -90,17 +90,28 @@ def fidelity(cases, seeds: int, planners=PLANNERS) -> None:
         print(f"| {label} | {agents} | {steps:,} | {theirs} | {' | '.join(cells)} |", flush=True)
 
 
-def speed() -> None:
-    print("| map | agents | steps | planner | wall s | agent-steps per s | peak memory (process) |")
-    print("|---|---|---|---|---|---|---|")
-    for name, agents in ((CMA_MAE, 200), (LARGE, 1000), (FACTORY.format("cma-mae"), 200), (FACTORY_LARGE, 1000)):
+# RHCR's recorded times for the same workloads (benchmarks/anchors/README.md), where there is one.
+RHCR_TIMES = {
+    (CMA_MAE, 200): "48-55 s CPU (Release build, one core)",
+    (LARGE, 1000): "191 s for the first 50 steps",
+}
+
+
+def speed(skip_large: bool = False) -> None:
+    print("| map | agents | steps run | planner | wall s | agent-steps per s | congested | peak memory (process) | RHCR |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    cases = [(CMA_MAE, 200), (FACTORY.format("cma-mae"), 200)]
+    if not skip_large:
+        cases += [(LARGE, 1000), (LARGE, 2000), (FACTORY_LARGE, 1000)]
+    for name, agents in cases:
         tiles = load(name)
         for planner in PLANNERS:
             result = simulate(tiles, agents, 1000, kind=kind_of(name), seed=0, planner=planner)
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(
                 f"| {kind_of(name).name} {tiles.shape[0]}x{tiles.shape[1]} | {agents} | {result.stopped_at} | {planner} | "
-                f"{result.seconds:.2f} | {agents * result.stopped_at / result.seconds:,.0f} | {peak:.0f} MiB |",
+                f"{result.seconds:.2f} | {agents * result.stopped_at / result.seconds:,.0f} | "
+                f"{'yes' if result.congested else 'no'} | {peak:.0f} MiB | {RHCR_TIMES.get((name, agents), '')} |",
                 flush=True,
             )
 
@@ -125,7 +136,7 @@ def main() -> None:
     if unknown := set(planners) - set(PLANNERS):
         parser.error(f"unknown planners {sorted(unknown)}; choose from {', '.join(PLANNERS)}")
     if not args.skip_speed:
-        speed()
+        speed(args.skip_large)
         print()
     fidelity(FIDELITY + ([] if args.skip_large else LARGE_FIDELITY), args.seeds, planners)
 

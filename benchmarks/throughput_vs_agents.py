@@ -1,9 +1,9 @@
 """Throughput against the number of robots, on the paper's optimised layouts and its human-designed ones.
 
-    python benchmarks/throughput_vs_agents.py [--seeds 3] [--output docs/throughput_vs_agents.png]
+    python benchmarks/throughput_vs_agents.py [--seeds 3] [--planner pp] [--large-robots 200,400,...] [--output PNG]
 
 At 33x36 (CMA-MAE, DSAGE, human) and 101x102 (CMA-MAE grown at 200 steps and repaired, human), 1,000 steps each,
-planner ``pp``. Prints a table (mean throughput over seeds; a run that congested counts with the throughput it
+planner ``pp`` unless told otherwise. Prints a table (mean throughput over seeds; a run that congested counts with the throughput it
 reached, and the table says how many did) and draws both sizes side by side.
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
 from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
-from structgen.domains.warehouse.simulator import simulate
+from structgen.domains.warehouse.simulator import PLANNERS, simulate
 from structgen.grid import Grid
 
 MAPS = reference_maps() or Path("no reference maps")
@@ -43,17 +43,17 @@ SIZES = {
 }
 
 
-def sweep(ax, size: str, layouts: dict[str, np.ndarray], counts: tuple[int, ...], seeds: int) -> None:
+def sweep(ax, size: str, layouts: dict[str, np.ndarray], counts: tuple[int, ...], seeds: int, planner: str) -> None:
     """Simulate each layout at each robot count, print a table row per point and draw a line per layout on ``ax``."""
     for label, tiles in layouts.items():
         means = []
         for agents in counts:
-            runs = [simulate(tiles, agents, 1000, seed=seed) for seed in range(seeds)]
+            runs = [simulate(tiles, agents, 1000, seed=seed, planner=planner) for seed in range(seeds)]
             means.append(float(np.mean([r.throughput for r in runs])))
             jams = sum(r.congested for r in runs)
             print(f"| {size} | {label} | {agents} | {means[-1]:.3f} | {jams} of {seeds} |", flush=True)
         ax.plot(counts, means, marker="o", label=label)
-    ax.set_title(f"{size}, 1,000 steps, planner pp")
+    ax.set_title(f"{size}, 1,000 steps, planner {planner}")
     ax.set_xlabel("robots")
     ax.set_ylabel("throughput (tasks per step)")
     ax.grid(alpha=0.3)
@@ -63,18 +63,35 @@ def sweep(ax, size: str, layouts: dict[str, np.ndarray], counts: tuple[int, ...]
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=3, help="simulations per point (seeds 0, 1, ...; default 3)")
-    parser.add_argument("--output", type=Path, default=Path("docs/throughput_vs_agents.png"), help="the plot to write")
+    parser.add_argument("--planner", choices=PLANNERS, default="pp", help="the simulator's planner (default pp)")
+    parser.add_argument(
+        "--large-robots", default=None, metavar="N,N,...", help="robot counts at 101x102 (default 200,400,...,1200)"
+    )
+    parser.add_argument(
+        "--output", type=Path, default=None, help="the plot to write (default docs/throughput_vs_agents.png, or "
+        "docs/throughput_vs_agents_PLANNER.png for another planner)"
+    )  # fmt: skip
     args = parser.parse_args()
+    if args.output is None:
+        suffix = "" if args.planner == "pp" else f"_{args.planner}"
+        args.output = Path(f"docs/throughput_vs_agents{suffix}.png")
+    sizes = dict(SIZES)
+    if args.large_robots:
+        try:
+            counts = tuple(int(n) for n in args.large_robots.split(","))
+        except ValueError:
+            parser.error(f"--large-robots must be whole numbers separated by commas, got {args.large_robots!r}")
+        sizes["101x102"] = (SIZES["101x102"][0], counts)
     if not MAPS.is_dir():
         parser.error("needs the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
     print(f"machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}; Python {platform.python_version()}")
     figure = new_figure(figsize=(11, 4.2), layout="constrained")
-    axes = figure.subplots(1, len(SIZES))
+    axes = figure.subplots(1, len(sizes))
     print("| size | layout | robots | throughput (mean over seeds) | congested |")
     print("|---|---|---|---|---|")
-    for ax, (size, (layouts, counts)) in zip(axes, SIZES.items()):
+    for ax, (size, (layouts, counts)) in zip(axes, sizes.items()):
         tiles = {label: Grid.load(MAPS / name, WAREHOUSE.vocabulary).tiles for label, name in layouts.items()}
-        sweep(ax, size, tiles, counts, args.seeds)
+        sweep(ax, size, tiles, counts, args.seeds, args.planner)
     atomic_write(args.output, figure_png(figure, 110))
     print(f"{args.output}: written")
 
