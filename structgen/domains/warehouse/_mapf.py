@@ -187,6 +187,19 @@ def _search(
 
 
 @nb.njit(cache=True)
+def search_scratch(cells, window, max_goals):
+    """The working arrays :func:`_search` needs for a map of ``cells`` cells: one entry per (step, cell, goals
+    reached) state. ``seen`` is stamped, so that one set serves every search of a round."""
+    states = (window + 1) * cells * (max_goals + 1)
+    return (
+        np.zeros(states, dtype=np.int32),
+        np.empty(states, dtype=np.int64),
+        np.empty(states, dtype=np.int64),
+        np.empty(states, dtype=np.int64),
+    )
+
+
+@nb.njit(cache=True)
 def plan_window(positions, goals, waits, n_goals, pinned, target_of, dist, neighbours, window, order, restarts):
     """Collision-free paths for all agents over ``window`` steps by prioritized planning (``waits`` and ``pinned``
     as in :func:`_search`).
@@ -197,12 +210,7 @@ def plan_window(positions, goals, waits, n_goals, pinned, target_of, dist, neigh
     Returns ``(paths, restarts used, agents held in place)``."""
     n_agents = len(positions)
     n = neighbours.shape[0]
-    levels = goals.shape[1] + 1
-    states = (window + 1) * n * levels
-    seen = np.zeros(states, dtype=np.int32)
-    parent = np.empty(states, dtype=np.int64)
-    heap_keys = np.empty(states, dtype=np.int64)
-    heap_states = np.empty(states, dtype=np.int64)
+    seen, parent, heap_keys, heap_states = search_scratch(n, window, goals.shape[1])
     occupied = np.empty((window + 1, n), dtype=np.int32)
     paths = np.empty((n_agents, window + 1), dtype=np.int32)
     path = np.empty(window + 1, dtype=np.int32)

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from structgen.domains.warehouse._mapf import _search
+from structgen.domains.warehouse._mapf import _search, search_scratch
 
 
 @nb.njit(cache=True)
@@ -101,15 +101,11 @@ def pbs_window(
 ):
     """Collision-free paths for all agents over ``window`` steps by Priority-Based Search (``waits`` and ``pinned``
     as in :func:`._mapf._search`; ``order`` breaks ties between children). Returns ``(paths, nodes, fell_back)``:
-    ``(agents, window + 1)`` cells, the nodes planned, and whether the round fell back to waiting (module notes)."""
+    ``(agents, window + 1)`` cells, the nodes planned, and whether the search gave up (the paths are then the
+    unfinished plan carried out with waiting: module notes)."""
     n_agents = len(positions)
     n = neighbours.shape[0]
-    levels = goals.shape[1] + 1
-    states = (window + 1) * n * levels
-    seen = np.zeros(states, dtype=np.int32)
-    parent = np.empty(states, dtype=np.int64)
-    heap_keys = np.empty(states, dtype=np.int64)
-    heap_states = np.empty(states, dtype=np.int64)
+    seen, parent, heap_keys, heap_states = search_scratch(n, window, goals.shape[1])
     occupied = -np.ones((window + 1, n), dtype=np.int32)
     path = np.empty(window + 1, dtype=np.int32)
     who = np.zeros((2, n), dtype=np.int64)
