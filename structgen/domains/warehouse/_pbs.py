@@ -18,7 +18,8 @@ A node is one child planned. When the search runs out of nodes (its budget stand
 so that runs repeat exactly) or of children, the round falls back to the paths of the node it stopped at, carried
 out step by step with waiting: an agent whose next cell is taken, or who would swap with another, waits and takes
 the rest of its path one step later (the first agent in the round's order keeps a contested cell). That always
-gives collision-free moves.
+gives collision-free moves. The simulator plans such a round by prioritized planning instead unless told otherwise
+(``simulate(..., fallback=...)``): waiting congested more often.
 
 The low-level search is the space-time A* of :mod:`._mapf` (``_search``): goals in sequence, costs exact inside
 the window and estimated by distance beyond it. Everything is plain arrays so that numba compiles it.
