@@ -106,13 +106,12 @@ def test_pbs_that_runs_out_of_nodes_carries_out_its_paths_with_waiting():
 
 
 def test_waiting_out_colliding_paths_keeps_each_agents_cells_in_order():
-    from structgen.domains.warehouse._pbs import _wait_out
+    from structgen.domains.warehouse._pbs import wait_out
 
     # Cells are plain numbers here. Agents 0 and 1 want cell 1 at the first step and 1 comes first in the order;
     # agent 2 follows agent 0, so it waits as well; agents 4 and 5 would swap, so neither moves.
     plan = np.array([[0, 1, 3, 3], [2, 1, 4, 4], [5, 0, 6, 6], [7, 7, 7, 7], [10, 11, 11, 11], [11, 10, 10, 10]], dtype=np.int32)
-    scratch = np.zeros((2, 12), np.int64), np.full((2, 12), -1, np.int64)
-    out = _wait_out(plan, plan[:, 0].copy(), 3, np.array([1, 0, 2, 3, 4, 5]), *scratch, 0)
+    out = wait_out(plan, plan[:, 0].copy(), 3, np.array([1, 0, 2, 3, 4, 5]), 12)
     for before, after in zip(out.T[:-1], out.T[1:]):
         assert len(set(after.tolist())) == len(after)
         moved = {(a, b) for a, b in zip(before.tolist(), after.tolist()) if a != b}

@@ -15,11 +15,11 @@ Finding", AAAI 2019):
 - it ends at the first node without collisions.
 
 A node is one child planned. When the search runs out of nodes (its budget stands in for the original's time limit,
-so that runs repeat exactly) or of children, the round falls back to the paths of the node it stopped at, carried
-out step by step with waiting: an agent whose next cell is taken, or who would swap with another, waits and takes
-the rest of its path one step later (the first agent in the round's order keeps a contested cell). That always
-gives collision-free moves. The simulator plans such a round by prioritized planning instead unless told otherwise
-(``simulate(..., fallback=...)``): waiting congested more often.
+so that runs repeat exactly) or of children, it gives up and returns the paths of the node it stopped at, which may
+collide. The caller then plans the round by prioritized planning (the simulator's default), or carries those paths
+out step by step with waiting (:func:`wait_out`): an agent whose next cell is taken, or who would swap with another,
+waits and takes the rest of its path one step later (the first agent in the round's order keeps a contested cell).
+That always gives collision-free moves, but congested more often.
 
 The low-level search is the space-time A* of :mod:`._mapf` (``_search``): goals in sequence, costs exact inside
 the window and estimated by distance beyond it. Everything is plain arrays so that numba compiles it.
@@ -101,9 +101,9 @@ def pbs_window(
     positions, goals, waits, n_goals, pinned, target_of, dist, neighbours, window, order, node_budget, dead_end_budget
 ):
     """Collision-free paths for all agents over ``window`` steps by Priority-Based Search (``waits`` and ``pinned``
-    as in :func:`._mapf._search`; ``order`` breaks ties between children). Returns ``(paths, nodes, fell_back)``:
+    as in :func:`._mapf._search`; ``order`` breaks ties between children). Returns ``(paths, nodes, gave_up)``:
     ``(agents, window + 1)`` cells, the nodes planned, and whether the search gave up (the paths are then the
-    unfinished plan carried out with waiting: module notes)."""
+    unfinished plan, which may collide: module notes)."""
     n_agents = len(positions)
     n = neighbours.shape[0]
     seen, parent, heap_keys, heap_states = search_scratch(n, window, goals.shape[1])
@@ -249,7 +249,7 @@ def pbs_window(
                 break
         if not resumed:
             break
-    return _wait_out(paths, positions, window, order, who, when, collision_stamp + window + 2), nodes, True
+    return paths, nodes, True
 
 
 @nb.njit(cache=True)
@@ -362,9 +362,12 @@ def _grown(undo_agent, undo_cost, undo_path):
 
 
 @nb.njit(cache=True)
-def _wait_out(plan, positions, window, order, who, when, stamp):
-    """``plan`` (which may collide) carried out step by step with waiting: see the module notes. ``who``/``when``
-    are scratch tables as in :func:`_first_collision`."""
+def wait_out(plan, positions, window, order, cells):
+    """``plan`` (which may collide) carried out step by step with waiting, ``order`` keeping contested cells: see
+    the module notes. ``cells``: how many cells the map has."""
+    who = np.zeros((2, cells), dtype=np.int64)
+    when = np.full((2, cells), -1, dtype=np.int64)
+    stamp = 0
     n_agents = plan.shape[0]
     out = np.empty_like(plan)
     out[:, 0] = positions

@@ -55,8 +55,15 @@ def random_maze(rng: np.random.Generator, size: int = 16, kind: str = "scattered
             maze = (rng.random((size, size)) < p).astype(np.uint8)
         else:
             maze = _carved(rng, size, rng.uniform(0.0, 0.1) if density is None else density)
-        if diameter(maze) is not None:
+        if _has_two_connected_floor_cells(maze):
             return maze
+
+
+def _has_two_connected_floor_cells(maze: np.ndarray) -> bool:
+    """Whether :func:`.maze.diameter` would find a start and a goal: some two floor cells side by side (checked
+    here without its search from every cell, which :class:`TorchMazes` runs once per maze anyway)."""
+    floor = maze == 0
+    return bool((floor[:, 1:] & floor[:, :-1]).any() or (floor[1:, :] & floor[:-1, :]).any())
 
 
 def _check_kind_and_size(kind: str, size: int) -> None:
@@ -95,8 +102,7 @@ def _ends(maze: np.ndarray) -> tuple[tuple[int, int], tuple[int, int]]:
     found = diameter(maze)
     if found is None:
         raise InputError("a maze with no two connected floor cells has no start and goal")
-    (sr, sc), (gr, gc), _ = found
-    return (sr + 1, sc + 1), (gr + 1, gc + 1)  # in the walled maze
+    return found[0], found[1]
 
 
 class TorchMazes:
@@ -124,8 +130,8 @@ class TorchMazes:
         width = shape[1] + 2 * _MARGIN
         ends = [_ends(m) for m in mazes]
         walls = torch.as_tensor(np.stack([np.pad(m == 1, _MARGIN, constant_values=True).ravel() for m in mazes]))
-        start = torch.as_tensor([(r + _MARGIN - 1) * width + c + _MARGIN - 1 for (r, c), _ in ends])
-        goal = torch.as_tensor([(r + _MARGIN - 1) * width + c + _MARGIN - 1 for _, (r, c) in ends])
+        start = torch.as_tensor([(r + _MARGIN) * width + c + _MARGIN for (r, c), _ in ends])
+        goal = torch.as_tensor([(r + _MARGIN) * width + c + _MARGIN for _, (r, c) in ends])
         walls, start, goal = walls.to(self.device), start.to(self.device), goal.to(self.device)
         if rows is None:
             self.shape, self.width = shape, width

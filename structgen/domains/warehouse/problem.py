@@ -287,27 +287,26 @@ class LayoutProblem(Problem):
 
     def _simulate(self, tiles: np.ndarray, seed: int) -> tuple[float, float]:
         """Mean throughput over the simulations, and the share of them that congested."""
-        from structgen.domains.warehouse.simulator import simulate
+        from structgen.domains.warehouse.simulator import evaluate_layout
 
         settings = self.settings
         if settings.simulations == 0:
             return 0.0, 0.0
         try:
-            runs = [
-                simulate(
-                    tiles,
-                    settings.agents,
-                    settings.simulation_steps,
-                    kind=self.kind,
-                    seed=int(s),
-                    uneven=settings.uneven,
-                    planner=settings.planner,
-                )
-                for s in np.random.SeedSequence(seed).generate_state(settings.simulations)
-            ]
+            runs = evaluate_layout(
+                tiles,
+                settings.agents,
+                settings.simulations,
+                settings.simulation_steps,
+                seed=seed,
+                kind=self.kind,
+                uneven=settings.uneven,
+                planner=settings.planner,
+            )
         except InputError:  # the simulator refuses the layout (too little floor for the robots): it cannot work
             return 0.0, 1.0
-        return float(np.mean([r.throughput for r in runs])), float(np.mean([r.congested for r in runs]))
+        # Training averages every run, congested ones included, as the original's objective does.
+        return float(runs.throughputs.mean()), float(runs.congested.mean())
 
 
 def _genome_key(genome: Any) -> bytes:

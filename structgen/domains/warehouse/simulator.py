@@ -18,9 +18,8 @@ about four times slower than ``"pp"``, and congesting from 1,500 robots at 101x1
 Planner ``"pp"`` (the default, for speed): windowed prioritized planning (space-time A* against a reservation
 table; agents that reached a goal longest ago plan first; an agent that finds no path moves to the front and
 planning restarts; after a budget of restarts, one per 40 agents and at least five, such agents wait in place). The
-priority rule and the restart budget were chosen against the
-original's recorded throughputs (benchmarks/layouts.md): with more restarts at 200 agents the human layout no longer
-congests, as it does there.
+priority rule and the restart budget were chosen against the original's recorded throughputs (benchmarks/layouts.md):
+with more restarts at 200 agents the human layout no longer congests, as it does there.
 """
 
 from __future__ import annotations
@@ -39,7 +38,7 @@ __all__ = ["PLANNERS", "LayoutEvaluation", "SimulationResult", "evaluate_layout"
 PLANNERS = ("pp", "pbs", "pibt")
 #: Steps a manufacturing task takes at a station of each kind (the original's ``station_wait_times``).
 STATION_WAITS = (2, 5, 10)
-#: Goals queued ahead per agent at most (the queue is filled until it is longer than one replanning interval).
+#: Goals queued ahead per agent at most (the queue is filled until its route is longer than the goal horizon).
 MAX_GOALS = 8
 
 
@@ -283,16 +282,18 @@ def simulate(
                     positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, restarts
                 )
             else:
-                paths, nodes, fell_back = _pbs.pbs_window(
+                paths, nodes, gave_up = _pbs.pbs_window(
                     positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, node_budget,
                     dead_ends,
                 )  # fmt: skip
-                if fell_back and fallback == "pp":
+                if gave_up and fallback == "pp":
                     paths, used, held = _mapf.plan_window(
                         positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, restarts
                     )
+                elif gave_up:
+                    paths = _pbs.wait_out(paths, positions, window, order, rows * cols)
                 nodes_total += nodes
-                fallbacks += int(fell_back)
+                fallbacks += int(gave_up)
         else:  # PIBT decides one step at a time: its "plan" is the interval itself
             waited = (t - last_done).astype(np.int64)
             paths = _mapf.pibt_window(
