@@ -5,6 +5,7 @@ floors)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from collections.abc import Collection
@@ -130,7 +131,9 @@ def cmd_repair(args: argparse.Namespace) -> int:
 
 
 # -- measure ----------------------------------------------------------------------------------------------------------
-def measure(grid: Grid, kind: LayoutKind, *, agent: str = "explorer", episodes: int = 50, seed: int = 0) -> dict[str, Any]:
+def measure(
+    grid: Grid, kind: LayoutKind, *, agent: str = "learned", episodes: int = 50, seed: int = 0, weights: str | None = None
+) -> dict[str, Any]:
     """The layout's measures as a flat dictionary."""
     from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, violations
 
@@ -139,18 +142,29 @@ def measure(grid: Grid, kind: LayoutKind, *, agent: str = "explorer", episodes: 
         if grid.count(c):
             out[kind.tile_names[c].split(" (")[0].replace(" ", "_") + "_tiles"] = grid.count(c)
     if kind.name == "maze":
-        from structgen.domains.warehouse.maze import run_episodes
+        from structgen.domains.warehouse.maze import diameter, run_episodes
 
         grown = kind.storage(grid.tiles) if _is_walled(grid) else grid.tiles
-        stats = run_episodes(grown, agent, episodes=episodes, seed=seed)
+        ends = diameter(grown)
+        if agent == "learned" and ends is not None:
+            from structgen.domains.warehouse.maze_agent import run_agent
+
+            results = run_agent(_agent_policy(weights), [grown], episodes=episodes, seed=seed)
+            success, steps = results.success_rate, float(results.steps[0])
+        elif agent == "learned":  # no path: nothing to run
+            success, steps = 0.0, float(2 * (grown.shape[0] + 2) * (grown.shape[1] + 2))
+        else:
+            stats = run_episodes(grown, agent, episodes=episodes, seed=seed)
+            success, steps = stats.success_rate, stats.mean_steps
         out.update(
             entropy=pattern_entropy(grown, kind),
-            solvable=stats.shortest_path >= 1,
-            shortest_path=stats.shortest_path,
+            walls=int((grown == 1).sum()),
+            solvable=ends is not None,
+            shortest_path=ends[2] if ends is not None else -1,
             agent=agent,
             episodes=episodes,
-            success_rate=stats.success_rate,
-            mean_path_length=stats.mean_steps,
+            success_rate=success,
+            mean_path_length=steps,
         )
         return out
     storage_ok = kind.storage(grid.tiles).max(initial=0) < kind.nca_tiles
@@ -173,7 +187,13 @@ def cmd_measure(args: argparse.Namespace) -> int:
     kind = _kind(args)
     grid = _load(args.file, kind)
     values = measure(
-        grid, kind, **({"agent": args.agent, "episodes": args.episodes, "seed": args.seed} if kind.name == "maze" else {})
+        grid,
+        kind,
+        **(
+            {"agent": args.agent, "episodes": args.episodes, "seed": args.seed, "weights": args.weights}
+            if kind.name == "maze"
+            else {}
+        ),
     )
     if args.json:
         print(json.dumps({"file": str(args.file), **values}))
@@ -436,7 +456,13 @@ def _add_measure(subparsers: Any, kind: LayoutKind) -> None:
     if kind.name == "maze":
         from structgen.domains.warehouse.maze import AGENTS
 
-        p.add_argument("--agent", choices=sorted(AGENTS), default="explorer", help="agent to run (default explorer)")
+        p.add_argument(
+            "--agent",
+            choices=["learned", *sorted(AGENTS)],
+            default="learned",
+            help="agent to run (default learned: the shipped learning agent, the maze domain's judge)",
+        )
+        p.add_argument("--weights", default=None, metavar="FILE", help="the learned agent's weights (default the shipped agent)")
         p.add_argument("--episodes", type=whole_number(1, 10_000), default=50, metavar="N", help="episodes (default 50)")
         p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="N", help="episodes' seed (default 0)")
     p.set_defaults(handler=cmd_measure, kind=kind.name)
@@ -505,6 +531,270 @@ def _add_evaluate(subparsers: Any, kind: LayoutKind) -> None:
     p.set_defaults(handler=cmd_evaluate, kind=kind.name)
 
 
+# -- the maze agent ---------------------------------------------------------------------------------------------------
+#: train-agent's options: (option, AgentSettings field, argparse type, help). The defaults are the settings' own.
+def _agent_options() -> list[tuple[str, str, Any, str]]:
+    return [
+        ("--updates", "updates", whole_number(1, 10**7), "PPO updates in all (a resumed run goes on to this many)"),
+        ("--envs", "envs", whole_number(1, 10**6), "mazes played at once"),
+        ("--steps", "steps", whole_number(1, 10**5), "steps per maze in each update"),
+        ("--epochs", "epochs", whole_number(1, 1000), "passes over each update's steps"),
+        ("--minibatches", "minibatches", whole_number(1, 10**6), "minibatches per pass"),
+        ("--learning-rate", "learning_rate", finite_number(0, 1, above=True), "Adam's learning rate"),
+        ("--gamma", "gamma", finite_number(0, 1), "discount"),
+        ("--entropy", "entropy", finite_number(0, 10), "weight of the entropy bonus"),
+        ("--hidden", "hidden", whole_number(1, 4096), "width of the network's two hidden layers"),
+        ("--size", "size", whole_number(4, 256), "side of the training mazes (inside their outer wall)"),
+        ("--replay", "replay", finite_number(0, 1), "chance that a finished episode's next level is replayed from the buffer"),
+        ("--edit", "edit", finite_number(0, 1), "chance that a new level is an edit of a buffer level (else random)"),
+        ("--buffer", "buffer", whole_number(1, 10**6), "levels the curriculum keeps"),
+        ("--temperature", "temperature", finite_number(0, 100, above=True), "of the replay's rank weights"),
+        ("--staleness", "staleness", finite_number(0, 1), "share of the replay chance given by how long ago a level was played"),
+        ("--checkpoint-every", "checkpoint_every", whole_number(1, 10**7), "updates between checkpoints"),
+        ("--evaluate-every", "evaluate_every", whole_number(1, 10**7), "updates between tests on the held-out mazes"),
+        ("--seed", "seed", whole_number(0, 2**32 - 1), "seed of the levels, the starting directions and the network"),
+    ]
+
+
+def cmd_train_agent(args: argparse.Namespace) -> int:
+    from structgen.domains.warehouse.maze_training import AGENT_FILE, AgentSettings, train_agent
+
+    values = {field: getattr(args, field) for _, field, _, _ in _agent_options() if getattr(args, field) is not None}
+    try:
+        settings = AgentSettings(**values, device=args.device)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    _, rows = train_agent(args.run_dir, settings, overwrite=args.overwrite, progress=True)
+    last = rows[-1] if rows else {}
+    tested = [r["held_out"] for r in rows if r.get("held_out") is not None]
+    print(
+        f"{args.run_dir}: {last.get('update', 0)} updates, {last.get('agent_steps', 0):,} agent steps; held-out rooms "
+        f"mazes reached {tested[-1]:.0%}"
+        if tested
+        else f"{args.run_dir}: trained"
+    )
+    print(f"weights: {Path(args.run_dir) / AGENT_FILE}; learning curve: {Path(args.run_dir) / 'learning.png'}")
+    return EXIT_OK
+
+
+def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
+    from structgen.domains.warehouse.maze_training import AgentSettings
+
+    defaults = AgentSettings()
+    p = subparsers.add_parser(
+        "train-agent",
+        help="train the maze agent (PPO with a PLR/ACCEL curriculum) in a run folder",
+        description="Train the learning maze agent: it sees the 5x5 cells in front of it and its direction, keeps a "
+        "map of what it has seen and where it has walked, and learns by PPO on random 16x16 mazes chosen by a "
+        "curriculum that replays and edits the levels it still learns most from. The run folder gets checkpoints "
+        "(the same command resumes it; more --updates go on), history.jsonl, learning.png and agent.pt. The defaults "
+        "are the settings of the shipped agent (docs/maze_agent.pt).",
+    )
+    p.add_argument(
+        "--run-dir", required=True, type=Path, metavar="DIR", help="run folder (made, or resumed if it holds this training)"
+    )
+    for option, field, parse, text in _agent_options():
+        default = getattr(defaults, field)
+        metavar = "N" if isinstance(default, int) else "X"
+        p.add_argument(option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} (default {default})")
+    p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"
+    )
+    p.set_defaults(handler=cmd_train_agent, kind=kind.name)
+
+
+def _agent_policy(weights: str | None):
+    from structgen.domains.warehouse.maze_training import load_agent, shipped_agent_path
+
+    return load_agent(weights or shipped_agent_path())[0]
+
+
+def cmd_test_agent(args: argparse.Namespace) -> int:
+    from structgen.domains.warehouse.maze_agent import run_agent
+    from structgen.domains.warehouse.maze_env import random_maze
+
+    kind = _kind(args)
+    policy = _agent_policy(args.weights)
+    if args.files:
+        from structgen.domains.warehouse.maze import diameter
+
+        grids = [_load(f, kind) for f in args.files]
+        mazes = [kind.storage(g.tiles) if _is_walled(g) else g.tiles for g in grids]
+        for path, maze in zip(args.files, mazes):
+            if diameter(maze) is None:
+                raise InputError(f"{path}: no two floor cells are connected, so the maze has no start and goal to test")
+        shapes = {m.shape for m in mazes}
+        if len(shapes) != 1:
+            raise InputError(f"the mazes must have one size, got {sorted(shapes)}")
+        source = f"{len(mazes)} maze files"
+    else:
+        rng = np.random.default_rng(args.seed)
+        mazes = [random_maze(rng, args.size, args.kind) for _ in range(args.count)]
+        source = f"{args.count} random {args.kind} mazes of {args.size}x{args.size} (seed {args.seed})"
+    results = run_agent(policy, mazes, episodes=args.episodes, seed=args.seed, device=args.device)
+    error = results.standard_error
+    summary = {
+        "mazes": len(mazes),
+        "episodes": args.episodes,
+        "success_rate": results.success_rate,
+        "standard_error": error,
+        "mean_steps": float(results.steps.mean()),
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"{source}, {args.episodes} episode(s) each: the agent reached the goal in {results.success_rate:.1%} "
+            f"(standard error {error:.1%}), in {summary['mean_steps']:.0f} steps on average"
+        )
+    return EXIT_OK
+
+
+def _add_test_agent(subparsers: Any, kind: LayoutKind) -> None:
+    from structgen.domains.warehouse.maze_env import MAZE_KINDS
+
+    p = subparsers.add_parser(
+        "test-agent",
+        help="run the learning maze agent on maze files or random mazes and print its success rate",
+        description="Run the learned maze agent (the shipped docs/maze_agent.pt, or --weights) on the maze JSON files "
+        "given (all of one size, with or without their outer wall), or on --count random mazes, and print the share "
+        "of episodes that reached the goal within the horizon (twice the cells of the walled maze), with its "
+        "standard error (over mazes, or over episodes for a single maze).",
+    )
+    p.add_argument("files", nargs="*", metavar="FILE", help="maze JSON files (none: random mazes)")
+    p.add_argument(
+        "--weights", default=None, metavar="FILE", help="agent weights (a run folder's agent.pt; default the shipped agent)"
+    )
+    p.add_argument("--kind", choices=MAZE_KINDS, default="rooms", help="random mazes' kind (default rooms, never trained on)")
+    p.add_argument("--size", type=whole_number(4, 256), default=16, metavar="N", help="random mazes' side (default 16)")
+    p.add_argument("--count", type=whole_number(1, 10**6), default=200, metavar="N", help="random mazes (default 200)")
+    p.add_argument("--episodes", type=whole_number(1, 10_000), default=1, metavar="N", help="episodes per maze (default 1)")
+    p.add_argument(
+        "--seed",
+        type=whole_number(0, 2**32 - 1),
+        default=0,
+        metavar="S",
+        help="seed of the mazes and the agent's actions (default 0)",
+    )
+    p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_test_agent, kind=kind.name)
+
+
+def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray, np.ndarray, str]:
+    """The small and large mazes (without their outer walls) the experiment plays, and where they came from."""
+    if args.run_dir is not None:
+        if args.small or args.large:
+            raise InputError("give a RUN_DIR or --small and --large maze files, not both")
+        from structgen.domains.warehouse.problem import LayoutProblem
+        from structgen.runs import load_run
+
+        run = load_run(args.run_dir)
+        problem = run.problem
+        if getattr(problem, "kind", None) is not kind:
+            raise InputError(f"{args.run_dir}: not a maze run (its problem is {run.experiment.domain!r})")
+        genome = _experiment_elite(run, args.elite)
+        large_problem = LayoutProblem(dataclasses.replace(problem.settings, size=args.large_size))
+        small = kind.storage(problem.grow(np.asarray(genome)[None])[0])
+        large = kind.storage(large_problem.grow(np.asarray(genome)[None])[0])
+        return small, large, f"{args.run_dir} (elite {args.elite}), grown at {problem.settings.size} and {args.large_size}"
+    if not (args.small and args.large):
+        raise InputError("give a maze RUN_DIR, or --small FILE and --large FILE (e.g. the paper's grown mazes)")
+    pair = []
+    for path in (args.small, args.large):
+        grid = _load(path, kind)
+        pair.append(kind.storage(grid.tiles) if _is_walled(grid) else grid.tiles)
+    return pair[0], pair[1], f"{args.small} and {args.large}"
+
+
+def _experiment_elite(run: Any, elite: str) -> Any:
+    """``longest``: the archive elite with the longest mean agent path among those the agent solves in at least 90 %
+    of its episodes (the harder mazes the agent still masters); else as ``structgen export --elite``."""
+    from structgen.runs import elite_genome
+
+    if elite != "longest":
+        return elite_genome(run.folder, run.problem, elite)
+    rows = run.folder.archive_rows()
+    chosen = [r for r in rows if float(r.get("success_rate", 0.0)) >= 0.9]
+    if not chosen:
+        raise InputError(f"{run.path}: no archive elite whose maze the agent solves in 90 % of its episodes; give --elite")
+    best = max(chosen, key=lambda r: (float(r["path_length"]), -int(r["index"])))
+    return run.folder.archive_genome(int(best["index"]), run.problem)
+
+
+def cmd_experiment(args: argparse.Namespace) -> int:
+    from structgen.domains.warehouse.maze_experiment import PAPER, maze_experiment
+
+    kind = _kind(args)
+    small, large, source = _grown_pair(args, kind)
+    policy = _agent_policy(args.weights)
+    try:
+        rows, _ = maze_experiment(
+            policy,
+            small,
+            large,
+            episodes=args.episodes,
+            baselines=args.baselines,
+            baseline_episodes=args.baseline_episodes,
+            seed=args.seed,
+            device=args.device,
+        )
+    except ValueError as err:
+        raise InputError(f"{source}: {err}") from None
+    if args.json:
+        print(json.dumps({"source": source, "rows": [dataclasses.asdict(r) for r in rows]}))
+        return EXIT_OK
+    print(f"mazes: {source}")
+    print(f"{'maze':<12} {'size':>6} {'mazes':>5} {'runs':>5} {'walls':>6} {'path':>6} {'success':>8} {'s.e.':>6} {'paper':>12}")
+    for row in rows:
+        rate, error = PAPER[row.name]
+        paper = f"{rate:.0%}" + (f" ({error:.0%})" if error is not None else "")
+        print(
+            f"{row.name:<12} {row.size:>6} {row.mazes:>5} {row.episodes:>5} {row.walls:>6.0f} {row.path_length:>6.1f} "
+            f"{row.success_rate:>8.1%} {row.standard_error:>6.1%} {paper:>12}"
+        )
+    return EXIT_OK
+
+
+def _add_experiment(subparsers: Any, kind: LayoutKind) -> None:
+    p = subparsers.add_parser(
+        "experiment",
+        help="the paper's maze experiment: the agent on small and large grown mazes and on random baselines",
+        description="Grow a maze with a generator trained small (an elite of a maze RUN_DIR) at its own size and at "
+        "--large-size, or take the two mazes from --small and --large files, run the learned agent on each "
+        "--episodes times, make --baselines random mazes as the original does (as many walls as the large maze, "
+        "placed uniformly, drawn again until the longest shortest path is within 80-120 %% of the large maze's) and "
+        "run it --baseline-episodes times on each; print the success rates beside the paper's (90 %%, 93 %%, 22 %%).",
+    )
+    p.add_argument(
+        "run_dir", nargs="?", default=None, metavar="RUN_DIR", help="a maze evolution run (its generators trained small)"
+    )
+    p.add_argument(
+        "--elite",
+        default="longest",
+        help="the generator: longest (default: the elite with the longest agent path among those the agent solves in "
+        "90 %% of episodes), best, or index:I (the archive cell)",
+    )
+    p.add_argument("--large-size", default="64x64", metavar="RxC", help="size to grow the large maze at (default 64x64)")
+    p.add_argument("--small", default=None, metavar="FILE", help="small maze JSON file, instead of a run")
+    p.add_argument("--large", default=None, metavar="FILE", help="large maze JSON file, instead of a run")
+    p.add_argument("--weights", default=None, metavar="FILE", help="agent weights (default the shipped agent)")
+    p.add_argument(
+        "--episodes", type=whole_number(1, 100_000), default=100, metavar="N", help="runs on each grown maze (default 100)"
+    )
+    p.add_argument("--baselines", type=whole_number(1, 10_000), default=100, metavar="N", help="baseline mazes (default 100)")
+    p.add_argument(
+        "--baseline-episodes", type=whole_number(1, 10_000), default=10, metavar="N", help="runs on each baseline (default 10)"
+    )
+    p.add_argument(
+        "--seed", type=whole_number(0, 2**32 - 1), default=0, metavar="S", help="seed of the baselines and the runs (default 0)"
+    )
+    p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=cmd_experiment, kind=kind.name)
+
+
 class LayoutCommands(DomainCommands):
     def __init__(self, kind: str, verbs: tuple[str, ...]) -> None:
         self.kind = kind
@@ -518,9 +808,26 @@ class LayoutCommands(DomainCommands):
             "evaluate": _add_evaluate,
             "show": _add_show,
             "measure": _add_measure,
+            "train-agent": _add_train_agent,
+            "test-agent": _add_test_agent,
+            "experiment": _add_experiment,
         }
         for name in verbs_wanted([v for v in adders if v in self.verbs], only):
             adders[name](subparsers, KINDS[self.kind])
+
+    def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
+        from evolution import RunFolder
+        from structgen.domains.warehouse.maze_training import RUN_KIND, read_settings, train_agent
+
+        if kind != RUN_KIND:
+            return super().resume_run(kind, run_dir, args)
+        if args.cluster is not None or args.workers is not None:
+            raise InputError(f"{run_dir}: a maze-agent training runs in this process; give --generations (updates) only")
+        settings = read_settings(RunFolder(run_dir))
+        if args.generations is not None:
+            settings = dataclasses.replace(settings, updates=args.generations)
+        train_agent(run_dir, settings, progress=True)
+        return EXIT_OK
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         _check_output(output, ".json")
@@ -532,4 +839,4 @@ class LayoutCommands(DomainCommands):
 
 WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("generate", "repair", "simulate", "evaluate", "show", "measure"))
 MANUFACTURING_COMMANDS = LayoutCommands("manufacturing", ("generate", "repair", "simulate", "evaluate", "show", "measure"))
-MAZE_COMMANDS = LayoutCommands("maze", ("generate", "show", "measure"))
+MAZE_COMMANDS = LayoutCommands("maze", ("generate", "show", "measure", "train-agent", "test-agent", "experiment"))

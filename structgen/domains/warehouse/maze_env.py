@@ -39,7 +39,7 @@ ENV_ID = "structgen/Maze-v0"
 STAY = 3
 VIEW = 5
 #: Kinds of :func:`random_maze`.
-MAZE_KINDS = ("scattered", "carved")
+MAZE_KINDS = ("scattered", "carved", "rooms")
 
 
 def random_maze(rng: np.random.Generator, size: int = 16, kind: str = "scattered", density: float | None = None) -> np.ndarray:
@@ -47,14 +47,18 @@ def random_maze(rng: np.random.Generator, size: int = 16, kind: str = "scattered
 
     ``scattered``: each cell a wall with probability ``density`` (drawn from 0.1-0.5 when None), like the random
     obstacle levels that curricula start from. ``carved``: corridors one cell wide carved by a depth-first walk,
-    then ``density`` (0-0.1 when None) of the walls knocked down to make loops."""
+    then ``density`` (0-0.1 when None) of the walls knocked down to make loops. ``rooms``: 3-8 straight walls
+    across the maze with one or two doors each, then ``density`` (0-0.1 when None) of the cells walls (the maze
+    agent never trains on these: they test it on a kind of maze it has not seen)."""
     _check_kind_and_size(kind, size)
     while True:
         if kind == "scattered":
             p = rng.uniform(0.1, 0.5) if density is None else density
             maze = (rng.random((size, size)) < p).astype(np.uint8)
-        else:
+        elif kind == "carved":
             maze = _carved(rng, size, rng.uniform(0.0, 0.1) if density is None else density)
+        else:
+            maze = _rooms(rng, size, rng.uniform(0.0, 0.1) if density is None else density)
         if _has_two_connected_floor_cells(maze):
             return maze
 
@@ -98,6 +102,21 @@ def _carved(rng: np.random.Generator, size: int, knock_down: float) -> np.ndarra
     return maze
 
 
+def _rooms(rng: np.random.Generator, size: int, clutter: float) -> np.ndarray:
+    maze = np.zeros((size, size), dtype=np.uint8)
+    for _ in range(int(rng.integers(3, 9))):
+        line = int(rng.integers(size))
+        doors = rng.integers(0, size, int(rng.integers(1, 3)))
+        if rng.random() < 0.5:
+            maze[line, :] = 1
+            maze[line, doors] = 0
+        else:
+            maze[:, line] = 1
+            maze[doors, line] = 0
+    maze[rng.random((size, size)) < clutter] = 1
+    return maze
+
+
 def _ends(maze: np.ndarray) -> tuple[tuple[int, int], tuple[int, int]]:
     found = diameter(maze)
     if found is None:
@@ -128,30 +147,53 @@ class TorchMazes:
             raise InputError(f"mazes of shape {shape} cannot join a batch of {self.shape}")
         # The walled maze, then a margin of 4 more wall cells so that any 5 x 5 view reads inside the tensor.
         width = shape[1] + 2 * _MARGIN
-        ends = [_ends(m) for m in mazes]
+        found: dict[bytes, Any] = {}  # a maze repeated for many episodes is searched once
+        ends = [found[m.tobytes()] if m.tobytes() in found else found.setdefault(m.tobytes(), _ends(m)) for m in mazes]
         walls = torch.as_tensor(np.stack([np.pad(m == 1, _MARGIN, constant_values=True).ravel() for m in mazes]))
         start = torch.as_tensor([(r + _MARGIN) * width + c + _MARGIN for (r, c), _ in ends])
         goal = torch.as_tensor([(r + _MARGIN) * width + c + _MARGIN for _, (r, c) in ends])
         walls, start, goal = walls.to(self.device), start.to(self.device), goal.to(self.device)
         if rows is None:
-            self.shape, self.width = shape, width
-            self.horizon = 2 * (shape[0] + 2) * (shape[1] + 2)
+            self._set_shape(shape)
             self.walls, self.start, self.goal = walls, start, goal
             count = len(mazes)
             self.position = start.clone()
             self.direction = torch.zeros(count, dtype=torch.int64, device=self.device)
             self.steps = torch.zeros(count, dtype=torch.int64, device=self.device)
-            self._view_at = _view_offsets(width).to(self.device)  # (4, 25) flat offsets by direction
-            self._step_by = torch.as_tensor([dr * width + dc for dr, dc in _STEPS], device=self.device)
             rows = torch.arange(count, device=self.device)
         else:
             rows = torch.as_tensor(rows, device=self.device)
             self.walls[rows], self.start[rows], self.goal[rows] = walls, start, goal
         self._restart(rows)
 
+    def _set_shape(self, shape: tuple[int, int]) -> None:
+        self.shape = shape
+        self.width = shape[1] + 2 * _MARGIN
+        self.horizon = 2 * (shape[0] + 2) * (shape[1] + 2)
+        self._view_at = _view_offsets(self.width).to(self.device)  # (4, 25) flat offsets by direction
+        self._step_by = torch.as_tensor([dr * self.width + dc for dr, dc in _STEPS], device=self.device)
+
     @property
     def count(self) -> int:
         return len(self.walls)
+
+    _STATE = ("walls", "start", "goal", "position", "direction", "steps")
+
+    def keep(self, rows: torch.Tensor) -> None:
+        """Go on with ``rows`` of the batch only (the rest are dropped)."""
+        for name in self._STATE:
+            setattr(self, name, getattr(self, name)[rows])
+
+    def state_dict(self) -> dict[str, Any]:
+        """Everything a checkpoint needs to go on exactly where this batch stands (tensors, on the CPU)."""
+        state: dict[str, Any] = {name: getattr(self, name).cpu() for name in self._STATE}
+        return {**state, "shape": list(self.shape), "generator": self.generator.get_state()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self._set_shape(tuple(state["shape"]))
+        for name in self._STATE:
+            setattr(self, name, state[name].to(self.device))
+        self.generator.set_state(state["generator"])
 
     def cells(self) -> torch.Tensor:
         """Each agent's (row, column) in its walled maze (the outer wall is row and column 0)."""

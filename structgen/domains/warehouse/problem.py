@@ -106,15 +106,21 @@ class MazeSettings:
     """Attributes:
     size: the maze inside its outer wall (``"16x16"``, ``"32x32"``, ``"64x64"``, ``"96x96"``, or ``"RxC"``).
     iterations: NCA steps (0: 50).
-    agent: ``oracle``, ``wall_follower``, ``explorer`` or ``random_walk``.
+    agent: ``learned`` (the learning agent of :mod:`.maze_agent`, the paper's judge) or a scripted one: ``oracle``,
+        ``wall_follower``, ``explorer`` or ``random_walk``.
+    agent_weights: the learned agent's weights (a ``train-agent`` run's ``agent.pt``); empty: the shipped agent.
     episodes: episodes per maze (50 in the paper).
+    measures: ``walls`` (number of walls x the agent's mean path length, the paper's main run) or ``entropy``
+        (pattern entropy x mean path length, its second).
     hidden: the NCA's hidden channels.
     """
 
     size: str = "16x16"
     iterations: int = 0
-    agent: str = "explorer"
+    agent: str = "learned"
+    agent_weights: str = ""
     episodes: int = 50
+    measures: str = "walls"
     hidden: int = HIDDEN
 
     kind = "maze"
@@ -126,8 +132,12 @@ class MazeSettings:
         _positive_int("iterations", self.iterations, 0, 100_000)
         _positive_int("episodes", self.episodes, 1, 10_000)
         _positive_int("hidden", self.hidden, 1, 1024)
-        if self.agent not in AGENTS:
-            raise ValueError(f"problem agent must be one of {', '.join(AGENTS)}, got {self.agent!r}")
+        if self.agent not in ("learned", *AGENTS):
+            raise ValueError(f"problem agent must be one of learned, {', '.join(AGENTS)}, got {self.agent!r}")
+        if self.measures not in ("walls", "entropy"):
+            raise ValueError(f"problem measures must be walls or entropy, got {self.measures!r}")
+        if self.agent_weights and self.agent != "learned":
+            raise ValueError(f"problem agent_weights is for the learned agent, not {self.agent!r}")
 
 
 class LayoutProblem(Problem):
@@ -170,9 +180,15 @@ class LayoutProblem(Problem):
             self.field_names = ("throughput", "congested", "similarity", "hamming", "optimal", "failed")
             self.result_objective = "throughput" if settings.simulations else None
         else:
-            self.measure_names = ("entropy", "path_length")
-            self.measure_ranges = ((0.0, 1.0), (0.0, float(2 * full[0] * full[1])))
-            self.field_names = ("success_rate", "shortest_path", "walls")
+            horizon = float(2 * full[0] * full[1])
+            if settings.measures == "walls":
+                self.measure_names = ("walls", "path_length")
+                self.measure_ranges = ((0.0, float(self.size.grown[0] * self.size.grown[1])), (0.0, horizon))
+            else:
+                self.measure_names = ("entropy", "path_length")
+                self.measure_ranges = ((0.0, 1.0), (0.0, horizon))
+            self.field_names = ("success_rate", "shortest_path", "walls", "entropy")
+            self._agent = None  # the learned agent, loaded on first use (in each worker)
         self.plot_fields = self.field_names[:2]
 
     def initial_genomes(self, count: int, rng: np.random.Generator) -> np.ndarray:
@@ -186,7 +202,10 @@ class LayoutProblem(Problem):
 
     def evaluate(self, genomes: np.ndarray, seeds: np.ndarray) -> Evaluation:
         maps = self.grow(genomes)
-        rows = [self._judge(tiles, int(seed)) for tiles, seed in zip(maps, seeds)]
+        if self.kind.name == "maze":
+            rows = self._judge_mazes(maps, seeds)
+        else:
+            rows = [self._judge(tiles, int(seed)) for tiles, seed in zip(maps, seeds)]
         objective = np.array([r[0] for r in rows], dtype=np.float64)
         measures = np.array([r[1] for r in rows], dtype=np.float64).reshape(len(rows), len(self.measure_names))
         fields = {name: np.array([r[2][name] for r in rows], dtype=np.float64) for name in self.field_names}
@@ -204,19 +223,45 @@ class LayoutProblem(Problem):
         if self._scored_best is None or evaluation.objective[top] > self._scored_best[0]:
             self._scored_best = (float(evaluation.objective[top]), _genome_key(genomes[top]), evaluation.extras[top])
 
-    def _judge(self, tiles: np.ndarray, seed: int):
-        if self.kind.name == "maze":
-            from structgen.domains.warehouse.maze import run_episodes
+    def _judge_mazes(self, maps: np.ndarray, seeds: np.ndarray) -> list[tuple]:
+        """Objective 1 for a solvable maze, else 0; the agent's mean steps over ``episodes`` episodes (the horizon
+        for an unsolvable maze) is the path length. The learned agent plays every solvable maze at once."""
+        from structgen.domains.warehouse.maze import diameter, run_episodes
 
-            grown = self.kind.storage(tiles)
-            stats = run_episodes(grown, self.settings.agent, episodes=self.settings.episodes, seed=seed)
-            solvable = 1.0 if stats.shortest_path >= 1 else 0.0
+        settings = self.settings
+        grown = [self.kind.storage(tiles) for tiles in maps]
+        horizon = self.measure_ranges[1][1]
+        shortest = [diameter(g) for g in grown]
+        success, steps = np.zeros(len(grown)), np.full(len(grown), horizon)
+        solvable = [i for i, ends in enumerate(shortest) if ends is not None]
+        if settings.agent == "learned" and solvable:
+            from structgen.domains.warehouse.maze_agent import run_agent
+
+            if self._agent is None:
+                from structgen.domains.warehouse.maze_training import load_agent, shipped_agent_path
+
+                self._agent = load_agent(settings.agent_weights or shipped_agent_path())[0]
+            chosen = np.asarray(seeds)[solvable]
+            results = run_agent(self._agent, [grown[i] for i in solvable], episodes=settings.episodes, seeds=chosen)
+            success[solvable], steps[solvable] = results.reached, results.steps
+        elif solvable:
+            for i in solvable:
+                stats = run_episodes(grown[i], settings.agent, episodes=settings.episodes, seed=int(seeds[i]))
+                success[i], steps[i] = stats.success_rate, stats.mean_steps
+        rows = []
+        for i, maze in enumerate(grown):
+            entropy, walls = pattern_entropy(maze, self.kind), float((maze == 1).sum())
             fields = {
-                "success_rate": stats.success_rate,
-                "shortest_path": stats.shortest_path,
-                "walls": float((grown == 1).sum()),
+                "success_rate": float(success[i]),
+                "shortest_path": shortest[i][2] if shortest[i] is not None else -1,
+                "walls": walls,
+                "entropy": entropy,
             }
-            return solvable, (pattern_entropy(grown, self.kind), stats.mean_steps), fields, None
+            first = walls if settings.measures == "walls" else entropy
+            rows.append((1.0 if shortest[i] is not None else 0.0, (first, float(steps[i])), fields, None))
+        return rows
+
+    def _judge(self, tiles: np.ndarray, seed: int):
         try:
             result = self._repair(tiles, seed)
         except RepairError:

@@ -1,0 +1,439 @@
+"""Training the maze agent (:mod:`.maze_agent`): PPO (:mod:`structgen.ppo`) with a curriculum of levels in the
+spirit of PLR and ACCEL, in a run folder that checkpoints and resumes.
+
+The curriculum keeps a buffer of levels scored by their learning potential: the mean positive advantage of the
+agent's last steps on them (PLR's "positive value loss": where the agent did better than it expected, it still
+has something to learn). When an episode ends, its environment gets the next level: with probability ``replay`` a
+level from the buffer, drawn by the rank of its score (temperature ``temperature``) mixed with how long ago it was
+played (``staleness``); otherwise a new level, which is with probability ``edit`` a high-scoring buffer level with
+1-4 cells flipped (ACCEL's edits) and else a fresh random maze (scattered walls or carved corridors, half each). The
+buffer keeps the ``buffer`` best-scoring levels.
+
+A run folder holds ``config.toml`` (the settings), ``manifest.json``, ``checkpoint.pt`` (everything needed to go on
+exactly where it stood: weights, optimiser, levels in play and in the buffer, random states), ``history.jsonl``
+(one row per update), ``learning.png`` and, at the end, ``agent.pt`` (the weights, as :func:`load_agent` reads
+them). The same command on the same folder resumes it.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from evolution import RunFolder
+from evolution.files import MiB, atomic_write, read_bytes
+from structgen.config import ConfigError, build, flatten, to_table
+from structgen.domains.warehouse.maze_agent import MazePolicy, RememberingMazes, run_agent
+from structgen.domains.warehouse.maze_env import TorchMazes, _has_two_connected_floor_cells, random_maze
+from structgen.errors import InputError
+from structgen.ppo import PPO, PPOSettings
+
+__all__ = ["AgentSettings", "Curriculum", "RUN_KIND", "load_agent", "save_agent", "train_agent"]
+
+RUN_KIND = "maze-agent"
+DOMAIN = "maze"
+CHECKPOINT_FILE, HISTORY_FILE, AGENT_FILE, PLOT_FILE = "checkpoint.pt", "history.jsonl", "agent.pt", "learning.png"
+#: The kinds of random maze the agent trains on; ``rooms`` is kept for testing it on something new.
+TRAINING_KINDS = ("scattered", "carved")
+#: Held-out mazes of the learning curve: ``rooms`` mazes from this seed.
+HELD_OUT_SEED, HELD_OUT_COUNT = 12345, 100
+_MAX_AGENT_BYTES = 64 * MiB
+
+
+@dataclass(frozen=True)
+class AgentSettings:
+    """Attributes: updates (PPO updates), envs (mazes played at once), steps (per maze per update), epochs,
+    minibatches, learning_rate, gamma, gae_lambda, entropy, hidden (network width), size (maze side), replay,
+    edit, buffer, temperature, staleness (the curriculum, see the module), checkpoint_every and evaluate_every
+    (updates), seed, device."""
+
+    updates: int = 1000
+    envs: int = 256
+    steps: int = 128
+    epochs: int = 4
+    minibatches: int = 4
+    learning_rate: float = 3e-4
+    gamma: float = 0.995
+    gae_lambda: float = 0.95
+    entropy: float = 0.01
+    hidden: int = 256
+    size: int = 16
+    replay: float = 0.5
+    edit: float = 0.5
+    buffer: int = 1000
+    temperature: float = 0.3
+    staleness: float = 0.3
+    checkpoint_every: int = 10
+    evaluate_every: int = 10
+    seed: int = 0
+    device: str = "cpu"
+
+    def __post_init__(self) -> None:
+        for name in ("replay", "edit", "staleness"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"agent {name} must be a probability from 0 to 1, got {value!r}")
+        if not self.temperature > 0:
+            raise ValueError(f"agent temperature must be positive, got {self.temperature!r}")
+        for name in ("size", "buffer", "checkpoint_every", "evaluate_every"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < (4 if name == "size" else 1):
+                raise ValueError(f"agent {name} must be a whole number of at least {4 if name == 'size' else 1}, got {value!r}")
+        self.ppo()  # PPO's own checks, named by field
+
+    def ppo(self) -> PPOSettings:
+        return PPOSettings(
+            envs=self.envs,
+            steps=self.steps,
+            updates=self.updates,
+            epochs=self.epochs,
+            minibatches=self.minibatches,
+            learning_rate=self.learning_rate,
+            gamma=self.gamma,
+            gae_lambda=self.gae_lambda,
+            entropy=self.entropy,
+            hidden=self.hidden,
+            seed=self.seed,
+            device=self.device,
+        )
+
+
+class Curriculum:
+    """The level buffer and the choice of next levels (see the module). Levels in play and in the buffer are kept
+    by id in :attr:`levels`."""
+
+    def __init__(self, settings: AgentSettings) -> None:
+        self.settings = settings
+        self.rng = np.random.default_rng([settings.seed, 1])
+        self.levels: dict[int, np.ndarray] = {}
+        self.scores: dict[int, float] = {}  # the buffer: level id -> score
+        self.played: dict[int, int] = {}  # level id -> the update it was last played in
+        self.next_id = 0
+        self.update = 0
+
+    def _add(self, maze: np.ndarray) -> int:
+        self.levels[self.next_id] = maze
+        self.next_id += 1
+        return self.next_id - 1
+
+    def fresh(self) -> int:
+        kind = TRAINING_KINDS[int(self.rng.integers(len(TRAINING_KINDS)))]
+        return self._add(random_maze(self.rng, self.settings.size, kind))
+
+    def _draw(self, ids: list[int], by_score: np.ndarray, staleness: float) -> int:
+        ranks = np.empty(len(ids))
+        ranks[np.argsort(-by_score, kind="stable")] = np.arange(1, len(ids) + 1)
+        weights = (1.0 / ranks) ** (1.0 / self.settings.temperature)
+        chance = weights / weights.sum()
+        if staleness > 0:
+            age = self.update - np.array([self.played.get(i, 0) for i in ids], dtype=float)
+            stale = age / age.sum() if age.sum() > 0 else np.full(len(ids), 1.0 / len(ids))
+            chance = (1 - staleness) * chance + staleness * stale
+        return ids[int(self.rng.choice(len(ids), p=chance))]
+
+    def _edited(self, parent: np.ndarray) -> np.ndarray:
+        while True:
+            child = parent.copy()
+            flips = self.rng.integers(0, child.size, int(self.rng.integers(1, 5)))
+            child.flat[flips] ^= 1
+            if _has_two_connected_floor_cells(child):
+                return child
+
+    def next_level(self) -> int:
+        """The id of the level an environment plays next."""
+        s = self.settings
+        ids = list(self.scores)
+        if len(ids) >= min(s.buffer, 64):
+            scores = np.array([self.scores[i] for i in ids])
+            if self.rng.random() < s.replay:
+                return self._draw(ids, scores, s.staleness)
+            if self.rng.random() < s.edit:
+                return self._add(self._edited(self.levels[self._draw(ids, scores, 0.0)]))
+        return self.fresh()
+
+    def score(self, level_ids: torch.Tensor, advantages: torch.Tensor, in_play: set[int]) -> None:
+        """Score every level played in a rollout (``level_ids`` and ``advantages``: ``(steps, envs)``) by its mean
+        positive advantage, keep the best ``buffer`` and forget levels neither kept nor in play."""
+        self.update += 1
+        ids = level_ids.reshape(-1).cpu().numpy()
+        gain = advantages.clamp(min=0).reshape(-1).cpu().numpy()
+        unique, inverse = np.unique(ids, return_inverse=True)
+        means = np.bincount(inverse, weights=gain) / np.bincount(inverse)
+        for level, mean in zip(unique.tolist(), means.tolist()):
+            self.scores[level] = mean
+            self.played[level] = self.update
+        if len(self.scores) > self.settings.buffer:
+            ordered = sorted(self.scores, key=lambda i: (self.scores[i], i))
+            for level in ordered[: len(self.scores) - self.settings.buffer]:
+                del self.scores[level]
+        for level in [i for i in self.levels if i not in self.scores and i not in in_play]:
+            del self.levels[level]
+            self.played.pop(level, None)
+
+    def state_dict(self) -> dict[str, Any]:
+        ids = sorted(self.levels)
+        return {
+            "ids": torch.as_tensor(ids, dtype=torch.int64),
+            "levels": torch.as_tensor(np.stack([self.levels[i] for i in ids])),
+            "scores": json.dumps({str(k): v for k, v in self.scores.items()}),
+            "played": json.dumps({str(k): v for k, v in self.played.items()}),
+            "next_id": self.next_id,
+            "update": self.update,
+            "rng": json.dumps(self.rng.bit_generator.state),
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.levels = {int(i): level.numpy() for i, level in zip(state["ids"], state["levels"])}
+        self.scores = {int(k): float(v) for k, v in json.loads(state["scores"]).items()}
+        self.played = {int(k): int(v) for k, v in json.loads(state["played"]).items()}
+        self.next_id, self.update = int(state["next_id"]), int(state["update"])
+        self.rng.bit_generator.state = json.loads(state["rng"])
+
+
+class CurriculumMazes:
+    """:class:`.maze_agent.RememberingMazes` whose environments take their next level from a :class:`Curriculum`
+    when an episode ends. :attr:`log` holds the level id of every step since it was last emptied; :attr:`ended`
+    the ``(reached, return)`` of every episode that ended."""
+
+    def __init__(self, curriculum: Curriculum, settings: AgentSettings) -> None:
+        self.curriculum = curriculum
+        self.in_play = [curriculum.fresh() for _ in range(settings.envs)]
+        mazes = TorchMazes([curriculum.levels[i] for i in self.in_play], device=settings.device, seed=settings.seed)
+        self.env = RememberingMazes(mazes)
+        self.log: list[torch.Tensor] = []
+        self.ended: list[tuple[bool, float]] = []
+
+    def step(self, actions: torch.Tensor) -> tuple[tuple[torch.Tensor, torch.Tensor], torch.Tensor, torch.Tensor]:
+        self.log.append(torch.as_tensor(self.in_play))
+        observation, reward, done = self.env.step(actions)
+        if bool(done.any()):
+            rows = done.nonzero().flatten()
+            reached, gained = self.env.reached[rows].tolist(), reward[rows].tolist()
+            self.ended.extend(zip(reached, gained))
+            for row in rows.tolist():
+                self.in_play[row] = self.curriculum.next_level()
+            self.env.mazes.set_levels([self.curriculum.levels[self.in_play[r]] for r in rows.tolist()], rows)
+            observation = self.env.restart(rows)
+        return observation, reward, done
+
+
+def held_out_mazes(size: int) -> list[np.ndarray]:
+    """The learning curve's test: ``rooms`` mazes, a kind the agent never trains on."""
+    rng = np.random.default_rng(HELD_OUT_SEED)
+    return [random_maze(rng, size, "rooms") for _ in range(HELD_OUT_COUNT)]
+
+
+# --- weights ------------------------------------------------------------------------------------------------------------------
+def save_agent(path: str | Path, policy: MazePolicy, **about: Any) -> Path:
+    """Write the agent's weights with what made them (``about``: plain values) to ``path``, atomically."""
+    buffer = io.BytesIO()
+    torch.save({"format": "structgen maze agent 1", "hidden": policy.hidden, "policy": policy.state_dict(), **about}, buffer)
+    return atomic_write(path, buffer.getvalue())
+
+
+def load_agent(path: str | Path) -> tuple[MazePolicy, dict[str, Any]]:
+    """The agent :func:`save_agent` wrote (a run folder's ``agent.pt``, or the shipped ``docs/maze_agent.pt``) and
+    what it records about its training; a file that is not one is refused naming it."""
+    data = read_bytes(path, _MAX_AGENT_BYTES)
+    try:
+        saved = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except Exception as err:  # torch raises many kinds for a damaged or foreign file
+        raise InputError(f"{path}: not a maze agent file ({type(err).__name__}: {err})") from None
+    if not isinstance(saved, dict) or saved.get("format") != "structgen maze agent 1":
+        raise InputError(f"{path}: not a maze agent file (no 'format': 'structgen maze agent 1')")
+    policy = MazePolicy(int(saved["hidden"]))
+    try:
+        policy.load_state_dict(saved["policy"])
+    except (RuntimeError, KeyError) as err:
+        raise InputError(f"{path}: the weights do not fit the maze agent's network: {err}") from None
+    return policy.eval(), {k: v for k, v in saved.items() if k not in ("policy", "format")}
+
+
+def shipped_agent_path() -> Path:
+    """``docs/maze_agent.pt`` of a checkout, or the copy installed with the package."""
+    here = Path(__file__).resolve()
+    for candidate in (here.parents[3] / "docs" / "maze_agent.pt", here.parent / "maze_agent.pt"):
+        if candidate.is_file():
+            return candidate
+    raise InputError("the shipped maze agent (docs/maze_agent.pt) is not in this installation; give --agent-weights FILE")
+
+
+# --- the run folder -----------------------------------------------------------------------------------------------------------
+def _config_text(settings: AgentSettings) -> str:
+    import tomli_w
+
+    header = "# Settings of this maze-agent training (structgen maze train-agent): every setting, as used.\n"
+    return header + tomli_w.dumps({"agent": to_table(settings)})
+
+
+def read_settings(folder: RunFolder) -> AgentSettings:
+    from structgen.experiment import parse_toml
+
+    where = folder / RunFolder.CONFIG
+    tables = parse_toml(folder.config_text(), where)
+    if set(tables) != {"agent"} or not isinstance(tables["agent"], dict):
+        raise InputError(f"{where}: a maze-agent training's configuration has one table, [agent]")
+    try:
+        return build(AgentSettings, tables["agent"], "agent")
+    except ConfigError as err:
+        raise InputError(f"{where}: {err}") from None
+
+
+def is_agent_folder(path: str | Path) -> bool:
+    folder = RunFolder(path)
+    return (folder / RunFolder.CONFIG).is_file() and folder.manifest().get("run_kind") == RUN_KIND
+
+
+def _open_folder(path: Path, settings: AgentSettings, overwrite: bool) -> RunFolder:
+    """A new run folder, or the one a training with the same settings started (it resumes; with more ``updates``
+    it goes on). Anything else is refused and left as it was."""
+    from structgen.runs import manifest
+
+    folder = RunFolder(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{path}: is a file, expected a run folder")
+    if not is_agent_folder(path) or overwrite:
+        if (folder / RunFolder.CONFIG).is_file() and not overwrite:
+            raise InputError(f"{path}: holds a run that is not a maze-agent training; choose another folder")
+        made = manifest(DOMAIN, ("numpy", "torch"), run_kind=RUN_KIND)
+        return RunFolder.create(path, _config_text(settings), made, overwrite=overwrite)
+    saved = read_settings(folder)
+    before, now = flatten(to_table(saved)), flatten(to_table(settings))
+    for key in sorted(before.keys() | now.keys()):
+        if before.get(key) != now.get(key) and not (key == "updates" and now[key] > before[key]):
+            raise InputError(
+                f"{folder / RunFolder.CONFIG}: this folder holds a training with agent.{key} = {before.get(key)!r}, not "
+                f"{now.get(key)!r}; give the same settings to resume it (or more updates to go on), or another folder"
+            )
+    folder.write_config(_config_text(settings))
+    return folder
+
+
+def _history(folder: RunFolder, upto: int) -> list[dict[str, Any]]:
+    path = folder / HISTORY_FILE
+    if not path.is_file():
+        return []
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    return [row for row in rows if row["update"] <= upto]
+
+
+def learning_figure(rows: list[dict[str, Any]]) -> Any:
+    from evolution.plots import new_figure
+
+    figure = new_figure(figsize=(7, 4))
+    axes = figure.add_subplot(1, 1, 1)
+    steps = [row["agent_steps"] / 1e6 for row in rows]
+    axes.plot(steps, [row["success"] for row in rows], label="training levels (curriculum)", alpha=0.6)
+    tested = [row for row in rows if row.get("held_out") is not None]
+    axes.plot([r["agent_steps"] / 1e6 for r in tested], [r["held_out"] for r in tested], "o-", label="held-out rooms mazes")
+    axes.set_xlabel("agent steps (millions)")
+    axes.set_ylabel("episodes that reach the goal")
+    axes.set_ylim(0, 1.02)
+    axes.grid(alpha=0.3)
+    axes.legend(loc="lower right")
+    axes.set_title("maze agent: PPO with a PLR/ACCEL curriculum")
+    return figure
+
+
+def _write_history(folder: RunFolder, rows: list[dict[str, Any]]) -> None:
+    from evolution.plots import figure_png
+
+    atomic_write(folder / HISTORY_FILE, "".join(json.dumps(row) + "\n" for row in rows))
+    atomic_write(folder / PLOT_FILE, figure_png(learning_figure(rows)))
+
+
+def _save_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes, done: int) -> None:
+    state = {
+        "update": done,
+        "policy": ppo.policy.state_dict(),
+        "optimiser": ppo.optimiser.state_dict(),
+        "mazes": env.env.mazes.state_dict(),
+        "memory": env.env.memory.state_dict(),
+        "in_play": torch.as_tensor(env.in_play),
+        "curriculum": env.curriculum.state_dict(),
+        "torch_rng": torch.get_rng_state(),
+    }
+    buffer = io.BytesIO()
+    torch.save(state, buffer)
+    atomic_write(folder / CHECKPOINT_FILE, buffer.getvalue())
+
+
+def _load_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes) -> int:
+    path = folder / CHECKPOINT_FILE
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+        ppo.policy.load_state_dict(state["policy"])
+        ppo.optimiser.load_state_dict(state["optimiser"])
+        env.env.mazes.load_state_dict(state["mazes"])
+        env.env.memory.load_state_dict(state["memory"])
+        env.in_play = [int(i) for i in state["in_play"]]
+        env.curriculum.load_state_dict(state["curriculum"])
+        torch.set_rng_state(state["torch_rng"])
+    except Exception as err:  # a damaged checkpoint: say which file, change nothing
+        raise InputError(f"{path}: cannot resume from this checkpoint ({type(err).__name__}: {err})") from None
+    return int(state["update"])
+
+
+def train_agent(
+    run_dir: str | Path, settings: AgentSettings, *, overwrite: bool = False, progress: bool = True
+) -> tuple[MazePolicy, list[dict[str, Any]]]:
+    """Train (or resume training) the maze agent in ``run_dir``; returns the policy and the history rows."""
+    from tqdm import tqdm
+
+    folder = _open_folder(Path(run_dir), settings, overwrite)
+    torch.manual_seed(settings.seed)
+    curriculum = Curriculum(settings)
+    env = CurriculumMazes(curriculum, settings)
+    ppo = PPO(MazePolicy(settings.hidden), settings.ppo())
+    done = 0
+    with folder.locked():
+        if (folder / CHECKPOINT_FILE).is_file():
+            done = _load_checkpoint(folder, ppo, env)
+            observation = env.env.current()
+        else:
+            observation = env.env.reset()
+        rows = _history(folder, done)
+        held_out = held_out_mazes(settings.size)
+        bar = tqdm(total=settings.updates, initial=done, desc="maze agent", unit="update", disable=not progress)
+        steps_so_far = rows[-1]["agent_steps"] if rows else 0
+        while done < settings.updates:
+            started = time.perf_counter()
+            rollout = ppo.collect(env, observation)
+            observation = rollout.last
+            ppo.advantages(rollout)
+            assert rollout.advantages is not None
+            curriculum.score(torch.stack(env.log), rollout.advantages, set(env.in_play))
+            env.log.clear()
+            losses = ppo.update(rollout)
+            done += 1
+            steps_so_far += settings.envs * settings.steps
+            ended, env.ended = env.ended, []
+            row: dict[str, Any] = {
+                "update": done,
+                "agent_steps": steps_so_far,
+                "episodes": len(ended),
+                "success": float(np.mean([r for r, _ in ended])) if ended else None,
+                "return": float(np.mean([g for _, g in ended])) if ended else None,
+                "buffer": len(curriculum.scores),
+                "seconds": time.perf_counter() - started,
+                **losses,
+            }
+            if done % settings.evaluate_every == 0 or done == settings.updates:
+                row["held_out"] = run_agent(ppo.policy, held_out, seed=done, device=settings.device).success_rate
+                ppo.policy.train()
+            rows.append(row)
+            bar.update(1)
+            bar.set_postfix(success=row["success"], held_out=row.get("held_out"))
+            if done % settings.checkpoint_every == 0 or done == settings.updates:
+                _save_checkpoint(folder, ppo, env, done)
+                _write_history(folder, rows)
+        bar.close()
+        save_agent(folder / AGENT_FILE, ppo.policy, settings=asdict(settings), updates=done)
+    return ppo.policy, rows

@@ -1,0 +1,228 @@
+"""The learning maze agent: its memory reads only what the view showed and knows where it stands, its training
+checkpoints and resumes exactly, the shipped agent solves mazes of a kind it never trained on, and the maze domain
+and the paper's experiment use it."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from structgen.domains.warehouse.maze import FORWARD, diameter
+from structgen.domains.warehouse.maze_agent import CROP, MazePolicy, RememberingMazes, run_agent
+from structgen.domains.warehouse.maze_env import TorchMazes, _MARGIN, random_maze
+from structgen.domains.warehouse.maze_experiment import baseline_mazes
+from structgen.domains.warehouse.maze_training import (
+    AgentSettings,
+    Curriculum,
+    held_out_mazes,
+    load_agent,
+    save_agent,
+    shipped_agent_path,
+    train_agent,
+)
+from structgen.errors import InputError
+from tests.helpers import cli
+
+TINY = AgentSettings(updates=4, envs=8, steps=16, checkpoint_every=2, evaluate_every=2, hidden=16, buffer=70, size=8)
+
+
+def _random_walk(env: RememberingMazes, steps: int, seed: int):
+    generator = torch.Generator().manual_seed(seed)
+    for _ in range(steps):
+        yield env.step(torch.randint(0, 4, (env.mazes.count,), generator=generator))
+
+
+def test_the_memory_knows_where_the_agent_stands_from_its_own_moves():
+    rng = np.random.default_rng(0)
+    mazes = [random_maze(rng, 10, kind) for kind in ("scattered", "carved") * 4]
+    env = RememberingMazes(TorchMazes(mazes, seed=1))
+    env.reset()
+    start = env.mazes.cells().clone()
+    moves = 0
+    for _, _, done in _random_walk(env, 1500, seed=2):
+        start[done] = env.mazes.cells()[done]
+        assert torch.equal(env.memory.position, env.mazes.cells() - start)
+        moves += int(done.sum())
+    assert moves > 0  # some episodes ended and the memory started afresh with them
+
+
+def test_the_map_around_the_agent_holds_only_what_it_saw_and_faces_its_way():
+    rng = np.random.default_rng(4)
+    mazes = [random_maze(rng, 12, "carved") for _ in range(4)]
+    env = RememberingMazes(TorchMazes(mazes, seed=0))
+    env.reset()
+    for (patch, _, direction), _, _ in _random_walk(env, 60, seed=5):
+        for row in range(len(mazes)):
+            walls = np.pad(env.mazes.walls[row].reshape(-1, env.mazes.width).numpy(), 0)
+            here = int(env.mazes.position[row])
+            r0, c0 = divmod(here, env.mazes.width)
+            facing = int(direction[row])
+            ahead, right = [(-1, 0), (0, 1), (1, 0), (0, -1)][facing], [(-1, 0), (0, 1), (1, 0), (0, -1)][(facing + 1) % 4]
+            seen_wall, seen_floor = patch[row, 0].numpy(), patch[row, 1].numpy()
+            assert not (seen_wall * seen_floor).any()
+            for i in range(CROP):
+                for j in range(CROP):
+                    if seen_wall[i, j] or seen_floor[i, j]:
+                        forward, side = CROP // 2 - i, j - CROP // 2
+                        r, c = r0 + forward * ahead[0] + side * right[0], c0 + forward * ahead[1] + side * right[1]
+                        assert bool(walls[r, c]) == bool(seen_wall[i, j])
+            # the agent's own cell is floor it has stood on
+            assert seen_floor[CROP // 2, CROP // 2] == 1 and patch[row, 2, CROP // 2, CROP // 2] > 0
+
+
+def test_a_forward_step_into_a_wall_does_not_move_the_memory():
+    maze = np.zeros((6, 6), dtype=np.uint8)
+    env = RememberingMazes(TorchMazes([maze], seed=0))
+    env.reset()
+    for _ in range(12):  # walk into the outer wall and keep pushing
+        env.step(torch.tensor([FORWARD]))
+    offset = env.mazes.cells()[0] - torch.as_tensor(divmod(int(env.mazes.start[0]), env.mazes.width)) + (_MARGIN - 1)
+    assert torch.equal(env.memory.position[0], offset)
+
+
+def test_run_agent_gives_each_maze_its_own_draws():
+    policy = MazePolicy(16)
+    mazes = held_out_mazes(8)[:6]
+    alone = run_agent(policy, mazes[:2], episodes=3, seed=7)
+    together = run_agent(policy, mazes, episodes=3, seed=7)
+    assert np.array_equal(alone.steps, together.steps[:2]) and np.array_equal(alone.reached, together.reached[:2])
+    again = run_agent(policy, mazes, episodes=3, seed=7)
+    assert np.array_equal(again.steps, together.steps)
+
+
+def test_the_curriculum_keeps_the_highest_scoring_levels_and_edits_them():
+    settings = dataclasses.replace(TINY, buffer=3, replay=0.0, edit=1.0)
+    curriculum = Curriculum(settings)
+    ids = [curriculum.fresh() for _ in range(6)]
+    advantages = torch.tensor([[0.1, 0.5, -1.0, 0.9, 0.2, 0.0]])
+    curriculum.score(torch.tensor([ids]), advantages, in_play={ids[0]})
+    assert set(curriculum.scores) == {ids[1], ids[3], ids[4]}
+    assert set(curriculum.levels) == {ids[0], ids[1], ids[3], ids[4]}  # in play or kept
+    for _ in range(5):  # a full enough buffer: new levels are edits of kept ones, 1-4 cells flipped
+        child = curriculum.levels[curriculum.next_level()]
+        differences = [int((child != curriculum.levels[i]).sum()) for i in curriculum.scores]
+        assert 1 <= min(differences) <= 4
+    copy = Curriculum(settings)
+    copy.load_state_dict(curriculum.state_dict())
+    assert copy.scores == curriculum.scores and copy.next_level() == curriculum.next_level()
+
+
+def test_training_resumes_to_the_same_weights_and_writes_its_folder(tmp_path):
+    whole, _ = train_agent(tmp_path / "whole", TINY, progress=False)
+    train_agent(tmp_path / "parts", dataclasses.replace(TINY, updates=2), progress=False)
+    resumed, rows = train_agent(tmp_path / "parts", TINY, progress=False)
+    assert all(torch.equal(a, b) for a, b in zip(whole.state_dict().values(), resumed.state_dict().values()))
+    assert [row["update"] for row in rows] == [1, 2, 3, 4] and rows[-1]["held_out"] is not None
+    for name in ("agent.pt", "checkpoint.pt", "history.jsonl", "learning.png", "config.toml", "manifest.json"):
+        assert (tmp_path / "parts" / name).is_file()
+    policy, about = load_agent(tmp_path / "parts" / "agent.pt")
+    assert about["updates"] == 4 and about["settings"]["hidden"] == 16
+    with pytest.raises(InputError, match="agent.envs = 8, not 9"):
+        train_agent(tmp_path / "parts", dataclasses.replace(TINY, envs=9), progress=False)
+
+
+def test_a_damaged_agent_or_checkpoint_is_refused_naming_the_file(tmp_path):
+    bad = tmp_path / "agent.pt"
+    bad.write_bytes(b"not torch")
+    with pytest.raises(InputError, match="agent.pt: not a maze agent file"):
+        load_agent(bad)
+    train_agent(tmp_path / "run", dataclasses.replace(TINY, updates=2), progress=False)
+    (tmp_path / "run" / "checkpoint.pt").write_bytes(b"broken")
+    with pytest.raises(InputError, match="checkpoint.pt: cannot resume"):
+        train_agent(tmp_path / "run", TINY, progress=False)
+
+
+def test_the_shipped_agent_solves_mazes_of_a_kind_it_never_trained_on():
+    policy, about = load_agent(shipped_agent_path())
+    assert about["settings"] == dataclasses.asdict(AgentSettings())  # made by the documented defaults
+    rng = np.random.default_rng(2026)
+    mazes = [random_maze(rng, 16, "rooms") for _ in range(60)]
+    assert run_agent(policy, mazes, seed=1).success_rate >= 0.9
+    untrained = run_agent(MazePolicy(about["hidden"]), mazes, seed=1).success_rate
+    assert untrained < 0.5
+
+
+def test_baselines_match_the_wall_count_and_the_path_length_band():
+    reference = random_maze(np.random.default_rng(0), 12, "scattered", 0.3)
+    made, drawn = baseline_mazes(reference, 3, np.random.default_rng(1))
+    length = diameter(reference)[2]
+    assert drawn >= 3
+    for maze in made:
+        assert (maze == 1).sum() == (reference == 1).sum()
+        assert 0.8 * length <= diameter(maze)[2] <= 1.2 * length
+
+
+def test_the_maze_problem_is_judged_by_the_learned_agent_over_walls_and_path_length():
+    from structgen.domains.warehouse.problem import LayoutProblem, MazeSettings
+
+    problem = LayoutProblem(MazeSettings(episodes=2))
+    assert problem.measure_names == ("walls", "path_length") and problem.measure_ranges == ((0.0, 256.0), (0.0, 648.0))
+    genomes = np.random.default_rng(0).normal(0, 0.2, (3, problem.n_params))
+    first = problem.evaluate(genomes, np.array([1, 2, 3]))
+    maps = problem.grow(genomes)
+    for i, tiles in enumerate(maps):
+        grown = problem.kind.storage(tiles)
+        assert first.measures[i, 0] == (grown == 1).sum() == first.fields["walls"][i]
+        assert first.objective[i] == (diameter(grown) is not None)
+    alone = problem.evaluate(genomes[1:2], np.array([2]))
+    assert np.array_equal(alone.measures[0], first.measures[1])  # a maze's result does not depend on its batch
+    assert LayoutProblem(MazeSettings(measures="entropy")).measure_names == ("entropy", "path_length")
+    with pytest.raises(ValueError, match="problem measures must be walls or entropy"):
+        MazeSettings(measures="doors")
+
+
+def test_the_agent_commands(tmp_path, capsys):
+    code, out, _ = cli(capsys, "maze", "test-agent", "--count", 20, "--json")
+    result = json.loads(out)
+    assert code == 0 and result["mazes"] == 20 and result["success_rate"] >= 0.8
+    code, out, _ = cli(
+        capsys,
+        "maze",
+        "train-agent",
+        "--run-dir",
+        tmp_path / "run",
+        "--updates",
+        2,
+        "--envs",
+        4,
+        "--steps",
+        8,
+        "--hidden",
+        8,
+        "--size",
+        8,
+        "--buffer",
+        70,
+    )
+    assert code == 0 and "held-out rooms mazes reached" in out and (tmp_path / "run" / "agent.pt").is_file()
+    code, out, _ = cli(capsys, "resume", tmp_path / "run", "--generations", 3)
+    assert code == 0 and len((tmp_path / "run" / "history.jsonl").read_text().splitlines()) == 3
+    small, large = (random_maze(np.random.default_rng(s), n, "scattered", 0.3) for s, n in ((1, 8), (2, 12)))
+    for name, maze in (("small", small), ("large", large)):
+        rows = ["".join("X" if v else " " for v in row) for row in maze]
+        (tmp_path / f"{name}.json").write_text(json.dumps({"name": name, "n_row": len(rows), "n_col": len(rows), "layout": rows}))
+    code, out, _ = cli(
+        capsys,
+        "maze",
+        "experiment",
+        "--small",
+        tmp_path / "small.json",
+        "--large",
+        tmp_path / "large.json",
+        "--episodes",
+        4,
+        "--baselines",
+        3,
+        "--baseline-episodes",
+        2,
+        "--json",
+    )
+    table = json.loads(out)["rows"]
+    assert code == 0 and [r["name"] for r in table] == ["grown small", "grown large", "baselines"]
+    assert table[2]["mazes"] == 3 and table[2]["walls"] == (large == 1).sum()
+    code, _, err = cli(capsys, "maze", "experiment", "--small", tmp_path / "small.json")
+    assert code != 0 and "--small FILE and --large FILE" in err
