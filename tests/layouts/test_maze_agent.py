@@ -13,14 +13,13 @@ import torch
 
 from structgen.domains.warehouse.maze import FORWARD, diameter
 from structgen.domains.warehouse.maze_agent import CROP, MazePolicy, RememberingMazes, run_agent
-from structgen.domains.warehouse.maze_env import TorchMazes, _MARGIN, random_maze
+from structgen.domains.warehouse.maze_env import _MARGIN, TorchMazes, random_maze
 from structgen.domains.warehouse.maze_experiment import baseline_mazes
 from structgen.domains.warehouse.maze_training import (
     AgentSettings,
     Curriculum,
     held_out_mazes,
     load_agent,
-    save_agent,
     shipped_agent_path,
     train_agent,
 )
@@ -226,3 +225,7 @@ def test_the_agent_commands(tmp_path, capsys):
     assert table[2]["mazes"] == 3 and table[2]["walls"] == (large == 1).sum()
     code, _, err = cli(capsys, "maze", "experiment", "--small", tmp_path / "small.json")
     assert code != 0 and "--small FILE and --large FILE" in err
+    walled_in = ["XXXX", "X XX", "XX X", "XXXX"]
+    (tmp_path / "shut.json").write_text(json.dumps({"name": "shut", "n_row": 4, "n_col": 4, "layout": walled_in}))
+    code, _, err = cli(capsys, "maze", "test-agent", tmp_path / "shut.json")
+    assert code != 0 and "shut.json: no two floor cells are connected" in err

@@ -739,6 +739,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
             baseline_episodes=args.baseline_episodes,
             seed=args.seed,
             device=args.device,
+            progress=not args.json,
         )
     except ValueError as err:
         raise InputError(f"{source}: {err}") from None

@@ -40,12 +40,19 @@ class ExperimentRow:
 
 
 def baseline_mazes(
-    reference: np.ndarray, count: int, rng: np.random.Generator, band: tuple[float, float] = (0.8, 1.2), tries: int | None = None
+    reference: np.ndarray,
+    count: int,
+    rng: np.random.Generator,
+    band: tuple[float, float] = (0.8, 1.2),
+    tries: int | None = None,
+    progress: bool = False,
 ) -> tuple[list[np.ndarray], int]:
     """``count`` mazes the shape of ``reference`` with as many walls, placed uniformly at random and drawn again until
     the longest shortest path lies within ``band`` times the reference's; returns them and the number drawn. Gives
     up after ``tries`` draws (default 20 per maze: a 66x66 draw takes about 0.1 s, and for the paper's maze one in
     five lands in the band)."""
+    from tqdm import tqdm
+
     tries = 20 * count if tries is None else tries
     found = diameter(reference)
     if found is None:
@@ -53,6 +60,7 @@ def baseline_mazes(
     low, high = band[0] * found[2], band[1] * found[2]
     walls = int((reference == 1).sum())
     kept: list[np.ndarray] = []
+    bar = tqdm(total=count, desc="baseline mazes", unit="maze", disable=not progress, leave=False)
     for drawn in range(1, tries + 1):
         maze = np.zeros(reference.size, dtype=np.uint8)
         maze[rng.choice(reference.size, walls, replace=False)] = 1
@@ -60,8 +68,11 @@ def baseline_mazes(
         ends = diameter(maze)
         if ends is not None and low <= ends[2] <= high:
             kept.append(maze)
+            bar.update(1)
             if len(kept) == count:
+                bar.close()
                 return kept, drawn
+    bar.close()
     raise ValueError(
         f"only {len(kept)} of {count} baseline mazes in {tries:,} draws: random mazes with {walls} walls seldom have a "
         f"longest path of {low:.0f}-{high:.0f} cells (the grown maze's is {found[2]}); choose another generator (--elite)"
@@ -93,10 +104,11 @@ def maze_experiment(
     baseline_episodes: int = 10,
     seed: int = 0,
     device: str = "cpu",
+    progress: bool = False,
 ) -> tuple[list[ExperimentRow], list[np.ndarray]]:
     """The table's three rows for a small and a large grown maze (without their outer walls), and the baselines."""
     rng = np.random.default_rng([seed, 2])
-    made, _ = baseline_mazes(large, baselines, rng)
+    made, _ = baseline_mazes(large, baselines, rng, progress=progress)
     rows = [
         _row("grown small", policy, [small], episodes, seed, device),
         _row("grown large", policy, [large], episodes, seed, device),
