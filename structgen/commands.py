@@ -151,6 +151,11 @@ class DomainCommands:
         ``cluster``); returns the exit code."""
         raise InputError(f"{run_dir}: a {kind!r} run, which this domain cannot resume")
 
+    def describe_run(self, kind: str, run_dir: Path) -> tuple[dict[str, Any], str]:
+        """``structgen info`` on a run folder of the domain that is not an evolution run (its manifest names its
+        ``run_kind``): a summary for ``--json`` and the text to print."""
+        raise InputError(f"{run_dir}: a {kind!r} run, which this domain cannot describe")
+
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         """Options for exporting this domain's files and elites; they appear in ``structgen export --help``, so
         give them names no other domain is likely to use."""

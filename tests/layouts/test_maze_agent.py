@@ -200,6 +200,8 @@ def test_the_agent_commands(tmp_path, capsys):
     assert code == 0 and "held-out rooms mazes reached" in out and (tmp_path / "run" / "agent.pt").is_file()
     code, out, _ = cli(capsys, "resume", tmp_path / "run", "--generations", 3)
     assert code == 0 and len((tmp_path / "run" / "history.jsonl").read_text().splitlines()) == 3
+    code, out, _ = cli(capsys, "info", tmp_path / "run", "--json")
+    assert code == 0 and json.loads(out)["updates_done"] == 3 and json.loads(out)["finished"]
     small, large = (random_maze(np.random.default_rng(s), n, "scattered", 0.3) for s, n in ((1, 8), (2, 12)))
     for name, maze in (("small", small), ("large", large)):
         rows = ["".join("X" if v else " " for v in row) for row in maze]

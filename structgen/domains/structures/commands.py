@@ -286,13 +286,23 @@ def _run_nca(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
 def cmd_info(args: argparse.Namespace) -> int:
     if Path(args.file).is_dir():  # a run folder, of any domain, or a tall search
         from structgen.domains.structures.tall import describe_search, is_search_folder, search_summary
-        from structgen.runs import describe_run, run_summary
+        from structgen.runs import describe_run, other_run_kind, run_summary
 
         if is_search_folder(args.file):
             summary = search_summary(args.file)
             print(json.dumps(summary) if args.json else describe_search(summary))
             return EXIT_OK
 
+        other = other_run_kind(args.file)
+        if other is not None:  # another domain's own kind of run: that domain describes it
+            from structgen import domains
+
+            hooks = domains.spec(other[0]).command_hooks()
+            if hooks is None:
+                raise InputError(f"{args.file}: a {other[1]!r} run of the {other[0]} domain, which has no commands")
+            summary, text = hooks.describe_run(other[1], Path(args.file))
+            print(json.dumps(summary) if args.json else text)
+            return EXIT_OK
         summary = run_summary(args.file)
         print(json.dumps(summary) if args.json else describe_run(summary))
         return EXIT_OK

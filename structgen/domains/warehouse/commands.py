@@ -630,8 +630,8 @@ def cmd_test_agent(args: argparse.Namespace) -> int:
         source = f"{len(mazes)} maze files"
     else:
         rng = np.random.default_rng(args.seed)
-        mazes = [random_maze(rng, args.size, args.kind) for _ in range(args.count)]
-        source = f"{args.count} random {args.kind} mazes of {args.size}x{args.size} (seed {args.seed})"
+        mazes = [random_maze(rng, args.size, args.maze_kind) for _ in range(args.count)]
+        source = f"{args.count} random {args.maze_kind} mazes of {args.size}x{args.size} (seed {args.seed})"
     results = run_agent(policy, mazes, episodes=args.episodes, seed=args.seed, device=args.device)
     error = results.standard_error
     summary = {
@@ -666,7 +666,13 @@ def _add_test_agent(subparsers: Any, kind: LayoutKind) -> None:
     p.add_argument(
         "--weights", default=None, metavar="FILE", help="agent weights (a run folder's agent.pt; default the shipped agent)"
     )
-    p.add_argument("--kind", choices=MAZE_KINDS, default="rooms", help="random mazes' kind (default rooms, never trained on)")
+    p.add_argument(
+        "--kind",
+        dest="maze_kind",
+        choices=MAZE_KINDS,
+        default="rooms",
+        help="random mazes' kind (default rooms, never trained on)",
+    )
     p.add_argument("--size", type=whole_number(4, 256), default=16, metavar="N", help="random mazes' side (default 16)")
     p.add_argument("--count", type=whole_number(1, 10**6), default=200, metavar="N", help="random mazes (default 200)")
     p.add_argument("--episodes", type=whole_number(1, 10_000), default=1, metavar="N", help="episodes per maze (default 1)")
@@ -829,6 +835,21 @@ class LayoutCommands(DomainCommands):
             settings = dataclasses.replace(settings, updates=args.generations)
         train_agent(run_dir, settings, progress=True)
         return EXIT_OK
+
+    def describe_run(self, kind: str, run_dir: Path) -> tuple[dict[str, Any], str]:
+        from structgen.domains.warehouse.maze_training import RUN_KIND, agent_run_summary
+
+        if kind != RUN_KIND:
+            return super().describe_run(kind, run_dir)
+        summary = agent_run_summary(run_dir)
+        tested = summary["held_out"]
+        text = (
+            f"{run_dir}: maze-agent training, {summary['updates_done']} of {summary['updates']} updates, "
+            f"{summary['agent_steps']:,} agent steps"
+            + (f"; last held-out test {tested:.0%} of rooms mazes reached" if tested is not None else "")
+            + ("; agent.pt written" if summary["finished"] else "; resume with the same command or structgen resume")
+        )
+        return summary, text
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         _check_output(output, ".json")

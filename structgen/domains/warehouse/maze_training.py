@@ -38,7 +38,7 @@ from structgen.ppo import PPO, PPOSettings
 __all__ = ["AgentSettings", "Curriculum", "RUN_KIND", "load_agent", "save_agent", "train_agent"]
 
 RUN_KIND = "maze-agent"
-DOMAIN = "maze"
+DOMAIN = "maze-v0"
 CHECKPOINT_FILE, HISTORY_FILE, AGENT_FILE, PLOT_FILE = "checkpoint.pt", "history.jsonl", "agent.pt", "learning.png"
 #: The kinds of random maze the agent trains on; ``rooms`` is kept for testing it on something new.
 TRAINING_KINDS = ("scattered", "carved")
@@ -314,6 +314,24 @@ def _open_folder(path: Path, settings: AgentSettings, overwrite: bool) -> RunFol
             )
     folder.write_config(_config_text(settings))
     return folder
+
+
+def agent_run_summary(run_dir: str | Path) -> dict[str, Any]:
+    """What ``structgen info`` says of a training folder: its settings, how far it got, the last held-out test."""
+    folder = RunFolder(run_dir)
+    settings = read_settings(folder)
+    rows = _history(folder, settings.updates)
+    tested = [row["held_out"] for row in rows if row.get("held_out") is not None]
+    return {
+        "run_dir": str(run_dir),
+        "run_kind": RUN_KIND,
+        "updates": settings.updates,
+        "updates_done": rows[-1]["update"] if rows else 0,
+        "agent_steps": rows[-1]["agent_steps"] if rows else 0,
+        "held_out": tested[-1] if tested else None,
+        "finished": (folder / AGENT_FILE).is_file(),
+        "settings": asdict(settings),
+    }
 
 
 def _history(folder: RunFolder, upto: int) -> list[dict[str, Any]]:
