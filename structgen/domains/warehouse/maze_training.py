@@ -54,7 +54,7 @@ class AgentSettings:
     edit, buffer, temperature, staleness (the curriculum, see the module), checkpoint_every and evaluate_every
     (updates), seed, device."""
 
-    updates: int = 1000
+    updates: int = 500
     envs: int = 256
     steps: int = 128
     epochs: int = 4
