@@ -28,7 +28,7 @@ import torch
 from torch import nn
 
 from structgen.domains.warehouse.maze import _STEPS, FORWARD
-from structgen.domains.warehouse.maze_env import VIEW, TorchMazes
+from structgen.domains.warehouse.maze_env import STAY, VIEW, TorchMazes
 
 __all__ = ["CROP", "MazePolicy", "PathMemory", "RememberingMazes", "AgentResults", "run_agent"]
 
@@ -257,24 +257,31 @@ def run_agent(
     directions = torch.as_tensor(np.concatenate([rng.integers(0, 4, episodes) for rng in streams]))
     env = RememberingMazes(TorchMazes(batch, device=device))
     observation = env.reset(directions)
-    rows = torch.arange(len(batch))  # the episode each row of the batch plays; finished ones leave the batch
+    rows = torch.arange(len(batch))  # the episode each row of the batch plays
+    running = torch.ones(len(batch), dtype=torch.bool)  # by row: finished rows stay put until the batch shrinks
     reached = torch.zeros(len(batch), dtype=torch.bool)
     steps = torch.full((len(batch),), env.mazes.horizon, dtype=torch.int64)
     policy = policy.to(env.mazes.device).eval()
     for step in range(1, env.mazes.horizon + 1):
-        logits, _ = policy(*observation)
+        alive = running.nonzero().flatten()
+        logits, _ = policy(*(part[alive.to(env.mazes.device)] for part in observation))
         chance = torch.softmax(logits.double(), -1).cumsum(-1).cpu()
-        draw = torch.as_tensor(np.concatenate([rng.random(episodes) for rng in streams]))[rows]
-        observation, _, done = env.step((draw[:, None] > chance[:, :-1]).sum(-1))
-        done = done.cpu()
+        draw = torch.as_tensor(np.concatenate([rng.random(episodes) for rng in streams]))[rows[alive]]
+        action = torch.full((len(rows),), STAY, dtype=torch.int64)
+        action[alive] = (draw[:, None] > chance[:, :-1]).sum(-1)
+        observation, _, done = env.step(action)
+        done = done.cpu() & running
         if bool(done.any()):
-            ended = rows[done]
-            reached[ended], steps[ended] = env.reached.cpu()[done], step
-            rows = rows[~done]
-            if not len(rows):
+            reached[rows[done]], steps[rows[done]] = env.reached.cpu()[done], step
+            running &= ~done
+            left = int(running.sum())
+            if not left:
                 break
-            kept = (~done).nonzero().flatten().to(env.mazes.device)
-            env.keep(kept)
-            observation = tuple(part[kept] for part in observation)
+            # Dropping finished rows copies every map: worth it only once a quarter of the batch has finished.
+            if left <= 0.75 * len(rows):
+                kept = running.nonzero().flatten()
+                env.keep(kept.to(env.mazes.device))
+                observation = tuple(part[kept.to(env.mazes.device)] for part in observation)
+                rows, running = rows[kept], running[kept]
     shape = (len(mazes), episodes)
     return AgentResults(reached.reshape(shape).float().mean(1).numpy(), steps.reshape(shape).float().mean(1).numpy(), episodes)
