@@ -87,6 +87,7 @@ CORE = {
     "structgen.mesh",
     "structgen.nca",
     "structgen.nca_config",
+    "structgen.ppo",
     "structgen.reference_data",
     "structgen.structure",
     "structgen.threads",

@@ -140,12 +140,12 @@ def test_starting_directions_repeat_with_the_seed_and_levels_can_be_swapped():
 
 def test_random_mazes_are_solvable_and_bad_requests_are_refused():
     rng = np.random.default_rng(2)
-    for kind in ("scattered", "carved"):
+    for kind in ("scattered", "carved", "rooms"):
         for _ in range(10):
             maze = random_maze(rng, 16, kind)
             assert maze.shape == (16, 16) and set(np.unique(maze)) <= {0, 1} and diameter(maze) is not None
-    with pytest.raises(InputError, match="unknown maze kind 'rooms'"):
-        random_maze(rng, 16, "rooms")
+    with pytest.raises(InputError, match="unknown maze kind 'spiral'"):
+        random_maze(rng, 16, "spiral")
     with pytest.raises(InputError, match="maze size must be an integer from 2 to 1024, got 1"):
         MazeEnv(size=1)
     with pytest.raises(InputError, match="no two connected floor cells"):

@@ -557,7 +557,8 @@ def _agent_options() -> list[tuple[str, str, Any, str]]:
 
 
 def cmd_train_agent(args: argparse.Namespace) -> int:
-    from structgen.domains.warehouse.maze_training import AGENT_FILE, AgentSettings, train_agent
+    from structgen.domains.warehouse.agent_settings import AgentSettings
+    from structgen.domains.warehouse.maze_training import AGENT_FILE, train_agent
 
     values = {field: getattr(args, field) for _, field, _, _ in _agent_options() if getattr(args, field) is not None}
     try:
@@ -578,7 +579,7 @@ def cmd_train_agent(args: argparse.Namespace) -> int:
 
 
 def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
-    from structgen.domains.warehouse.maze_training import AgentSettings
+    from structgen.domains.warehouse.agent_settings import AgentSettings
 
     defaults = AgentSettings()
     p = subparsers.add_parser(
@@ -652,7 +653,7 @@ def cmd_test_agent(args: argparse.Namespace) -> int:
 
 
 def _add_test_agent(subparsers: Any, kind: LayoutKind) -> None:
-    from structgen.domains.warehouse.maze_env import MAZE_KINDS
+    from structgen.domains.warehouse.maze import MAZE_KINDS
 
     p = subparsers.add_parser(
         "test-agent",

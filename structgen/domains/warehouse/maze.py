@@ -27,6 +27,9 @@ from structgen.errors import InputError
 
 __all__ = ["AGENTS", "EpisodeStats", "MazeAgent", "diameter", "run_episodes"]
 
+#: Kinds of random maze (:func:`.maze_env.random_maze`); kept here, away from torch, for the command line.
+MAZE_KINDS = ("scattered", "carved", "rooms")
+
 # Directions in (row, column) steps, clockwise from north; facing index 0..3.
 _STEPS = ((-1, 0), (0, 1), (1, 0), (0, -1))
 LEFT, RIGHT, FORWARD = 0, 1, 2

@@ -28,7 +28,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from structgen.devices import resolve_device
-from structgen.domains.warehouse.maze import _STEPS, FORWARD, LEFT, RIGHT, diameter
+from structgen.domains.warehouse.maze import _STEPS, FORWARD, LEFT, MAZE_KINDS, RIGHT, diameter
 from structgen.errors import InputError
 from structgen.threads import one_torch_thread
 
@@ -38,8 +38,6 @@ ENV_ID = "structgen/Maze-v0"
 #: The fourth action: stand still for a step.
 STAY = 3
 VIEW = 5
-#: Kinds of :func:`random_maze`.
-MAZE_KINDS = ("scattered", "carved", "rooms")
 
 
 def random_maze(rng: np.random.Generator, size: int = 16, kind: str = "scattered", density: float | None = None) -> np.ndarray:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import io
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -30,10 +30,11 @@ import torch
 from evolution import RunFolder
 from evolution.files import MiB, atomic_write, read_bytes
 from structgen.config import ConfigError, build, flatten, to_table
+from structgen.domains.warehouse.agent_settings import AgentSettings
 from structgen.domains.warehouse.maze_agent import MazePolicy, RememberingMazes, run_agent
 from structgen.domains.warehouse.maze_env import TorchMazes, _has_two_connected_floor_cells, random_maze
 from structgen.errors import InputError
-from structgen.ppo import PPO, PPOSettings
+from structgen.ppo import PPO
 
 __all__ = ["AgentSettings", "Curriculum", "RUN_KIND", "load_agent", "save_agent", "train_agent"]
 
@@ -45,64 +46,6 @@ TRAINING_KINDS = ("scattered", "carved")
 #: Held-out mazes of the learning curve: ``rooms`` mazes from this seed.
 HELD_OUT_SEED, HELD_OUT_COUNT = 12345, 100
 _MAX_AGENT_BYTES = 64 * MiB
-
-
-@dataclass(frozen=True)
-class AgentSettings:
-    """Attributes: updates (PPO updates), envs (mazes played at once), steps (per maze per update), epochs,
-    minibatches, learning_rate, gamma, gae_lambda, entropy, hidden (network width), size (maze side), replay,
-    edit, buffer, temperature, staleness (the curriculum, see the module), checkpoint_every and evaluate_every
-    (updates), seed, device."""
-
-    updates: int = 500
-    envs: int = 256
-    steps: int = 128
-    epochs: int = 4
-    minibatches: int = 4
-    learning_rate: float = 3e-4
-    gamma: float = 0.995
-    gae_lambda: float = 0.95
-    entropy: float = 0.01
-    hidden: int = 256
-    size: int = 16
-    replay: float = 0.5
-    edit: float = 0.5
-    buffer: int = 1000
-    temperature: float = 0.3
-    staleness: float = 0.3
-    checkpoint_every: int = 10
-    evaluate_every: int = 10
-    seed: int = 0
-    device: str = "cpu"
-
-    def __post_init__(self) -> None:
-        for name in ("replay", "edit", "staleness"):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
-                raise ValueError(f"agent {name} must be a probability from 0 to 1, got {value!r}")
-        if not self.temperature > 0:
-            raise ValueError(f"agent temperature must be positive, got {self.temperature!r}")
-        for name in ("size", "buffer", "checkpoint_every", "evaluate_every"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < (4 if name == "size" else 1):
-                raise ValueError(f"agent {name} must be a whole number of at least {4 if name == 'size' else 1}, got {value!r}")
-        self.ppo()  # PPO's own checks, named by field
-
-    def ppo(self) -> PPOSettings:
-        return PPOSettings(
-            envs=self.envs,
-            steps=self.steps,
-            updates=self.updates,
-            epochs=self.epochs,
-            minibatches=self.minibatches,
-            learning_rate=self.learning_rate,
-            gamma=self.gamma,
-            gae_lambda=self.gae_lambda,
-            entropy=self.entropy,
-            hidden=self.hidden,
-            seed=self.seed,
-            device=self.device,
-        )
 
 
 class Curriculum:
