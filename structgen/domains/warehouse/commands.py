@@ -772,8 +772,8 @@ def _add_experiment(subparsers: Any, kind: LayoutKind) -> None:
         description="Grow a maze with a generator trained small (an elite of a maze RUN_DIR) at its own size and at "
         "--large-size, or take the two mazes from --small and --large files, run the learned agent on each "
         "--episodes times, make --baselines random mazes as the original does (as many walls as the large maze, "
-        "placed uniformly, drawn again until the longest shortest path is within 80-120 %% of the large maze's) and "
-        "run it --baseline-episodes times on each; print the success rates beside the paper's (90 %%, 93 %%, 22 %%).",
+        "placed uniformly, drawn again until the longest shortest path is within 80-120 % of the large maze's) and "
+        "run it --baseline-episodes times on each; print the success rates beside the paper's (90 %, 93 %, 22 %).",
     )
     p.add_argument(
         "run_dir", nargs="?", default=None, metavar="RUN_DIR", help="a maze evolution run (its generators trained small)"
