@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -231,3 +232,41 @@ def test_the_agent_commands(tmp_path, capsys):
     (tmp_path / "shut.json").write_text(json.dumps({"name": "shut", "n_row": 4, "n_col": 4, "layout": walled_in}))
     code, _, err = cli(capsys, "maze", "test-agent", tmp_path / "shut.json")
     assert code != 0 and "shut.json: no two floor cells are connected" in err
+
+
+def test_the_experiment_grows_a_runs_elite_small_and_large(tmp_path, capsys):
+    config = Path(__file__).resolve().parents[2] / "configs" / "maze_cma_mae.toml"
+    code, _, _ = cli(
+        capsys,
+        "evolve",
+        config,
+        "--generations",
+        1,
+        "--workers",
+        0,
+        "--run-dir",
+        tmp_path / "run",
+        "--set",
+        "problem.episodes=2",
+        "--set",
+        "optimizer.batch_size=4",
+    )
+    assert code == 0
+    code, out, _ = cli(
+        capsys,
+        "maze",
+        "experiment",
+        tmp_path / "run",
+        "--large-size",
+        "32x32",
+        "--episodes",
+        3,
+        "--baselines",
+        2,
+        "--baseline-episodes",
+        1,
+        "--json",
+    )
+    result = json.loads(out)
+    assert code == 0 and "(elite index:" in result["source"] and "grown at 16x16 and 32x32" in result["source"]
+    assert [row["size"] for row in result["rows"]] == ["18x18", "34x34", "34x34"]

@@ -701,11 +701,11 @@ def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray,
         problem = run.problem
         if getattr(problem, "kind", None) is not kind:
             raise InputError(f"{args.run_dir}: not a maze run (its problem is {run.experiment.domain!r})")
-        genome = _experiment_elite(run, args.elite)
         large_problem = LayoutProblem(dataclasses.replace(problem.settings, size=args.large_size))
+        genome, elite = _experiment_elite(run, args.elite, large_problem, args.seed)
         small = kind.storage(problem.grow(np.asarray(genome)[None])[0])
         large = kind.storage(large_problem.grow(np.asarray(genome)[None])[0])
-        return small, large, f"{args.run_dir} (elite {args.elite}), grown at {problem.settings.size} and {args.large_size}"
+        return small, large, f"{args.run_dir} (elite {elite}), grown at {problem.settings.size} and {args.large_size}"
     if not (args.small and args.large):
         raise InputError("give a maze RUN_DIR, or --small FILE and --large FILE (e.g. the paper's grown mazes)")
     pair = []
@@ -715,19 +715,40 @@ def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray,
     return pair[0], pair[1], f"{args.small} and {args.large}"
 
 
-def _experiment_elite(run: Any, elite: str) -> Any:
-    """``longest``: the archive elite with the longest mean agent path among those the agent solves in at least 90 %
-    of its episodes (the harder mazes the agent still masters); else as ``structgen export --elite``."""
+#: How many elites ``--elite longest`` tries, and how many random baselines it draws for each, before giving up.
+_CANDIDATES, _SCREEN_DRAWS = 10, 20
+
+
+def _experiment_elite(run: Any, elite: str, large_problem: Any, seed: int) -> tuple[Any, str]:
+    """The generator and its name. ``longest``: of the archive elites whose maze the agent solves in at least 90 %
+    of its episodes, by longest mean agent path, the first whose large maze random baselines can match (one of
+    :data:`_SCREEN_DRAWS` random mazes of its wall count within the path-length band: some grow large mazes whose
+    longest path no random maze of that wall count reaches). Else as ``structgen export --elite``."""
+    from structgen.domains.warehouse.maze import diameter
+    from structgen.domains.warehouse.maze_experiment import baseline_mazes
     from structgen.runs import elite_genome
 
     if elite != "longest":
-        return elite_genome(run.folder, run.problem, elite)
-    rows = run.folder.archive_rows()
-    chosen = [r for r in rows if float(r.get("success_rate", 0.0)) >= 0.9]
-    if not chosen:
+        return elite_genome(run.folder, run.problem, elite), elite
+    rows = [r for r in run.folder.archive_rows() if float(r.get("success_rate", 0.0)) >= 0.9]
+    if not rows:
         raise InputError(f"{run.path}: no archive elite whose maze the agent solves in 90 % of its episodes; give --elite")
-    best = max(chosen, key=lambda r: (float(r["path_length"]), -int(r["index"])))
-    return run.folder.archive_genome(int(best["index"]), run.problem)
+    rows.sort(key=lambda r: (-float(r["path_length"]), int(r["index"])))
+    rng = np.random.default_rng([seed, 3])
+    for row in rows[:_CANDIDATES]:
+        genome = run.folder.archive_genome(int(row["index"]), run.problem)
+        large = run.problem.kind.storage(large_problem.grow(np.asarray(genome)[None])[0])
+        if diameter(large) is None:
+            continue
+        try:
+            baseline_mazes(large, 1, rng, tries=_SCREEN_DRAWS)
+        except ValueError:
+            continue
+        return genome, f"index:{row['index']}"
+    raise InputError(
+        f"{run.path}: none of the {min(len(rows), _CANDIDATES)} longest-path elites grows a large maze that random "
+        "baselines can match; give --elite"
+    )
 
 
 def cmd_experiment(args: argparse.Namespace) -> int:
