@@ -144,12 +144,13 @@ def measure(
     if kind.name == "maze":
         from structgen.domains.warehouse.maze import diameter, run_episodes
 
-        grown = kind.storage(grid.tiles) if _is_walled(grid) else grid.tiles
+        grown = _grown_maze(grid, kind)
         ends = diameter(grown)
         if agent == "learned" and ends is not None:
             from structgen.domains.warehouse.maze_agent import run_agent
+            from structgen.domains.warehouse.maze_training import agent_policy
 
-            results = run_agent(_agent_policy(weights), [grown], episodes=episodes, seed=seed)
+            results = run_agent(agent_policy(weights), [grown], episodes=episodes, seed=seed)
             success, steps = results.success_rate, float(results.steps[0])
         elif agent == "learned":  # no path: nothing to run
             success, steps = 0.0, float(2 * (grown.shape[0] + 2) * (grown.shape[1] + 2))
@@ -178,9 +179,11 @@ def measure(
     return out
 
 
-def _is_walled(grid: Grid) -> bool:
+def _grown_maze(grid: Grid, kind: LayoutKind) -> np.ndarray:
+    """The maze inside its outer wall, whether the file holds the wall or not."""
     t = grid.tiles
-    return bool((t[0] == 1).all() and (t[-1] == 1).all() and (t[:, 0] == 1).all() and (t[:, -1] == 1).all())
+    walled = bool((t[0] == 1).all() and (t[-1] == 1).all() and (t[:, 0] == 1).all() and (t[:, -1] == 1).all())
+    return kind.storage(t) if walled else t
 
 
 def cmd_measure(args: argparse.Namespace) -> int:
@@ -605,23 +608,18 @@ def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
     p.set_defaults(handler=cmd_train_agent, kind=kind.name)
 
 
-def _agent_policy(weights: str | None):
-    from structgen.domains.warehouse.maze_training import load_agent, shipped_agent_path
-
-    return load_agent(weights or shipped_agent_path())[0]
-
-
 def cmd_test_agent(args: argparse.Namespace) -> int:
     from structgen.domains.warehouse.maze_agent import run_agent
     from structgen.domains.warehouse.maze_env import random_maze
+    from structgen.domains.warehouse.maze_training import agent_policy
 
     kind = _kind(args)
-    policy = _agent_policy(args.weights)
+    policy = agent_policy(args.weights)
     if args.files:
         from structgen.domains.warehouse.maze import diameter
 
         grids = [_load(f, kind) for f in args.files]
-        mazes = [kind.storage(g.tiles) if _is_walled(g) else g.tiles for g in grids]
+        mazes = [_grown_maze(g, kind) for g in grids]
         for path, maze in zip(args.files, mazes):
             if diameter(maze) is None:
                 raise InputError(f"{path}: no two floor cells are connected, so the maze has no start and goal to test")
@@ -710,8 +708,7 @@ def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray,
         raise InputError("give a maze RUN_DIR, or --small FILE and --large FILE (e.g. the paper's grown mazes)")
     pair = []
     for path in (args.small, args.large):
-        grid = _load(path, kind)
-        pair.append(kind.storage(grid.tiles) if _is_walled(grid) else grid.tiles)
+        pair.append(_grown_maze(_load(path, kind), kind))
     return pair[0], pair[1], f"{args.small} and {args.large}"
 
 
@@ -753,10 +750,11 @@ def _experiment_elite(run: Any, elite: str, large_problem: Any, seed: int) -> tu
 
 def cmd_experiment(args: argparse.Namespace) -> int:
     from structgen.domains.warehouse.maze_experiment import PAPER, maze_experiment
+    from structgen.domains.warehouse.maze_training import agent_policy
 
     kind = _kind(args)
     small, large, source = _grown_pair(args, kind)
-    policy = _agent_policy(args.weights)
+    policy = agent_policy(args.weights)
     try:
         rows, _ = maze_experiment(
             policy,

@@ -136,9 +136,8 @@ def memory_side(mazes: TorchMazes) -> int:
 
 class RememberingMazes:
     """:class:`TorchMazes` whose agents keep a :class:`PathMemory`; observations are ``(patch, coarse patch,
-    direction)`` and
-    :meth:`step` returns ``(observation, reward, done)`` as :class:`structgen.ppo.PPO` wants. ``reached`` and
-    ``cut`` of the last step are kept as attributes."""
+    direction)`` and :meth:`step` returns ``(observation, reward, done)`` as :class:`structgen.ppo.PPO` wants.
+    ``reached`` and ``cut`` of the last step are kept as attributes."""
 
     def __init__(self, mazes: TorchMazes) -> None:
         self.mazes = mazes
@@ -149,6 +148,10 @@ class RememberingMazes:
         self, view: torch.Tensor, direction: torch.Tensor, counted: torch.Tensor | None = None
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         self.memory.see(view, direction, counted)
+        return self._features(view, direction)
+
+    def _features(self, view: torch.Tensor, direction: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """The observation the policy sees, from the memory as it stands; ``view`` is kept for the next move."""
         self._view = view
         return self.memory.patch(direction), self.memory.coarse(direction), direction
 
@@ -170,9 +173,7 @@ class RememberingMazes:
 
     def current(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """The observation as it stands, the memory unchanged (after loading a checkpoint)."""
-        view, direction = self.mazes.observe()
-        self._view = view
-        return self.memory.patch(direction), self.memory.coarse(direction), direction
+        return self._features(*self.mazes.observe())
 
     def restart(self, rows: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """Observations after ``rows`` were given new levels (:meth:`TorchMazes.set_levels`): their maps start

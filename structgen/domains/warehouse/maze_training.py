@@ -36,7 +36,7 @@ from structgen.domains.warehouse.maze_env import TorchMazes, _has_two_connected_
 from structgen.errors import InputError
 from structgen.ppo import PPO
 
-__all__ = ["AgentSettings", "Curriculum", "RUN_KIND", "load_agent", "save_agent", "train_agent"]
+__all__ = ["AgentSettings", "Curriculum", "RUN_KIND", "agent_policy", "load_agent", "save_agent", "train_agent"]
 
 RUN_KIND = "maze-agent"
 DOMAIN = "maze-v0"
@@ -205,7 +205,15 @@ def shipped_agent_path() -> Path:
     for candidate in (here.parents[3] / "docs" / "maze_agent.pt", here.parent / "maze_agent.pt"):
         if candidate.is_file():
             return candidate
-    raise InputError("the shipped maze agent (docs/maze_agent.pt) is not in this installation; give --agent-weights FILE")
+    raise InputError(
+        "the shipped maze agent (docs/maze_agent.pt) is not in this installation; give --weights FILE "
+        "(problem.agent_weights in a run's configuration)"
+    )
+
+
+def agent_policy(weights: str | Path | None = None) -> MazePolicy:
+    """The agent in ``weights``, or the shipped one when none is named."""
+    return load_agent(weights or shipped_agent_path())[0]
 
 
 # --- the run folder -----------------------------------------------------------------------------------------------------------
@@ -363,7 +371,6 @@ def train_agent(
         rows = _history(folder, done)
         held_out = held_out_mazes(settings.size)
         bar = tqdm(total=settings.updates, initial=done, desc="maze agent", unit="update", disable=not progress)
-        steps_so_far = rows[-1]["agent_steps"] if rows else 0
         while done < settings.updates:
             started = time.perf_counter()
             rollout = ppo.collect(env, observation)
@@ -374,11 +381,10 @@ def train_agent(
             env.log.clear()
             losses = ppo.update(rollout)
             done += 1
-            steps_so_far += settings.envs * settings.steps
             ended, env.ended = env.ended, []
             row: dict[str, Any] = {
                 "update": done,
-                "agent_steps": steps_so_far,
+                "agent_steps": done * settings.envs * settings.steps,
                 "episodes": len(ended),
                 "success": float(np.mean([r for r, _ in ended])) if ended else None,
                 "return": float(np.mean([g for _, g in ended])) if ended else None,

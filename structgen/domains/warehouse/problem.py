@@ -238,9 +238,9 @@ class LayoutProblem(Problem):
             from structgen.domains.warehouse.maze_agent import run_agent
 
             if self._agent is None:
-                from structgen.domains.warehouse.maze_training import load_agent, shipped_agent_path
+                from structgen.domains.warehouse.maze_training import agent_policy
 
-                self._agent = load_agent(settings.agent_weights or shipped_agent_path())[0]
+                self._agent = agent_policy(settings.agent_weights)
             chosen = np.asarray(seeds)[solvable]
             results = run_agent(self._agent, [grown[i] for i in solvable], episodes=settings.episodes, seeds=chosen)
             success[solvable], steps[solvable] = results.reached, results.steps
