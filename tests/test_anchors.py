@@ -12,9 +12,16 @@ import pytest
 ANCHORS = Path(__file__).resolve().parents[1] / "benchmarks" / "anchors"
 
 
-@pytest.mark.parametrize("script", ["growth.py", "fortress.py", "autoverse.py"])
+SCRIPTS = ["growth.py", "fortress.py", "autoverse.py", "rhcr.py"]
+# What each script needs besides --original to get as far as looking at the checkout.
+EXTRA = {"autoverse.py": ["--python", sys.executable], "rhcr.py": ["speed"]}
+
+
+@pytest.mark.parametrize("script", SCRIPTS)
 def test_an_anchor_refuses_a_folder_that_is_not_the_original(script, tmp_path):
-    extra = ["--python", sys.executable] if script == "autoverse.py" else []
+    extra = EXTRA.get(script, [])
+    if script == "rhcr.py":
+        extra = [*extra, "--build-dir", str(tmp_path / "build")]
     done = subprocess.run(
         [sys.executable, str(ANCHORS / script), "--original", str(tmp_path), "--repeats", "1", *extra],
         capture_output=True,
@@ -25,7 +32,7 @@ def test_an_anchor_refuses_a_folder_that_is_not_the_original(script, tmp_path):
     assert str(tmp_path) in done.stderr and "not a checkout of https://github.com/" in done.stderr
 
 
-@pytest.mark.parametrize("script", ["growth.py", "fortress.py", "autoverse.py"])
+@pytest.mark.parametrize("script", SCRIPTS)
 def test_an_anchor_explains_its_options(script):
     done = subprocess.run([sys.executable, str(ANCHORS / script), "--help"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and "--original" in done.stdout and "median" in done.stdout
