@@ -113,6 +113,7 @@ CLASSES = frozenset(
         ("ribs.archives._grid_archive", "GridArchive"),
         ("ribs.emitters._evolution_strategy_emitter", "EvolutionStrategyEmitter"),
         ("ribs.emitters._gaussian_emitter", "GaussianEmitter"),
+        ("ribs.emitters._iso_line_emitter", "IsoLineEmitter"),
         ("ribs.emitters.opt._cma_es", "CMAEvolutionStrategy"),
         ("ribs.emitters.opt._cma_es", "DecompMatrix"),
         ("ribs.emitters.opt._sep_cma_es", "DiagonalMatrix"),

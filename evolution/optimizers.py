@@ -314,6 +314,11 @@ class CMAMAESettings:
             itself (CMA-ME).
         x0: where the emitters start: "random" (one genome from the problem's initial distribution), "zeros"
             (the origin, as the warehouse work does), or a ``.npy``/``.json`` file holding one genome.
+        emitter: "es" (CMA-ES emitters: CMA-MAE) or "iso_line" (pyribs' Iso+LineDD emitters on the same two
+            archives: the warehouse work's "MAP-Elites" baseline, whose configuration keeps CMA-MAE's learning
+            archive and result archive). With "iso_line", ``sigma0`` is the line step and ``iso_sigma`` the
+            isotropic one, and ``es``, ``ranker``, ``selection`` and ``restart`` do not apply.
+        iso_sigma: the isotropic mutation of the "iso_line" emitters (0.01 in the warehouse work).
     """
 
     cells: tuple[int, ...] = (16, 16)
@@ -328,6 +333,8 @@ class CMAMAESettings:
     restart: str = "no_improvement"
     result_archive: bool = True
     x0: str = "random"
+    emitter: str = "es"
+    iso_sigma: float = 0.01
 
     def __post_init__(self) -> None:
         _positive_int(self, "emitters", "batch_size")
@@ -340,7 +347,9 @@ class CMAMAESettings:
             "ranker": ("imp", "2imp", "obj", "2obj"),
             "selection": ("mu", "filter"),
             "restart": ("no_improvement", "basic"),
+            "emitter": ("es", "iso_line"),
         }
+        _in_range(self, "iso_sigma", 0.0, math.inf, low_open=True)
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
                 options = " or ".join(repr(a) for a in allowed)

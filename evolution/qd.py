@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 from ribs.archives import GridArchive
-from ribs.emitters import EmitterBase, EvolutionStrategyEmitter, GaussianEmitter
+from ribs.emitters import EmitterBase, EvolutionStrategyEmitter, GaussianEmitter, IsoLineEmitter
 from ribs.schedulers import Scheduler
 
 from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, start_genome
@@ -166,6 +166,19 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
     if settings.result_archive:
         result_archive = _grid_archive(problem, cells, int(seeds[1]), ranked_by=problem.result_objective)
     x0 = start_genome(problem, settings.x0, np.random.default_rng(int(seeds[2])))
+    if settings.emitter == "iso_line":
+        emitters = [
+            IsoLineEmitter(
+                archive,
+                iso_sigma=settings.iso_sigma,
+                line_sigma=settings.sigma0,
+                x0=x0,
+                batch_size=settings.batch_size,
+                seed=int(seeds[k + 3]),
+            )
+            for k in range(settings.emitters)
+        ]
+        return RibsOptimizer(Scheduler(archive, emitters, result_archive=result_archive), problem)
     emitters = [
         EvolutionStrategyEmitter(
             archive,

@@ -156,6 +156,7 @@ OPTIMIZERS = {
     "cma_es_mirrored": ("cma_es", Sphere, CMAESSettings(population=4)),  # pycma mirrors samples and keeps a range
     "map_elites": ("map_elites", Ones, MapElitesSettings(cells=(4, 4), batch_size=6)),
     "cma_mae": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3)),
+    "cma_mae_iso_line": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, emitter="iso_line")),
 }
 
 

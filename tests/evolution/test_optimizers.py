@@ -212,6 +212,23 @@ def test_a_result_archive_can_rank_by_a_field_instead_of_the_objective():
     assert restored.archive.ranked_by == "distance"
 
 
+def test_iso_line_emitters_search_cma_maes_archives_deterministically_and_resume():
+    # The warehouse work's "MAP-Elites" baseline: Iso+LineDD emitters on CMA-MAE's learning and result archives.
+    settings = CMAMAESettings(cells=(6, 6), emitters=2, batch_size=5, sigma0=0.3, emitter="iso_line", x0="zeros")
+    problem = Sphere()
+    optimizer = make_optimizer("cma_mae", problem, settings, seed=4)
+    first, _ = step(optimizer, problem)
+    assert np.array_equal(first, make_optimizer("cma_mae", problem, settings, seed=4).ask())
+    for g in range(1, 4):
+        step(optimizer, problem, g)
+    assert optimizer.scheduler.result_archive is not None and len(optimizer.scheduler.result_archive) > 1
+    copy = pickle.loads(pickle.dumps(optimizer))
+    copy.attach(problem)
+    assert np.array_equal(step(optimizer, problem, 4)[0], step(copy, problem, 4)[0])
+    with pytest.raises(ValueError, match="optimizer emitter must be 'es' or 'iso_line', got 'line'"):
+        CMAMAESettings(emitter="line")
+
+
 def test_cma_me_settings_reach_the_emitters_and_report_the_learning_archive():
     # The maze run of the warehouse paper: 2imp ranking, filter selection, learning rate 0.5, no result archive.
     settings = CMAMAESettings(
