@@ -424,6 +424,30 @@ def test_generate_repair_measure_and_show_from_the_command_line(tmp_path, capsys
     assert code == 0 and json.loads(out)["shortest_path"] >= -1
 
 
+def test_tiling_repeats_the_grown_part_and_the_tiled_map_repairs(tmp_path, capsys):
+    # A 9x16 warehouse (grown part 9x12) tiled to a grown part of 20x30: three by three copies cut at 20x30, with
+    # the workstation columns made for the new height, as the paper's tiling baseline builds its 101x102 maps.
+    rng = np.random.default_rng(3)
+    small = WAREHOUSE.complete(rng.integers(0, 3, size=(9, 12)).astype(np.uint8))
+    tiled = WAREHOUSE.tiled(small, "20x30")
+    grown = WAREHOUSE.storage(tiled)
+    assert tiled.shape == (20, 34) and np.array_equal(tiled, WAREHOUSE.complete(grown))
+    assert np.array_equal(grown[:9, :12], small[:, 2:-2]) and np.array_equal(grown[9:18, 12:24], small[:, 2:-2])
+    assert np.array_equal(grown[18:, 24:], small[:2, 2:8])
+    factory = MANUFACTURING.tiled(np.arange(12, dtype=np.uint8).reshape(3, 4) % 5, "5x6")  # no fixed parts
+    assert factory.shape == (5, 6) and factory[3, 4] == factory[0, 0]
+    source, out, fixed = tmp_path / "small.json", tmp_path / "big.json", tmp_path / "fixed.json"
+    Grid(small, WAREHOUSE.vocabulary).save(source)
+    code, printed, _ = run(capsys, "warehouse", "tile", source, "--size", "20x30", "-o", out)
+    assert code == 0 and "20x34 tiled from 9x16" in printed
+    data = json.loads(out.read_text())
+    assert data["tiled_from"] == str(source) and np.array_equal(Grid.load(out, WAREHOUSE.vocabulary).tiles, tiled)
+    assert run(capsys, "warehouse", "repair", out, "-o", fixed, "--shelves", 60, "--time-limit", 30)[0] == 0
+    assert not violations(Grid.load(fixed, WAREHOUSE.vocabulary).tiles, WAREHOUSE, shelves=60, fixed=tiled)
+    code, _, err = run(capsys, "warehouse", "tile", source, "--size", "huge", "-o", tmp_path / "no.json")
+    assert code == 2 and "--size: unknown warehouse size 'huge'" in err and not (tmp_path / "no.json").exists()
+
+
 def test_bad_map_files_and_impossible_repairs_exit_2_and_write_nothing(tmp_path, capsys):
     ragged = tmp_path / "ragged.json"
     ragged.write_text('{"layout": ["...", ".."]}')

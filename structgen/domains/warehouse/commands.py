@@ -1,5 +1,5 @@
 """The verbs of the layout domains: ``structgen warehouse|manufacturing|maze
-generate|repair|simulate|evaluate|show|measure`` (``simulate`` and ``evaluate``: warehouses and manufacturing
+generate|tile|repair|simulate|evaluate|show|measure`` (``simulate`` and ``evaluate``: warehouses and manufacturing
 floors)."""
 
 from __future__ import annotations
@@ -77,6 +77,27 @@ def cmd_generate(args: argparse.Namespace) -> int:
     print(
         f"{args.output}: {kind.name} {tiles.shape[0]}x{tiles.shape[1]} grown in {iterations} steps ({seconds:.2f} s); "
         f"{_counts(grid, kind)}"
+    )
+    return EXIT_OK
+
+
+# -- tile -------------------------------------------------------------------------------------------------------------
+def cmd_tile(args: argparse.Namespace) -> int:
+    kind = _kind(args)
+    _check_output(args.output, ".json")
+    grid = _load(args.file, kind)
+    small = kind.storage(grid.tiles)
+    if small.size == 0 or (kind.name != "maze" and small.max(initial=0) >= kind.nca_tiles):
+        raise InputError(f"{args.file}: the part of the map to repeat holds tiles the {kind.name} NCA does not grow")
+    try:
+        tiles = kind.tiled(grid.tiles, args.size)
+    except ValueError as err:
+        raise InputError(f"--size: {err}") from None
+    out = kind.grid(tiles, name=args.output.stem, kind=kind.name, tiled_from=str(args.file))
+    out.save(args.output)
+    print(
+        f"{args.output}: {kind.name} {tiles.shape[0]}x{tiles.shape[1]} tiled from {grid.shape[0]}x{grid.shape[1]} "
+        f"(unrepaired); {_counts(out, kind)}"
     )
     return EXIT_OK
 
@@ -368,6 +389,25 @@ def _add_generate(subparsers: Any, kind: LayoutKind) -> None:
     p.add_argument("--device", type=device_name, default=None, help="torch device: cpu, cuda, cuda:N (default: the CPU)")
     p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
     p.set_defaults(handler=cmd_generate, kind=kind.name)
+
+
+def _add_tile(subparsers: Any, kind: LayoutKind) -> None:
+    p = subparsers.add_parser(
+        "tile",
+        help=f"repeat a small {kind.name} layout to fill a larger size (the paper's tiling baseline)",
+        description="Repeat the part of FILE that the NCA grows (for warehouses, the storage area between the "
+        "workstation columns) along both axes until it fills --size, cut it there from the top-left, add the fixed "
+        "parts and write the result, unrepaired, as a map JSON file. The warehouse paper's baseline against growing "
+        "large: tile a trained 33x36 layout to 101x102, then repair it (the repair command) and evaluate it.",
+    )
+    p.add_argument("file", metavar="FILE", help="map JSON file to repeat (a whole map)")
+    p.add_argument(
+        "--size",
+        required=True,
+        help=f"size to fill: {', '.join(kind.sizes)}, or ROWSxCOLUMNS of the grown area",
+    )
+    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
+    p.set_defaults(handler=cmd_tile, kind=kind.name)
 
 
 def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
@@ -830,6 +870,7 @@ class LayoutCommands(DomainCommands):
     def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
         adders = {
             "generate": _add_generate,
+            "tile": _add_tile,
             "repair": _add_repair,
             "simulate": _add_simulate,
             "evaluate": _add_evaluate,
@@ -879,6 +920,8 @@ class LayoutCommands(DomainCommands):
         return f"{output}: {problem.kind.name} {tiles.shape[0]}x{tiles.shape[1]} (unrepaired)"
 
 
-WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("generate", "repair", "simulate", "evaluate", "show", "measure"))
-MANUFACTURING_COMMANDS = LayoutCommands("manufacturing", ("generate", "repair", "simulate", "evaluate", "show", "measure"))
-MAZE_COMMANDS = LayoutCommands("maze", ("generate", "show", "measure", "train-agent", "test-agent", "experiment"))
+WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("generate", "tile", "repair", "simulate", "evaluate", "show", "measure"))
+MANUFACTURING_COMMANDS = LayoutCommands(
+    "manufacturing", ("generate", "tile", "repair", "simulate", "evaluate", "show", "measure")
+)
+MAZE_COMMANDS = LayoutCommands("maze", ("generate", "tile", "show", "measure", "train-agent", "test-agent", "experiment"))

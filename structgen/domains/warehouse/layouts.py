@@ -116,6 +116,15 @@ class LayoutKind:
     def grid(self, tiles: np.ndarray, **metadata) -> Grid:
         return Grid(tiles, self.vocabulary, metadata)
 
+    def tiled(self, tiles: np.ndarray, size: str) -> np.ndarray:
+        """The whole map ``tiles`` repeated to fill ``size`` (a named size or ROWSxCOLUMNS of the grown area): its
+        grown part is repeated along both axes as often as needed, cut to the new grown area from the top-left,
+        and the fixed parts added (the warehouse paper's tiling baseline, which it then repairs)."""
+        small = self.storage(tiles)
+        rows, cols = self.size(size).grown
+        repeats = (-(-rows // small.shape[0]), -(-cols // small.shape[1]))
+        return self.complete(np.tile(small, repeats)[:rows, :cols])
+
 
 class _Warehouse(LayoutKind):
     #: Columns on each side of the storage area that hold the workstations.
