@@ -448,6 +448,24 @@ def test_tiling_repeats_the_grown_part_and_the_tiled_map_repairs(tmp_path, capsy
     assert code == 2 and "--size: unknown warehouse size 'huge'" in err and not (tmp_path / "no.json").exists()
 
 
+def test_a_local_repair_changes_only_the_broken_corner_of_a_large_layout():
+    # A valid 33x36 warehouse (the greedy repair's), broken in one corner and given two shelves too few: the local
+    # repair solves only around the damage and the cells that can take a shelf, and keeps everything else.
+    valid = greedy_repair(WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8)), WAREHOUSE, shelves=240)
+    broken = valid.copy()
+    broken[3:6, 4:7] = WAREHOUSE.vocabulary.index("@")  # a solid block: its middle shelf has no endpoint
+    shelves = int((broken == WAREHOUSE.vocabulary.index("@")).sum()) + 2
+    result = repair(broken, WAREHOUSE, shelves=shelves, local_first=True, time_limit=60)
+    assert result.method == "local" and not result.optimal
+    assert not violations(result.tiles, WAREHOUSE, shelves=shelves, fixed=broken)
+    assert 0 < result.hamming <= 12
+    # Broken all over, the local region would be the whole map: the usual search takes it.
+    everywhere = WAREHOUSE.complete(np.ones((33, 32), dtype=np.uint8))
+    assert repair(everywhere, WAREHOUSE, shelves=240, local_first=True, time_limit=30).method != "local"
+    with pytest.raises(ValueError, match="the local repair is for warehouses"):
+        repair(np.zeros((9, 9), dtype=np.uint8), MANUFACTURING, agents=10, local_first=True)
+
+
 def test_bad_map_files_and_impossible_repairs_exit_2_and_write_nothing(tmp_path, capsys):
     ragged = tmp_path / "ragged.json"
     ragged.write_text('{"layout": ["...", ".."]}')

@@ -132,6 +132,7 @@ def cmd_repair(args: argparse.Namespace) -> int:
         greedy_first=AUTO_YES_NO[args.greedy],
         round_relaxation=AUTO_YES_NO[args.round_relaxation],
         good_enough=args.good_enough,
+        local_first=AUTO_YES_NO[getattr(args, "local", "no")],
     )
     hamming, score = similarity(grid.tiles, result.tiles, kind)
     metadata = {
@@ -452,6 +453,14 @@ def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
         "for the fewest changes until the time limit)",
     )
     if kind.name == "warehouse":
+        p.add_argument(
+            "--local",
+            choices=tuple(AUTO_YES_NO),
+            default="auto",
+            help="first solve only around the cells that break a rule (and the cells that can fix a wrong shelf "
+            "count), holding the rest; its answer ends the repair, keeping a large layout's pattern: auto (above "
+            "4,000 cells, when that region is at most 40 %% of the storage area), yes, no",
+        )
         p.add_argument(
             "--shelves",
             type=whole_number(0, 10**7),

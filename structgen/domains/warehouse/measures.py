@@ -75,8 +75,8 @@ def neighbour_count(mask: np.ndarray) -> np.ndarray:
     return count
 
 
-def _unreached(passable: np.ndarray, targets: np.ndarray, starts: list[tuple[int, int]]) -> int:
-    """How many ``targets`` cells are neither passable-and-reached from ``starts`` nor next to such a cell."""
+def _reached(passable: np.ndarray, targets: np.ndarray, starts: list[tuple[int, int]]) -> np.ndarray:
+    """Which ``targets`` cells are passable-and-reached from ``starts``, or next to such a cell."""
     rows, cols = passable.shape
     seen = np.zeros_like(passable)
     for start in starts:
@@ -89,8 +89,7 @@ def _unreached(passable: np.ndarray, targets: np.ndarray, starts: list[tuple[int
                 seen[nr, nc] = True
                 queue.append((nr, nc))
     touched = seen | (neighbour_count(seen) > 0)
-    reached = np.where(passable, seen, touched)
-    return int((targets & ~reached).sum())
+    return targets & np.where(passable, seen, touched)
 
 
 def violations(
@@ -112,9 +111,8 @@ def violations(
     tiles = np.asarray(tiles)
     found: list[str] = []
     code = kind.vocabulary.index
+    shelf, endpoint, passable, targets, starts = _floor_plan(tiles, kind)
     if kind.name == "warehouse":
-        shelf, endpoint = tiles == code("@"), tiles == code("e")
-        station = np.isin(tiles, [code("w"), code("r"), code("s")])
         if shelves is not None and int(shelf.sum()) != shelves:
             found.append(f"{int(shelf.sum())} shelves, expected {shelves}")
         if fixed is not None:
@@ -123,45 +121,69 @@ def violations(
             changed = int((border & (np.asarray(fixed) != tiles)).sum())
             if changed:
                 found.append(f"{changed} cells of the fixed workstation columns changed")
-        passable = ~shelf & ~station
-        targets = ~shelf
-        starts = np.argwhere(station)
-    elif kind.name == "manufacturing":
-        stations = [tiles == code(c) for c in "012"]
-        shelf = stations[0] | stations[1] | stations[2]
-        endpoint = np.isin(tiles, [code("e"), code("s")])
-        for n, mask in enumerate(stations):
-            if not mask.any():
+    else:
+        for n in range(3):
+            if not (tiles == code(str(n))).any():
                 found.append(f"no station of kind {n}")
         free = int((~shelf).sum())
         if free < agents:
             found.append(f"{free} cells free of stations, fewer than {agents} agents")
-        passable = targets = ~shelf
-        starts = np.argwhere(passable)
-    else:
-        raise ValueError(f"no validity rules for {kind.name} layouts")
-    lonely_shelves = int((shelf & (neighbour_count(endpoint) == 0)).sum())
-    if lonely_shelves:
-        found.append(f"{lonely_shelves} {'shelves' if kind.name == 'warehouse' else 'stations'} with no endpoint next to them")
-    lonely_endpoints = int((endpoint & (neighbour_count(shelf) == 0)).sum())
-    if lonely_endpoints:
-        found.append(f"{lonely_endpoints} endpoints with no {'shelf' if kind.name == 'warehouse' else 'station'} next to them")
+    lonely_shelf, lonely_endpoint, unreached = _cells_breaking_rules(kind, shelf, endpoint, passable, targets, starts)
+    if lonely_shelf.any():
+        found.append(
+            f"{int(lonely_shelf.sum())} {'shelves' if kind.name == 'warehouse' else 'stations'} with no endpoint next to them"
+        )
+    if lonely_endpoint.any():
+        found.append(
+            f"{int(lonely_endpoint.sum())} endpoints with no {'shelf' if kind.name == 'warehouse' else 'station'} next to them"
+        )
     if len(starts) == 0:
         found.append("nowhere to start: no workstation" if kind.name == "warehouse" else "no free cell")
-    else:
-        start = tuple(int(i) for i in starts[0])
-        if kind.name == "warehouse":
-            # The first workstation is the source: flow leaves it into every free neighbour.
-            free_next = [
-                (start[0] + dr, start[1] + dc)
-                for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1))
-                if 0 <= start[0] + dr < tiles.shape[0]
-                and 0 <= start[1] + dc < tiles.shape[1]
-                and passable[start[0] + dr, start[1] + dc]
-            ]
-            unreached = int(targets.sum()) if not free_next else _unreached(passable, targets, free_next)
-        else:
-            unreached = _unreached(passable, targets, [start])
-        if unreached:
-            found.append(f"{unreached} cells not connected to the rest")
+    elif unreached.any():
+        found.append(f"{int(unreached.sum())} cells not connected to the rest")
     return found
+
+
+def broken_cells(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE) -> np.ndarray:
+    """The cells that break a rule of their own (a shelf or station with no endpoint beside it, an endpoint with
+    none beside it, a cell the workstations' floor does not reach), as a boolean map: where a repair that keeps the
+    rest of a layout must make its changes. Counts (the shelf count, one station of each kind) are not cells'."""
+    shelf, endpoint, passable, targets, starts = _floor_plan(np.asarray(tiles), kind)
+    lonely_shelf, lonely_endpoint, unreached = _cells_breaking_rules(kind, shelf, endpoint, passable, targets, starts)
+    return lonely_shelf | lonely_endpoint | unreached
+
+
+def _floor_plan(tiles: np.ndarray, kind: LayoutKind):
+    """(shelves or stations, endpoints, cells robots cross, cells that must be reached, cells reaching starts
+    from) of a warehouse or manufacturing map."""
+    code = kind.vocabulary.index
+    if kind.name == "warehouse":
+        shelf, endpoint = tiles == code("@"), tiles == code("e")
+        station = np.isin(tiles, [code("w"), code("r"), code("s")])
+        return shelf, endpoint, ~shelf & ~station, ~shelf, np.argwhere(station)
+    if kind.name == "manufacturing":
+        shelf = np.isin(tiles, [code(c) for c in "012"])
+        return shelf, np.isin(tiles, [code("e"), code("s")]), ~shelf, ~shelf, np.argwhere(~shelf)
+    raise ValueError(f"no validity rules for {kind.name} layouts")
+
+
+def _cells_breaking_rules(kind, shelf, endpoint, passable, targets, starts):
+    """(shelves with no endpoint beside them, endpoints with no shelf beside them, targets not reached): the rules
+    :func:`violations` words and :func:`broken_cells` maps. Warehouse reachability starts at the first workstation,
+    whose flow leaves into every free neighbour; manufacturing's at its first free cell."""
+    lonely_shelf = shelf & (neighbour_count(endpoint) == 0)
+    lonely_endpoint = endpoint & (neighbour_count(shelf) == 0)
+    if len(starts) == 0:
+        return lonely_shelf, lonely_endpoint, np.zeros_like(shelf)
+    start = tuple(int(i) for i in starts[0])
+    if kind.name == "warehouse":
+        rows, cols = shelf.shape
+        free_next = [
+            (start[0] + dr, start[1] + dc)
+            for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1))
+            if 0 <= start[0] + dr < rows and 0 <= start[1] + dc < cols and passable[start[0] + dr, start[1] + dc]
+        ]
+        unreached = targets.copy() if not free_next else targets & ~_reached(passable, targets, free_next)
+    else:
+        unreached = targets & ~_reached(passable, targets, [start])
+    return lonely_shelf, lonely_endpoint, unreached

@@ -32,17 +32,19 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
+from scipy import ndimage, sparse
 
 from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, REPAIR_TIME_LIMIT, WAREHOUSE, LayoutKind
-from structgen.domains.warehouse.measures import violations
+from structgen.domains.warehouse.measures import broken_cells, neighbour_count, violations
 from structgen.errors import InputError
 
 log = logging.getLogger(__name__)
 
 __all__ = [
     "GREEDY_FIRST_CELLS",
+    "LOCAL_MAX_SHARE",
+    "LOCAL_RADIUS",
     "ROUNDING_MIN_CELLS",
     "ROUNDING_MIN_SECONDS",
     "RepairError",
@@ -53,6 +55,15 @@ __all__ = [
 
 #: Above this many cells the greedy repair runs first and seeds the MILP.
 GREEDY_FIRST_CELLS = 4000
+#: A local repair frees the cells within this many steps of a cell that breaks a rule (and the cells that can make
+#: up a wrong shelf count) and holds every other cell as it is.
+LOCAL_RADIUS = 2
+#: ... and is tried only when what it frees is at most this share of the storage area: a map broken all over is the
+#: full problem again (measured: the paper's unrepaired 101x102 maps would free 85 and 100 %, and with 53 % freed
+#: nothing was found in 110 s; a tiled map frees 28 %).
+LOCAL_MAX_SHARE = 0.4
+#: Share of the time left that the local repair may use before the full search takes over.
+LOCAL_SHARE = 0.5
 
 
 class RepairError(InputError):
@@ -116,6 +127,8 @@ class _Model:
         self.n_rows = 0
         self.cost: np.ndarray | None = None
         self.changes_offset = 0.0  # changed cells = cost @ values + changes_offset
+        self.tile_columns: np.ndarray | None = None  # (tiles, storage cells) column numbers, warehouses only
+        self.storage: np.ndarray | None = None  # the cells those columns belong to
 
     def columns(self, count: int, lower: float, upper: float, integer: bool) -> np.ndarray:
         ids = np.arange(self.n_cols, self.n_cols + count)
@@ -227,6 +240,7 @@ def repair(
     node_limit: int | None = None,
     round_relaxation: bool | None = None,
     good_enough: int | None = None,
+    local_first: bool | None = None,
 ) -> RepairResult:
     """Repair a whole map (for warehouses, with its workstation columns).
 
@@ -249,6 +263,14 @@ def repair(
             measured to help.
         good_enough: end the repair at the first valid layout that changes at most this many cells, proven optimal
             or not (``optimal`` says which). None: search for the fewest changes until the time limit.
+        local_first: (warehouses) first try a local repair: the cells that break a rule, those within
+            :data:`LOCAL_RADIUS` steps of them, and (when the shelf count is wrong) the cells that can take or give
+            up a shelf are solved for, every other cell held as it is; its answer, the fewest changes within that
+            region, ends the repair (``method`` "local", not proven optimal). A map whose region is more than
+            :data:`LOCAL_MAX_SHARE` of the storage area, or whose region has no answer, goes on to the usual search.
+            None: for warehouses above :data:`GREEDY_FIRST_CELLS` cells, where the full search keeps little of a
+            large layout's pattern (a tiled 101x102 warehouse: 255 changes in 14 s locally, as many as the
+            original's CPLEX made, against 5,528 from the full search in 120 s).
 
     Raises:
         RepairError: no valid layout exists under the rules, or neither HiGHS within the time limit nor the greedy
@@ -279,11 +301,18 @@ def repair(
     def seconds_left(share: float = 1.0) -> float:
         return max(share * (deadline - time.perf_counter()), 0.01)
 
+    solution = None
+    method = "local"
+    if local_first if local_first is not None else kind.name == "warehouse" and tiles.size > GREEDY_FIRST_CELLS:
+        if kind.name != "warehouse":
+            raise ValueError("the local repair is for warehouses")
+        solution = _repair_locally(model, encode, tiles, kind, shelves, seconds_left(LOCAL_SHARE), seed, threads, node_limit)
     greedy = None
-    if greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS:
+    if solution is None and (greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS):
         greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
     start = None if greedy is None else encode(greedy)
-    method = "milp" if greedy is None else "milp from greedy"
+    if solution is None:
+        method = "milp" if greedy is None else "milp from greedy"
     if round_relaxation is None:
         round_relaxation = (
             kind.name == "warehouse"
@@ -292,8 +321,9 @@ def repair(
         )
     # good_enough as an objective value; changes are whole, so half a change of slack is safe from rounding.
     target = None if good_enough is None else good_enough - model.changes_offset + 0.5
-    solution = None
-    rounded = _round_the_relaxation(model, seconds_left, seed, threads, node_limit) if round_relaxation else None
+    rounded = None
+    if round_relaxation and solution is None:
+        rounded = _round_the_relaxation(model, seconds_left, seed, threads, node_limit)
     if rounded is not None:
         if rounded.optimal or (target is not None and rounded.objective <= target):  # none changes fewer, or need to
             solution, method = rounded, "rounded relaxation"
@@ -372,6 +402,32 @@ def _round_the_relaxation(model: _Model, seconds_left, seed: int, threads: int, 
     optimal = bool(rounded.objective <= bound + 1e-6)
     gap = 0.0 if optimal else (rounded.objective - bound) / max(abs(rounded.objective), 1.0)  # HiGHS's definition
     return dataclasses.replace(rounded, optimal=optimal, gap=gap)
+
+
+def _repair_locally(model: _Model, encode, tiles: np.ndarray, kind: LayoutKind, shelves: int, seconds, seed, threads, node_limit):
+    """The fewest changes within the region around the cells that break a rule, every other cell held (see
+    :func:`repair`'s ``local_first``); None when the region is too large or holds no answer."""
+    code = kind.vocabulary.index
+    storage = model.storage
+    region = ndimage.binary_dilation(broken_cells(tiles, kind), iterations=LOCAL_RADIUS)
+    shelf = tiles == code("@")
+    missing = shelves - int(shelf.sum())
+    if missing > 0:  # floor beside an endpoint can take a shelf and keep that endpoint's rule
+        region |= (tiles == code(".")) & (neighbour_count(tiles == code("e")) > 0)
+    elif missing < 0:  # shelves on the edge of a block can go
+        region |= shelf & (neighbour_count(~shelf) > 0)
+    region &= storage
+    if region.sum() > LOCAL_MAX_SHARE * storage.sum():
+        log.info("local repair skipped: it would free %d of %d cells", int(region.sum()), int(storage.sum()))
+        return None
+    fix = np.zeros(model.n_cols, dtype=bool)
+    fix[model.tile_columns[:, ~region[storage]].ravel()] = True
+    found = model.solve(seconds, seed, threads, None, node_limit, fix=fix, fixed_values=encode(tiles))
+    if found.values is None:
+        log.info("local repair found nothing (%s); the full search goes on", found.status)
+        return None
+    # The fewest changes within the region, not proven the fewest overall.
+    return dataclasses.replace(found, optimal=False, gap=float("inf"))
 
 
 def _rules(kind: LayoutKind, shelves: int | None, agents: int) -> str:
@@ -459,6 +515,8 @@ def _warehouse_model(tiles: np.ndarray, *, shelves: int | None, agents: int):
     channel = np.select([storage_tiles == code("."), storage_tiles == code("@")], [0, 1], 2)
     cost[x[channel, k]] = -1.0
     model.cost, model.changes_offset = cost, float(len(storage_tiles))
+    # Where each storage cell's three tile columns are, for repairs that hold some cells (_repair_locally).
+    model.tile_columns, model.storage = x, storage
     channels = np.array([code("."), code("@"), code("e")])
 
     def decode(values: np.ndarray) -> np.ndarray:
