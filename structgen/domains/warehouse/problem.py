@@ -50,7 +50,10 @@ class WarehouseSettings:
     repair_time_limit: seconds HiGHS may spend on one layout.
     repair_threads: HiGHS's threads per repair.
     repair_node_limit: stop each repair after this many branch-and-bound nodes (0: no limit). Repairs cut short
-        by the time limit depend on the machine's speed; set this for runs that must repeat exactly.
+        by the time limit depend on the machine's speed; with a node limit they stop on a count instead, unless
+        HiGHS spends the whole time limit before branching (it can, on layouts far from valid: a random NCA's
+        33x36 layout with no shelves held it for the whole minute with any node limit), so a run repeats exactly
+        only when no repair reaches its time limit.
     hidden: the NCA's hidden channels (32 in the paper).
     """
 

@@ -255,7 +255,9 @@ def repair(
         threads: HiGHS's threads.
         greedy_first: run the greedy repair first and start HiGHS from it; None: above :data:`GREEDY_FIRST_CELLS`.
         node_limit: stop HiGHS after this many branch-and-bound nodes. A repair stopped by the time limit depends
-            on the machine's speed; one stopped by a node limit does not, so runs that must repeat exactly use it.
+            on the machine's speed; one stopped by a node limit does not. HiGHS has no such limit for its work
+            before the first branching, where layouts far from valid can keep it for the whole time limit, so
+            only a repair that ends before its time limit is sure to repeat.
         round_relaxation: first solve the linear relaxation and the smaller MILP left by holding the tiles it
             decided (see :func:`_round_the_relaxation`); that answer ends the repair when it meets the relaxation's
             bound and starts HiGHS's full search otherwise. None: for warehouses from :data:`ROUNDING_MIN_CELLS`
