@@ -161,6 +161,10 @@ def pbs_window(
     collision_stamp = 0
     nodes = 0
     dead_ends = 0
+    kept_agent = np.empty(n_agents, dtype=np.int64)
+    kept_cost = np.empty(n_agents, dtype=np.int64)
+    kept_path = np.empty((n_agents, window + 1), dtype=np.int32)
+    n_kept = 0
 
     while True:
         collision_stamp += window + 2
@@ -206,6 +210,13 @@ def pbs_window(
             )  # fmt: skip
             results[child] = ok
             child_cost[child] = total
+            if child == 0 and ok and not only_one:
+                # Keep the first child's new paths: if it wins, they go back in without planning them again.
+                n_kept = n_undo - base_undo
+                for i in range(n_kept):
+                    x = undo_agent[base_undo + i]
+                    kept_agent[i], kept_cost[i] = x, costs[x]
+                    kept_path[i] = paths[x]
         second_wins = not only_one and results[1] and (not results[0] or child_cost[1] < child_cost[0])
         if second_wins:  # the state holds the second child already
             if results[0]:
@@ -213,7 +224,7 @@ def pbs_window(
                 n_alt += 1
             continue
         if results[0]:
-            if not only_one:  # plan the first child again (the same result: everything here is deterministic)
+            if not only_one:  # back to the first child: its kept paths, logged for undoing as planning would log them
                 if results[1]:
                     alt_undo[n_alt], alt_edges[n_alt], alt_hi[n_alt], alt_lo[n_alt] = (
                         base_undo, base_edges, first_lo, first_hi
@@ -222,12 +233,16 @@ def pbs_window(
                 n_undo, total = _undo_to(base_undo, n_undo, undo_agent, undo_cost, undo_path, paths, costs, total)
                 n_edges = _pop_edges_to(base_edges, n_edges, edge_hi, edge_lo, next_up, next_down, head_up, head_down)
                 n_edges = _push_edge(first_hi, first_lo, n_edges, edge_hi, edge_lo, next_up, next_down, head_up, head_down)
-                ok, n_undo, total, stamp, mark_stamp, undo_agent, undo_cost, undo_path = _replan_below(
-                    first_lo, paths, costs, total, positions, goals, waits, n_goals, pinned, target_of, dist,
-                    neighbours, occupied, window, seen, parent, stamp, heap_keys, heap_states, path, head_up, next_up,
-                    edge_hi, head_down, next_down, edge_lo, mark, mark_stamp, queue, above, topo, indegree,
-                    n_undo, undo_agent, undo_cost, undo_path,
-                )  # fmt: skip
+                for i in range(n_kept):
+                    x = kept_agent[i]
+                    if n_undo == len(undo_agent):
+                        undo_agent, undo_cost, undo_path = _grown(undo_agent, undo_cost, undo_path)
+                    undo_agent[n_undo], undo_cost[n_undo] = x, costs[x]
+                    undo_path[n_undo] = paths[x]
+                    n_undo += 1
+                    paths[x] = kept_path[i]
+                    total += kept_cost[i] - costs[x]
+                    costs[x] = kept_cost[i]
             continue
         # Neither child works: return to the newest child left on the stack.
         dead_ends += 1
