@@ -92,7 +92,7 @@ def fidelity(cases, seeds: int, planners=PLANNERS) -> None:
 
 # RHCR's recorded times for the same workloads (benchmarks/anchors/README.md), where there is one.
 RHCR_TIMES = {
-    (CMA_MAE, 200): "16.4 s CPU (-O3 build, one core)",
+    (CMA_MAE, 200): "16.3 s CPU (-O3 build, one core)",
     (LARGE, 1000): "21 s CPU for the first 50 steps (-O3 build)",
 }
 
