@@ -428,7 +428,7 @@ def _repair_locally(model: _Model, encode, tiles: np.ndarray, kind: LayoutKind, 
     if found.values is None:
         log.info("local repair found nothing (%s); the full search goes on", found.status)
         return None
-    # The fewest changes within the region, not proven the fewest overall.
+    # The fewest changes within the region (or the best found in its time), not proven the fewest overall.
     return dataclasses.replace(found, optimal=False, gap=float("inf"))
 
 
