@@ -255,12 +255,15 @@ def simulate(
     congested = False
     t = 0
     while t < steps:
-        # Queue goals until the route through them, task waits included, is longer than the goal horizon.
-        for a in range(agents):
-            last, length = int(positions[a]), 0
-            for k in range(n_goals[a]):
-                length += manhattan(last, int(goals[a, k])) + int(waits[a, k])
-                last = int(goals[a, k])
+        # Queue goals until the route through them, task waits included, is longer than the goal horizon. The
+        # routes are measured for all agents at once; goals are drawn agent by agent, in order, for those short.
+        queued = np.arange(MAX_GOALS) < n_goals[:, None]
+        stops = np.concatenate([positions[:, None], goals], axis=1)
+        legs = np.abs(np.diff(stops // cols, axis=1)) + np.abs(np.diff(stops % cols, axis=1)) + waits
+        lengths = np.where(queued, legs, 0).sum(axis=1)
+        for a in np.flatnonzero((lengths <= goal_horizon) & (n_goals < MAX_GOALS)).tolist():
+            length = int(lengths[a])
+            last = int(goals[a, n_goals[a] - 1]) if n_goals[a] > 0 else int(positions[a])
             while length <= goal_horizon and n_goals[a] < MAX_GOALS:
                 goal, wait = tasks_of.next(a, last)
                 goals[a, n_goals[a]], waits[a, n_goals[a]] = goal, wait
