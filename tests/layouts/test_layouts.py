@@ -13,7 +13,7 @@ from structgen.cli import main
 from structgen.conv_nca import ConvNCA, parameter_count
 from structgen.domains.warehouse.layouts import MANUFACTURING, MAZE, WAREHOUSE
 from structgen.domains.warehouse.maze import AGENTS, diameter, run_episodes
-from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity, violations
+from structgen.domains.warehouse.measures import broken_cells, pattern_entropy, shelf_components, similarity, violations
 from structgen.domains.warehouse.repair import RepairError, greedy_repair, repair
 from structgen.grid import Grid, GridError
 from tests import reference
@@ -446,6 +446,25 @@ def test_tiling_repeats_the_grown_part_and_the_tiled_map_repairs(tmp_path, capsy
     assert not violations(Grid.load(fixed, WAREHOUSE.vocabulary).tiles, WAREHOUSE, shelves=60, fixed=tiled)
     code, _, err = run(capsys, "warehouse", "tile", source, "--size", "huge", "-o", tmp_path / "no.json")
     assert code == 2 and "--size: unknown warehouse size 'huge'" in err and not (tmp_path / "no.json").exists()
+
+
+def test_broken_cells_are_where_the_rules_fail():
+    shelf, endpoint, floor = (WAREHOUSE.vocabulary.index(c) for c in "@e.")
+    valid = greedy_repair(WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8)), WAREHOUSE, shelves=240)
+    assert not broken_cells(valid, WAREHOUSE).any()
+    broken = valid.copy()
+    broken[3:6, 4:7] = shelf  # the middle shelf has no endpoint beside it
+    broken[20, 10] = endpoint  # an endpoint with floor all round it
+    broken[19, 9:12] = broken[21, 9:12] = broken[20, 9] = broken[20, 11] = floor
+    cells = broken_cells(broken, WAREHOUSE)
+    assert cells[4, 5] and cells[20, 10]
+    assert not cells[10:15, 20:30].any()  # far from the damage nothing is flagged
+    walled = valid.copy()
+    walled[:, 20] = shelf  # a wall of shelves cuts the right side off the left workstations
+    far = broken_cells(walled, WAREHOUSE)
+    assert far[:, 25].any() and not far[:, 5].any()
+    with pytest.raises(ValueError, match="no validity rules for maze"):
+        broken_cells(np.zeros((4, 4), dtype=np.uint8), MAZE)
 
 
 def test_a_local_repair_changes_only_the_broken_corner_of_a_large_layout():
