@@ -784,10 +784,11 @@ def _experiment_elite(run: Any, elite: str, large_problem: Any, seed: int) -> tu
     for row in rows[:_CANDIDATES]:
         genome = run.folder.archive_genome(int(row["index"]), run.problem)
         large = run.problem.kind.storage(large_problem.grow(np.asarray(genome)[None])[0])
-        if diameter(large) is None:
+        ends = diameter(large)
+        if ends is None:
             continue
         try:
-            baseline_mazes(large, 1, rng, tries=_SCREEN_DRAWS)
+            baseline_mazes(large, 1, rng, tries=_SCREEN_DRAWS, reference_length=ends[2])
         except ValueError:
             continue
         return genome, f"index:{row['index']}"
