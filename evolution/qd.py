@@ -178,19 +178,19 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
             )
             for k in range(settings.emitters)
         ]
-        return RibsOptimizer(Scheduler(archive, emitters, result_archive=result_archive), problem)
-    emitters = [
-        EvolutionStrategyEmitter(
-            archive,
-            x0=x0,
-            sigma0=settings.sigma0,
-            ranker=settings.ranker,
-            selection_rule=settings.selection,
-            restart_rule=settings.restart,
-            es=settings.es,
-            batch_size=settings.batch_size,
-            seed=int(seeds[k + 3]),
-        )
-        for k in range(settings.emitters)
-    ]
+    else:
+        emitters = [
+            EvolutionStrategyEmitter(
+                archive,
+                x0=x0,
+                sigma0=settings.sigma0,
+                ranker=settings.ranker,
+                selection_rule=settings.selection,
+                restart_rule=settings.restart,
+                es=settings.es,
+                batch_size=settings.batch_size,
+                seed=int(seeds[k + 3]),
+            )
+            for k in range(settings.emitters)
+        ]
     return RibsOptimizer(Scheduler(archive, emitters, result_archive=result_archive), problem)

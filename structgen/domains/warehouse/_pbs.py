@@ -234,15 +234,10 @@ def pbs_window(
                 n_edges = _pop_edges_to(base_edges, n_edges, edge_hi, edge_lo, next_up, next_down, head_up, head_down)
                 n_edges = _push_edge(first_hi, first_lo, n_edges, edge_hi, edge_lo, next_up, next_down, head_up, head_down)
                 for i in range(n_kept):
-                    x = kept_agent[i]
-                    if n_undo == len(undo_agent):
-                        undo_agent, undo_cost, undo_path = _grown(undo_agent, undo_cost, undo_path)
-                    undo_agent[n_undo], undo_cost[n_undo] = x, costs[x]
-                    undo_path[n_undo] = paths[x]
-                    n_undo += 1
-                    paths[x] = kept_path[i]
-                    total += kept_cost[i] - costs[x]
-                    costs[x] = kept_cost[i]
+                    n_undo, total, undo_agent, undo_cost, undo_path = _set_path(
+                        kept_agent[i], kept_path[i], kept_cost[i], paths, costs, total, n_undo, undo_agent, undo_cost,
+                        undo_path,
+                    )  # fmt: skip
             continue
         # Neither child works: return to the newest child left on the stack.
         dead_ends += 1
@@ -336,14 +331,9 @@ def _replan_below(
             cost = _search(positions[x], goals[x], waits[x], n_goals[x], pinned[x], target_of, dist, neighbours,
                            occupied, window, seen, parent, stamp, heap_keys, heap_states, path)  # fmt: skip
             if cost >= 0:
-                if n_undo == len(undo_agent):
-                    undo_agent, undo_cost, undo_path = _grown(undo_agent, undo_cost, undo_path)
-                undo_agent[n_undo], undo_cost[n_undo] = x, costs[x]
-                undo_path[n_undo] = paths[x]
-                n_undo += 1
-                paths[x] = path
-                total += cost - costs[x]
-                costs[x] = cost
+                n_undo, total, undo_agent, undo_cost, undo_path = _set_path(
+                    x, path, cost, paths, costs, total, n_undo, undo_agent, undo_cost, undo_path
+                )
             else:
                 ok = False
         for i in range(1, n_above):
@@ -362,6 +352,20 @@ def _replan_below(
                 tail += 1
             e = next_down[e]
     return ok, n_undo, total, stamp, mark_stamp, undo_agent, undo_cost, undo_path
+
+
+@nb.njit(cache=True)
+def _set_path(x, path, cost, paths, costs, total, n_undo, undo_agent, undo_cost, undo_path):
+    """Give agent ``x`` a new path of ``cost``, its old one logged for :func:`_undo_to`; returns
+    ``(n_undo, total, undo_agent, undo_cost, undo_path)`` (the log grows when full)."""
+    if n_undo == len(undo_agent):
+        undo_agent, undo_cost, undo_path = _grown(undo_agent, undo_cost, undo_path)
+    undo_agent[n_undo], undo_cost[n_undo] = x, costs[x]
+    undo_path[n_undo] = paths[x]
+    paths[x] = path
+    total += cost - costs[x]
+    costs[x] = cost
+    return n_undo + 1, total, undo_agent, undo_cost, undo_path
 
 
 @nb.njit(cache=True)
