@@ -75,8 +75,8 @@ def neighbour_count(mask: np.ndarray) -> np.ndarray:
     return count
 
 
-def _reached(passable: np.ndarray, targets: np.ndarray, starts: list[tuple[int, int]]) -> np.ndarray:
-    """Which ``targets`` cells are passable-and-reached from ``starts``, or next to such a cell."""
+def _reached(passable: np.ndarray, starts: list[tuple[int, int]]) -> np.ndarray:
+    """Which cells are reached from ``starts``: passable ones through passable cells, others by being next to one."""
     rows, cols = passable.shape
     seen = np.zeros_like(passable)
     for start in starts:
@@ -89,7 +89,7 @@ def _reached(passable: np.ndarray, targets: np.ndarray, starts: list[tuple[int, 
                 seen[nr, nc] = True
                 queue.append((nr, nc))
     touched = seen | (neighbour_count(seen) > 0)
-    return targets & np.where(passable, seen, touched)
+    return np.where(passable, seen, touched)
 
 
 def violations(
@@ -111,7 +111,7 @@ def violations(
     tiles = np.asarray(tiles)
     found: list[str] = []
     code = kind.vocabulary.index
-    shelf, endpoint, passable, targets, starts = _floor_plan(tiles, kind)
+    shelf, starts, lonely_shelf, lonely_endpoint, unreached = _cell_rules(tiles, kind)
     if kind.name == "warehouse":
         if shelves is not None and int(shelf.sum()) != shelves:
             found.append(f"{int(shelf.sum())} shelves, expected {shelves}")
@@ -128,7 +128,6 @@ def violations(
         free = int((~shelf).sum())
         if free < agents:
             found.append(f"{free} cells free of stations, fewer than {agents} agents")
-    lonely_shelf, lonely_endpoint, unreached = _cells_breaking_rules(kind, shelf, endpoint, passable, targets, starts)
     if lonely_shelf.any():
         found.append(
             f"{int(lonely_shelf.sum())} {'shelves' if kind.name == 'warehouse' else 'stations'} with no endpoint next to them"
@@ -148,33 +147,31 @@ def broken_cells(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE) -> np.ndarray:
     """The cells that break a rule of their own (a shelf or station with no endpoint beside it, an endpoint with
     none beside it, a cell the workstations' floor does not reach), as a boolean map: where a repair that keeps the
     rest of a layout must make its changes. Counts (the shelf count, one station of each kind) are not cells'."""
-    shelf, endpoint, passable, targets, starts = _floor_plan(np.asarray(tiles), kind)
-    lonely_shelf, lonely_endpoint, unreached = _cells_breaking_rules(kind, shelf, endpoint, passable, targets, starts)
+    _, _, lonely_shelf, lonely_endpoint, unreached = _cell_rules(np.asarray(tiles), kind)
     return lonely_shelf | lonely_endpoint | unreached
 
 
-def _floor_plan(tiles: np.ndarray, kind: LayoutKind):
-    """(shelves or stations, endpoints, cells robots cross, cells that must be reached, cells reaching starts
-    from) of a warehouse or manufacturing map."""
+def _cell_rules(tiles: np.ndarray, kind: LayoutKind):
+    """``(shelves or stations, cells reachability starts from, shelves with no endpoint beside them, endpoints with
+    no shelf beside them, cells that must be reached and are not)``: the rules :func:`violations` words and
+    :func:`broken_cells` maps. Warehouse reachability starts at the first workstation, whose flow leaves into every
+    free neighbour, and passes floor and endpoints; manufacturing's starts at its first free cell."""
     code = kind.vocabulary.index
     if kind.name == "warehouse":
         shelf, endpoint = tiles == code("@"), tiles == code("e")
         station = np.isin(tiles, [code("w"), code("r"), code("s")])
-        return shelf, endpoint, ~shelf & ~station, ~shelf, np.argwhere(station)
-    if kind.name == "manufacturing":
-        shelf = np.isin(tiles, [code(c) for c in "012"])
-        return shelf, np.isin(tiles, [code("e"), code("s")]), ~shelf, ~shelf, np.argwhere(~shelf)
-    raise ValueError(f"no validity rules for {kind.name} layouts")
-
-
-def _cells_breaking_rules(kind, shelf, endpoint, passable, targets, starts):
-    """(shelves with no endpoint beside them, endpoints with no shelf beside them, targets not reached): the rules
-    :func:`violations` words and :func:`broken_cells` maps. Warehouse reachability starts at the first workstation,
-    whose flow leaves into every free neighbour; manufacturing's at its first free cell."""
+        passable, starts = ~shelf & ~station, np.argwhere(station)
+    elif kind.name == "manufacturing":
+        shelf, endpoint = np.isin(tiles, [code(c) for c in "012"]), np.isin(tiles, [code("e"), code("s")])
+        passable = ~shelf
+        starts = np.argwhere(passable)
+    else:
+        raise ValueError(f"no validity rules for {kind.name} layouts")
+    targets = ~shelf
     lonely_shelf = shelf & (neighbour_count(endpoint) == 0)
     lonely_endpoint = endpoint & (neighbour_count(shelf) == 0)
     if len(starts) == 0:
-        return lonely_shelf, lonely_endpoint, np.zeros_like(shelf)
+        return shelf, starts, lonely_shelf, lonely_endpoint, np.zeros_like(shelf)
     start = tuple(int(i) for i in starts[0])
     if kind.name == "warehouse":
         rows, cols = shelf.shape
@@ -183,7 +180,7 @@ def _cells_breaking_rules(kind, shelf, endpoint, passable, targets, starts):
             for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1))
             if 0 <= start[0] + dr < rows and 0 <= start[1] + dc < cols and passable[start[0] + dr, start[1] + dc]
         ]
-        unreached = targets.copy() if not free_next else targets & ~_reached(passable, targets, free_next)
+        unreached = targets.copy() if not free_next else targets & ~_reached(passable, free_next)
     else:
-        unreached = targets & ~_reached(passable, targets, [start])
-    return lonely_shelf, lonely_endpoint, unreached
+        unreached = targets & ~_reached(passable, [start])
+    return shelf, starts, lonely_shelf, lonely_endpoint, unreached
