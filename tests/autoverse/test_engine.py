@@ -141,11 +141,11 @@ def test_observation_window_and_padding():
     state = engine.reset()
     view, flat = engine.observe(state)
     assert view.shape == (1, 5, 31, 31) and flat.shape == (1, 1811)
-    # the player is at the centre, and the wrapped view repeats the map with period 16
+    # the player is at the centre; by default (as the paper) the map is seen once, zeros beyond its edges
     assert view[0, 0, 15, 15] == 1 and int(view[0, 0].sum()) == 1
-    assert torch.equal(view[0, :, :15, :], view[0, :, 16:31, :][:, :15])
-    zero_padded, _ = engine.observe(state, Observation(padding="zeros"))
-    assert int(zero_padded[0].sum()) == 256  # one-hot map, every cell seen once
+    assert int(view[0].sum()) == 256  # one-hot map, every cell seen once
+    wrapped, _ = engine.observe(state, Observation(padding="wrap"))
+    assert torch.equal(wrapped[0, :, :15, :], wrapped[0, :, 16:31, :][:, :15])  # the torus, period 16
     windowed, _ = engine.observe(state, Observation(window=5))
     assert int((windowed[0].sum(0) > 0).sum()) == 25 and windowed[0, :, 13:18, 13:18].sum() == 25
     blank, _ = engine.observe(state, Observation.original(window=5))

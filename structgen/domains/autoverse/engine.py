@@ -83,15 +83,16 @@ class Observation:
         window: side of the square around the player that is shown (5, 10, 20), or -1 for the whole 31x31 view
             (the map seen from the player, every cell at most 15 away).
         hide_rules: zero the rules and rewards (the rotation one-hot stays).
-        padding: "wrap" shows the torus the player lives on; "zeros" shows zeros beyond the map's edges, as the
-            original does although its dynamics wrap.
+        padding: "zeros" (the default, as the paper and the original: the 16x16 map seen from the player, zeros
+            beyond its edges, although the dynamics wrap) or "wrap" (the view repeats the torus the player lives on,
+            so what lies across an edge is visible where it acts).
         blank_window: the original environment's windowed view, which is all zeros for any window but the full one
             (it slices the wrong axes). Only to reproduce it.
     """
 
     window: int = -1
     hide_rules: bool = False
-    padding: str = "wrap"
+    padding: str = "zeros"
     blank_window: bool = False
 
     def __post_init__(self) -> None:

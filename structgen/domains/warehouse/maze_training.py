@@ -29,18 +29,24 @@ import torch
 
 from evolution import RunFolder
 from evolution.files import MiB, atomic_write, read_bytes
-from structgen.config import ConfigError, build, flatten, to_table
 from structgen.domains.warehouse.agent_settings import AgentSettings
 from structgen.domains.warehouse.maze_agent import MazePolicy, RememberingMazes, run_agent
 from structgen.domains.warehouse.maze_env import TorchMazes, _has_two_connected_floor_cells, random_maze
 from structgen.errors import InputError
 from structgen.ppo import PPO
+from structgen.training_folder import (
+    is_training_folder,
+    open_training_folder,
+    read_history,
+    read_training_settings,
+    write_history,
+)
 
 __all__ = ["AgentSettings", "Curriculum", "RUN_KIND", "agent_policy", "load_agent", "save_agent", "train_agent"]
 
 RUN_KIND = "maze-agent"
 DOMAIN = "maze-v0"
-CHECKPOINT_FILE, HISTORY_FILE, AGENT_FILE, PLOT_FILE = "checkpoint.pt", "history.jsonl", "agent.pt", "learning.png"
+CHECKPOINT_FILE, AGENT_FILE, PLOT_FILE = "checkpoint.pt", "agent.pt", "learning.png"
 #: The kinds of random maze the agent trains on; ``rooms`` is kept for testing it on something new.
 TRAINING_KINDS = ("scattered", "carved")
 #: Held-out mazes of the learning curve: ``rooms`` mazes from this seed.
@@ -217,61 +223,28 @@ def agent_policy(weights: str | Path | None = None) -> MazePolicy:
 
 
 # --- the run folder -----------------------------------------------------------------------------------------------------------
-def _config_text(settings: AgentSettings) -> str:
-    import tomli_w
-
-    header = "# Settings of this maze-agent training (structgen maze train-agent): every setting, as used.\n"
-    return header + tomli_w.dumps({"agent": to_table(settings)})
+_TABLE, _HEADER = "agent", "Settings of this maze-agent training (structgen maze train-agent)"
 
 
 def read_settings(folder: RunFolder) -> AgentSettings:
-    from structgen.experiment import parse_toml
-
-    where = folder / RunFolder.CONFIG
-    tables = parse_toml(folder.config_text(), where)
-    if set(tables) != {"agent"} or not isinstance(tables["agent"], dict):
-        raise InputError(f"{where}: a maze-agent training's configuration has one table, [agent]")
-    try:
-        return build(AgentSettings, tables["agent"], "agent")
-    except ConfigError as err:
-        raise InputError(f"{where}: {err}") from None
+    return read_training_settings(folder, AgentSettings, _TABLE)
 
 
 def is_agent_folder(path: str | Path) -> bool:
-    folder = RunFolder(path)
-    return (folder / RunFolder.CONFIG).is_file() and folder.manifest().get("run_kind") == RUN_KIND
+    return is_training_folder(path, RUN_KIND)
 
 
 def _open_folder(path: Path, settings: AgentSettings, overwrite: bool) -> RunFolder:
-    """A new run folder, or the one a training with the same settings started (it resumes; with more ``updates``
-    it goes on). Anything else is refused and left as it was."""
-    from structgen.runs import manifest
-
-    folder = RunFolder(path)
-    if path.exists() and not path.is_dir():
-        raise InputError(f"{path}: is a file, expected a run folder")
-    if not is_agent_folder(path) or overwrite:
-        if (folder / RunFolder.CONFIG).is_file() and not overwrite:
-            raise InputError(f"{path}: holds a run that is not a maze-agent training; choose another folder")
-        made = manifest(DOMAIN, ("numpy", "torch"), run_kind=RUN_KIND)
-        return RunFolder.create(path, _config_text(settings), made, overwrite=overwrite)
-    saved = read_settings(folder)
-    before, now = flatten(to_table(saved)), flatten(to_table(settings))
-    for key in sorted(before.keys() | now.keys()):
-        if before.get(key) != now.get(key) and not (key == "updates" and now[key] > before[key]):
-            raise InputError(
-                f"{folder / RunFolder.CONFIG}: this folder holds a training with agent.{key} = {before.get(key)!r}, not "
-                f"{now.get(key)!r}; give the same settings to resume it (or more updates to go on), or another folder"
-            )
-    folder.write_config(_config_text(settings))
-    return folder
+    return open_training_folder(
+        path, settings, run_kind=RUN_KIND, domain=DOMAIN, table=_TABLE, header=_HEADER, overwrite=overwrite
+    )
 
 
 def agent_run_summary(run_dir: str | Path) -> dict[str, Any]:
     """What ``structgen info`` says of a training folder: its settings, how far it got, the last held-out test."""
     folder = RunFolder(run_dir)
     settings = read_settings(folder)
-    rows = _history(folder, settings.updates)
+    rows = read_history(folder, settings.updates)
     tested = [row["held_out"] for row in rows if row.get("held_out") is not None]
     return {
         "run_dir": str(run_dir),
@@ -283,14 +256,6 @@ def agent_run_summary(run_dir: str | Path) -> dict[str, Any]:
         "finished": (folder / AGENT_FILE).is_file(),
         "settings": asdict(settings),
     }
-
-
-def _history(folder: RunFolder, upto: int) -> list[dict[str, Any]]:
-    path = folder / HISTORY_FILE
-    if not path.is_file():
-        return []
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    return [row for row in rows if row["update"] <= upto]
 
 
 def learning_figure(rows: list[dict[str, Any]]) -> Any:
@@ -309,13 +274,6 @@ def learning_figure(rows: list[dict[str, Any]]) -> Any:
     axes.legend(loc="lower right")
     axes.set_title("maze agent: PPO with a PLR/ACCEL curriculum")
     return figure
-
-
-def _write_history(folder: RunFolder, rows: list[dict[str, Any]]) -> None:
-    from evolution.plots import figure_png
-
-    atomic_write(folder / HISTORY_FILE, "".join(json.dumps(row) + "\n" for row in rows))
-    atomic_write(folder / PLOT_FILE, figure_png(learning_figure(rows)))
 
 
 def _save_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes, done: int) -> None:
@@ -368,7 +326,7 @@ def train_agent(
             observation = env.env.current()
         else:
             observation = env.env.reset()
-        rows = _history(folder, done)
+        rows = read_history(folder, done)
         held_out = held_out_mazes(settings.size)
         bar = tqdm(total=settings.updates, initial=done, desc="maze agent", unit="update", disable=not progress)
         while done < settings.updates:
@@ -400,7 +358,7 @@ def train_agent(
             bar.set_postfix(success=row["success"], held_out=row.get("held_out"))
             if done % settings.checkpoint_every == 0 or done == settings.updates:
                 _save_checkpoint(folder, ppo, env, done)
-                _write_history(folder, rows)
+                write_history(folder, rows, {PLOT_FILE: learning_figure(rows)})
         bar.close()
         save_agent(folder / AGENT_FILE, ppo.policy, settings=asdict(settings), updates=done)
     return ppo.policy, rows
