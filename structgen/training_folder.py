@@ -68,8 +68,10 @@ def open_training_folder(
     header: str,
     overwrite: bool = False,
     growable: tuple[str, ...] = ("updates",),
+    about: dict[str, Any] | None = None,
 ) -> RunFolder:
-    """A new run folder for ``settings``, or the one the same training started (see the module)."""
+    """A new run folder for ``settings``, or the one the same training started (see the module). ``about`` (plain
+    values, such as the run a training learns from) goes into the manifest and must match when the folder resumes."""
     from structgen.runs import manifest
 
     folder = RunFolder(path)
@@ -78,8 +80,15 @@ def open_training_folder(
     if not is_training_folder(path, run_kind) or overwrite:
         if (folder / RunFolder.CONFIG).is_file() and not overwrite:
             raise InputError(f"{path}: holds a run that is not a {run_kind} training; choose another folder")
-        made = manifest(domain, ("numpy", "torch"), run_kind=run_kind)
+        made = manifest(domain, ("numpy", "torch"), run_kind=run_kind, **(about or {}))
         return RunFolder.create(path, _config_text(settings, table, header), made, overwrite=overwrite)
+    recorded = folder.manifest()
+    for key, value in (about or {}).items():
+        if recorded.get(key) != value:
+            raise InputError(
+                f"{folder / 'manifest.json'}: this folder holds a training with {key} {recorded.get(key)!r}, not {value!r}; "
+                "choose another folder"
+            )
     saved = read_training_settings(folder, type(settings), table)
     before, now = flatten(to_table(saved)), flatten(to_table(settings))
     for key in sorted(before.keys() | now.keys()):

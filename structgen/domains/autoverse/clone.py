@@ -33,13 +33,25 @@ from structgen.domains.autoverse.engine import EPISODE_STEPS, VIEW, Engine, Mech
 from structgen.domains.autoverse.game import check_game, game_key
 from structgen.errors import InputError
 
-__all__ = ["CloneSettings", "Policy", "clone_run", "collect_playtraces", "evaluate_policy", "normalisation", "split"]
+__all__ = [
+    "CloneSettings",
+    "Policy",
+    "clone_run",
+    "collect_playtraces",
+    "evaluate_policy",
+    "fit_policy",
+    "normalisation",
+    "split",
+]
 
 
 @dataclass(frozen=True)
 class CloneSettings:
     window: int = -1
     hide_rules: bool = False
+    padding: str = "zeros"
+    blank_window: bool = False
+    hidden: int = 256
     steps: int = 2000
     batch_size: int = 256
     learning_rate: float = 1e-4
@@ -52,7 +64,7 @@ class CloneSettings:
     def __post_init__(self) -> None:
         from structgen.devices import check_device_name
 
-        for name, low in (("steps", 1), ("batch_size", 1), ("eval_steps", 1), ("seed", 0)):
+        for name, low in (("steps", 1), ("batch_size", 1), ("eval_steps", 1), ("seed", 0), ("hidden", 1)):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < low:
                 raise InputError(f"clone {name} must be a whole number >= {low}, got {value!r}")
@@ -65,6 +77,13 @@ class CloneSettings:
         if isinstance(fitness, bool) or not isinstance(fitness, (int, float)) or not math.isfinite(fitness):
             raise InputError(f"clone min_fitness must be a finite number, got {fitness!r}")
         check_device_name(self.device, "clone device")
+        try:
+            self.observation()
+        except ValueError as err:
+            raise InputError(f"clone {err}") from None
+
+    def observation(self) -> Observation:
+        return Observation(window=self.window, hide_rules=self.hide_rules, padding=self.padding, blank_window=self.blank_window)
 
 
 class Policy(nn.Module):
@@ -195,29 +214,42 @@ def transitions(
     return torch.cat(views), torch.cat(flats), torch.cat(taken)
 
 
-def normalisation(engine: Engine, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor]:
-    """The original's per-game reward normalisation: ``(bias, scale)``. Its "random" baseline is
-    one action, drawn once and repeated (it samples inside a traced loop); ``bias`` is minus
-    that baseline's mean reward per step; ``scale`` is 1 / (max - min) of {the return of turning for one episode,
-    the baseline's largest one-step reward}, 1 where they are equal. One difference: the turning return here is over
-    a whole episode of 101 steps; the original's scan runs 100. A step's normalised reward is
-    ``(reward + bias / 100) * scale``."""
+def normalisation(engine: Engine, seed: int = 0, original: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per-game reward normalisation ``(bias, scale)``; a step's normalised reward is ``(reward + bias / 100) *
+    scale``.
+
+    The original's: its "random" baseline is one action, drawn once and repeated (it samples inside a traced loop);
+    ``bias`` is minus that baseline's mean reward per step; ``scale`` is 1 / (max - min) of {the return of turning
+    for one episode, the baseline's largest one-step reward}, 1 where they are equal (the turning return here is
+    over a whole episode of 101 steps; the original's scan runs 100).
+
+    With ``original=False`` (the default) the return of one episode of uniformly random actions joins that set.
+    Without it, a game where neither baseline earns anything keeps scale 1, and its raw rewards pass through: in a
+    game of the main job's run whose rules cascade once force is placed, one episode of random play earned
+    -22,639, which dominated the mean of every policy's validation return (issue 43)."""
     count = engine.n_games
     steps = EPISODE_STEPS + 1
-    constant = torch.as_tensor(np.random.default_rng(seed).integers(0, 5, size=count), device=engine.device)
-    totals, largest, turning = [torch.zeros(count, device=engine.device) for _ in range(3)]
+    rng = np.random.default_rng(seed)
+    constant = torch.as_tensor(rng.integers(0, 5, size=count), device=engine.device)
+    random_actions = torch.as_tensor(rng.integers(0, 5, size=(steps, count)), device=engine.device)
+    totals, largest, turning, random_total = [torch.zeros(count, device=engine.device) for _ in range(4)]
     largest -= float("inf")
-    state = engine.reset()
-    turn = engine.reset()
+    state, turn, wander = engine.reset(), engine.reset(), engine.reset()
     # Episodes are deterministic, so one episode of each stands for all of them.
-    for _ in range(steps):
+    for step in range(steps):
         state, reward, _ = engine.step(state, constant)
         totals += reward
         largest = torch.maximum(largest, reward)
         turn, reward, _ = engine.step(turn, torch.zeros(count, dtype=torch.int64, device=engine.device))
         turning += reward
+        if not original:
+            wander, reward, _ = engine.step(wander, random_actions[step])
+            random_total += reward
     bias = -(totals / steps)
-    spread = torch.maximum(turning, largest) - torch.minimum(turning, largest)
+    high, low = torch.maximum(turning, largest), torch.minimum(turning, largest)
+    if not original:
+        high, low = torch.maximum(high, random_total), torch.minimum(low, random_total)
+    spread = high - low
     scale = torch.where(spread == 0, torch.ones_like(spread), 1.0 / spread)
     return bias, scale
 
@@ -250,10 +282,39 @@ def evaluate_policy(
     return total.cpu().numpy()
 
 
-def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress: bool = True) -> dict[str, Any]:
-    """Train a policy on the run's playtraces, evaluate it on every split, write ``policy.pt`` and ``report.json``."""
+def fit_policy(
+    policy: Policy,
+    views: torch.Tensor,
+    flats: torch.Tensor,
+    actions: torch.Tensor,
+    steps: int,
+    batch_size: int,
+    learning_rate: float,
+    seed: int,
+    progress: bool = True,
+) -> list[float]:
+    """Behaviour cloning: ``steps`` Adam steps (eps 1e-5, gradient norm clipped at 0.5, the original's) on
+    -log pi(a|s) over batches drawn uniformly from the transitions; returns the loss of every step."""
     from tqdm import tqdm
 
+    optimiser = torch.optim.Adam(policy.parameters(), lr=learning_rate, eps=1e-5)
+    generator = torch.Generator(device=views.device).manual_seed(seed)
+    losses = []
+    policy.train()
+    for _ in tqdm(range(steps), desc="clone", disable=not progress):
+        batch = torch.randint(len(actions), (batch_size,), generator=generator, device=views.device)
+        logits, _ = policy(views[batch], flats[batch])
+        loss = nn.functional.cross_entropy(logits, actions[batch])
+        optimiser.zero_grad()
+        loss.backward()
+        nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
+        optimiser.step()
+        losses.append(float(loss.detach()))
+    return losses
+
+
+def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress: bool = True) -> dict[str, Any]:
+    """Train a policy on the run's playtraces, evaluate it on every split, write ``policy.pt`` and ``report.json``."""
     from evolution.files import atomic_write
 
     output = Path(output)
@@ -266,26 +327,17 @@ def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress:
     parts = split(collect_playtraces(run_dir, settings.min_fitness))
     if not parts["train"]:
         raise InputError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
-    observation = Observation(window=settings.window, hide_rules=settings.hide_rules)
+    observation = settings.observation()
     # Every step's view and flat observation is kept for the fit (and copied once as it is gathered).
     steps = sum(len(entry["actions"]) for entry in parts["train"])
     check_memory(steps * (5 * VIEW * VIEW + 1811 + 8) * 2, f"{steps:,} observed steps of {len(parts['train']):,} games")
     views, flats, actions = transitions(
         parts["train"], observation, original_pairing=settings.original_pairing, device=settings.device
     )
-    policy = Policy().to(settings.device)
-    optimiser = torch.optim.Adam(policy.parameters(), lr=settings.learning_rate, eps=1e-5)
-    generator = torch.Generator(device=views.device).manual_seed(settings.seed)
-    losses = []
-    for _ in tqdm(range(settings.steps), desc="clone", disable=not progress):
-        batch = torch.randint(len(actions), (settings.batch_size,), generator=generator, device=views.device)
-        logits, _ = policy(views[batch], flats[batch])
-        loss = nn.functional.cross_entropy(logits, actions[batch])
-        optimiser.zero_grad()
-        loss.backward()
-        nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
-        optimiser.step()
-        losses.append(float(loss.detach()))
+    policy = Policy(hidden=settings.hidden).to(settings.device)
+    losses = fit_policy(
+        policy, views, flats, actions, settings.steps, settings.batch_size, settings.learning_rate, settings.seed, progress
+    )
     policy.eval()
     report: dict[str, Any] = {
         "settings": asdict(settings),

@@ -71,6 +71,25 @@ def _save(game: dict[str, Any], path: Path | None) -> None:
     atomic_write(path, json.dumps(game_to_json(game)) + "\n")
 
 
+def _observation_options(p: argparse.ArgumentParser) -> None:
+    """What the player sees: every setting of :class:`.engine.Observation`."""
+    p.add_argument(
+        "--window", type=int, default=-1, choices=(-1, 5, 10, 20), help="side of the view around the player (-1: the whole map)"
+    )
+    p.add_argument("--hide-rules", action="store_true", help="zero the rules and rewards in the observation")
+    p.add_argument(
+        "--padding",
+        choices=("zeros", "wrap"),
+        default="zeros",
+        help="beyond the map's edges the view shows zeros (default, as the paper and the original) or wraps around the torus",
+    )
+    p.add_argument(
+        "--blank-window",
+        action="store_true",
+        help="the original environment's windowed view, all zeros for any window but the whole map (to reproduce it)",
+    )
+
+
 # -- play -----------------------------------------------------------------------------------------------------------------
 def cmd_play(args: argparse.Namespace) -> int:
     from structgen.domains.autoverse.show import playtrace_gif, replay
@@ -148,6 +167,9 @@ def cmd_clone(args: argparse.Namespace) -> int:
     settings = CloneSettings(
         window=args.window,
         hide_rules=args.hide_rules,
+        padding=args.padding,
+        blank_window=args.blank_window,
+        hidden=args.hidden,
         steps=args.steps,
         batch_size=args.batch_size,
         learning_rate=args.lr,
@@ -229,8 +251,10 @@ def _add_clone(subparsers: Any) -> None:
     )
     p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse run folder")
     p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="folder to write")
-    p.add_argument("--window", type=int, default=-1, choices=(-1, 5, 10, 20), help="view around the player (-1: full)")
-    p.add_argument("--hide-rules", action="store_true", help="zero the rules in the observation")
+    _observation_options(p)
+    p.add_argument(
+        "--hidden", type=whole_number(1, 4096), default=256, metavar="N", help="network width (default 256, the original's)"
+    )
     p.add_argument("--steps", type=whole_number(1, 10**7), default=2000, metavar="N", help="gradient steps (default 2000)")
     p.add_argument("--batch-size", type=whole_number(1, 10**6), default=256, metavar="N", help="batch (default 256)")
     p.add_argument(
@@ -245,8 +269,129 @@ def _add_clone(subparsers: Any) -> None:
     p.set_defaults(handler=cmd_clone)
 
 
+# -- train ----------------------------------------------------------------------------------------------------------------
+#: train's options: (option, TrainSettings field, argparse type, help). Their defaults come from the preset.
+def _train_options() -> list[tuple[str, str, Any, str]]:
+    return [
+        ("--clone-steps", "clone_steps", whole_number(0, 10**8), "behaviour-cloning gradient steps (0: PPO from scratch)"),
+        ("--clone-batch", "clone_batch", whole_number(1, 10**6), "cloning batch"),
+        ("--clone-lr", "clone_learning_rate", finite_number(0, 1, above=True), "cloning learning rate"),
+        ("--updates", "updates", whole_number(0, 10**7), "PPO updates in all (a resumed run goes on to this many)"),
+        ("--envs", "envs", whole_number(1, 10**6), "games played at once"),
+        ("--steps", "steps", whole_number(1, 10**5), "steps per game in each update"),
+        ("--epochs", "epochs", whole_number(1, 1000), "passes over each update's steps"),
+        ("--minibatches", "minibatches", whole_number(1, 10**6), "minibatches per pass"),
+        ("--lr", "learning_rate", finite_number(0, 1, above=True), "PPO's Adam learning rate"),
+        ("--gamma", "gamma", finite_number(0, 1), "discount"),
+        ("--entropy", "entropy", finite_number(0, 10), "weight of the entropy bonus"),
+        ("--hidden", "hidden", whole_number(1, 4096), "network width (the convolution's channels and the layers')"),
+        ("--evaluate-every", "evaluate_every", whole_number(1, 10**7), "updates between evaluations on every split"),
+        ("--eval-steps", "eval_steps", whole_number(1, 10**7), "steps each game is played for in an evaluation"),
+        ("--checkpoint-every", "checkpoint_every", whole_number(1, 10**7), "updates between checkpoints"),
+        (
+            "--evolve-every",
+            "evolve_every",
+            whole_number(0, 10**7),
+            "updates between rounds of regret-driven evolution of the training games (0: off)",
+        ),
+        ("--pool", "pool", whole_number(0, 10**6), "games the evolution keeps (0: as many as the training split)"),
+        ("--evolve-mutation", "evolve_mutation", str, "how evolved games differ from their parents: rules_and_map or map_only"),
+        ("--min-fitness", "min_fitness", finite_number(), "games of the run below this fitness are left out"),
+        ("--seed", "seed", whole_number(0, MAX_SEED), "seed of cloning, the games drawn, the actions sampled and evolution"),
+    ]
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from structgen.domains.autoverse.train import PRESETS, TrainSettings, train
+
+    values = dict(PRESETS[args.preset])
+    values.update({field: getattr(args, field) for _, field, _, _ in _train_options() if getattr(args, field) is not None})
+    observed = {"window": args.window, "hide_rules": args.hide_rules, "padding": args.padding, "blank_window": args.blank_window}
+    try:
+        settings = TrainSettings(**values, **observed, device=args.device)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    rows = train(args.run_dir, args.output, settings, overwrite=args.overwrite, progress=True)
+    _print_training(args.output, rows)
+    return EXIT_OK
+
+
+def _print_training(output: Path, rows: list[dict[str, Any]]) -> None:
+    from structgen.domains.autoverse.train import LEARNING_PLOT, POLICY_FILE
+
+    tested = [row for row in rows if "test" in row]
+    if tested:
+        first, last = tested[0], tested[-1]
+        print(
+            f"{output}: {last['update']} PPO updates; mean normalised return per episode on the test games "
+            f"{first['test']:.2f} after cloning, {last['test']:.2f} at the end (train {last['train']:.2f})"
+        )
+    print(f"policy: {Path(output) / POLICY_FILE}; learning curve: {Path(output) / LEARNING_PLOT}")
+
+
+def _add_train(subparsers: Any) -> None:
+    from structgen.domains.autoverse.train import PRESETS, TrainSettings
+
+    defaults = TrainSettings()
+    p = subparsers.add_parser(
+        "train",
+        help="train a player for a run's games: behaviour cloning, then PPO (optionally on games evolved for it)",
+        description="Clone a policy from the search playtraces of the Autoverse run RUN_DIR (its games split into "
+        "train/validation/test as the original splits them), then train it by PPO on the training games, each "
+        "episode on a game drawn at random; with --evolve-every K, every K updates the games are mutated and those "
+        "where the agent's value prediction errs most are kept (the paper's open-ended phase). Evaluates on every "
+        "split as it goes. OUT_DIR gets checkpoints (the same command resumes it; more --updates go on; so does "
+        "structgen resume OUT_DIR), history.jsonl, learning.png (evolution.png) and policy.pt. Defaults are the "
+        "'cpu' preset (about an hour on 2 cores at the default scale of a 100-generation run); --preset original "
+        "takes the original's settings (meant for a GPU).",
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse evolution run folder (its playtraces)")
+    p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="training folder (made, or resumed)")
+    p.add_argument("--preset", choices=tuple(PRESETS), default="cpu", help="starting settings (default cpu)")
+    for option, field, parse, text in _train_options():
+        default = getattr(defaults, field)
+        metavar = "N" if isinstance(default, int) else "X"
+        p.add_argument(option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} (cpu preset: {default})")
+    _observation_options(p)
+    p.add_argument("--device", type=device_name, default="cpu", help="torch device: cpu, cuda, cuda:N (default cpu)")
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace a training folder that holds another training (never any other folder)"
+    )
+    p.set_defaults(handler=cmd_train)
+
+
 class AutoverseCommands(DomainCommands):
-    adders = {"play": _add_play, "search": _add_search, "show": _add_show, "clone": _add_clone}
+    adders = {"play": _add_play, "search": _add_search, "show": _add_show, "clone": _add_clone, "train": _add_train}
+
+    def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
+        import dataclasses
+
+        from evolution import RunFolder
+        from structgen.domains.autoverse.train import RUN_KIND, read_settings, source_run, train
+
+        if kind != RUN_KIND:
+            return super().resume_run(kind, run_dir, args)
+        if args.cluster is not None or args.workers is not None:
+            raise InputError(f"{run_dir}: an Autoverse player's training runs in this process; give --generations (updates) only")
+        settings = read_settings(RunFolder(run_dir))
+        if args.generations is not None:
+            settings = dataclasses.replace(settings, updates=args.generations)
+        _print_training(run_dir, train(source_run(run_dir), run_dir, settings, progress=True))
+        return EXIT_OK
+
+    def describe_run(self, kind: str, run_dir: Path) -> tuple[dict[str, Any], str]:
+        from structgen.domains.autoverse.train import RUN_KIND, training_summary
+
+        if kind != RUN_KIND:
+            return super().describe_run(kind, run_dir)
+        summary = training_summary(run_dir)
+        text = (
+            f"{run_dir}: Autoverse player training on {summary['source_run']}, {summary['updates_done']} of "
+            f"{summary['updates']} PPO updates"
+            + (f"; last test return {summary['test']:.2f} per episode" if summary["test"] is not None else "")
+            + ("; policy.pt written" if summary["finished"] else "; resume with structgen resume")
+        )
+        return summary, text
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         suffix = output.suffix.lower()

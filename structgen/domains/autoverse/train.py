@@ -1,0 +1,424 @@
+"""``structgen autoverse train``: a player for an evolution run's games, cloned from the search's playtraces, then
+trained by PPO, optionally on games that evolve to stay hard for it (the paper's open-ended phase).
+
+1. **Cloning** (``clone_steps`` > 0): the run's playtraces split as :func:`.clone.split` splits them, the policy
+   fitted to the training games' traces (:func:`.clone.fit_policy`).
+2. **PPO** from the cloned weights (:mod:`structgen.ppo`): ``envs`` games played at once, each episode on a game
+   drawn at random from the training pool when the last one ends; rewards are the original's normalised rewards of
+   the game being played (:func:`.clone.normalisation`).
+3. **Regret-driven evolution** (``evolve_every`` > 0): every that many updates each game of the pool has one
+   mutated child; parents and children are played for one episode by the current policy and scored by the sum over
+   the episode of |G_t - V(s_t)| (the discounted return still to come against the value the agent predicted, the
+   original's proxy for regret: where the agent mispredicts, it still has something to learn); the pool keeps the
+   ``pool`` highest. The pool starts as the training games.
+
+Every ``evaluate_every`` updates (and after cloning, as update 0) the policy plays each training, validation and test
+game for ``eval_steps`` steps; the learning curve shows the mean normalised return per episode of each split.
+
+The run folder holds ``config.toml``, ``manifest.json``, ``cloned.pt`` (the policy after cloning, so that a resumed
+run does not clone again), ``checkpoint.pt`` (weights, optimiser, the games in play and in the pool, random states),
+``history.jsonl``, ``learning.png``, with evolution ``evolution.png``, and at the end ``policy.pt``. The same command
+on the same folder resumes it; more ``updates`` go on.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import time
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from evolution import RunFolder
+from evolution.files import atomic_write
+from structgen.domains.autoverse.clone import (
+    Policy,
+    collect_playtraces,
+    evaluate_policy,
+    fit_policy,
+    normalisation,
+    split,
+    transitions,
+)
+from structgen.domains.autoverse.engine import EPISODE_STEPS, FLAT_SIZE, VIEW, Engine, Mechanics, Observation, stack_games
+from structgen.domains.autoverse.game import MUTATIONS, mutate_game
+from structgen.domains.autoverse.ppo import GamePool
+from structgen.errors import InputError
+from structgen.ppo import PPO, EpisodeReturns, PPOSettings
+from structgen.training_folder import open_training_folder, read_history, read_training_settings, write_history
+
+__all__ = ["PRESETS", "TrainSettings", "evolve_pool", "regret_scores", "train"]
+
+RUN_KIND = "autoverse-player"
+DOMAIN = "autoverse-v0"
+CHECKPOINT_FILE, CLONED_FILE, POLICY_FILE = "checkpoint.pt", "cloned.pt", "policy.pt"
+LEARNING_PLOT, EVOLUTION_PLOT = "learning.png", "evolution.png"
+_TABLE, _HEADER = "train", "Settings of this Autoverse player's training (structgen autoverse train)"
+
+
+@dataclass(frozen=True)
+class TrainSettings:
+    """Attributes:
+    clone_steps, clone_batch, clone_learning_rate: behaviour cloning (0 steps: PPO from an untrained network).
+    updates, envs, steps, epochs, minibatches, learning_rate, gamma, gae_lambda, clip, entropy, value_coef,
+        max_grad_norm: PPO (see :class:`structgen.ppo.PPOSettings`).
+    hidden: the network's width (the original's 256; its convolution has as many channels).
+    window, hide_rules, padding, blank_window: what the player sees (:class:`.engine.Observation`).
+    min_fitness: games of the run below this fitness are left out (the original's 2).
+    evaluate_every, eval_steps: updates between evaluations; steps each game is played for in one.
+    checkpoint_every: updates between checkpoints.
+    evolve_every: updates between rounds of regret-driven evolution of the training games (0: the pool stays the
+        training games).
+    pool: games kept by evolution (0: as many as the training split has).
+    evolve_mutation: how children differ from their parents (``rules_and_map`` or ``map_only``, as the run's).
+    seed, device.
+    """
+
+    clone_steps: int = 2000
+    clone_batch: int = 256
+    clone_learning_rate: float = 1e-4
+    updates: int = 50
+    envs: int = 32
+    steps: int = 101
+    epochs: int = 4
+    minibatches: int = 4
+    learning_rate: float = 1e-4
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip: float = 0.2
+    entropy: float = 0.01
+    value_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    hidden: int = 64
+    window: int = -1
+    hide_rules: bool = False
+    padding: str = "zeros"
+    blank_window: bool = False
+    min_fitness: float = 2.0
+    evaluate_every: int = 10
+    eval_steps: int = 303
+    checkpoint_every: int = 5
+    evolve_every: int = 0
+    pool: int = 0
+    evolve_mutation: str = "rules_and_map"
+    seed: int = 0
+    device: str = "cpu"
+
+    def __post_init__(self) -> None:
+        for item in fields(self):
+            value = getattr(self, item.name)
+            if item.type == "int" and (not isinstance(value, int) or isinstance(value, bool)):
+                raise ValueError(f"train {item.name} must be a whole number, got {value!r}")
+            if item.type == "float" and (
+                isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+            ):
+                raise ValueError(f"train {item.name} must be a finite number, got {value!r}")
+        at_least_one = ("clone_batch", "envs", "steps", "epochs", "minibatches", "hidden", "evaluate_every", "eval_steps")
+        for name in at_least_one + ("checkpoint_every",):
+            if getattr(self, name) < 1:
+                raise ValueError(f"train {name} must be at least 1, got {getattr(self, name)!r}")
+        for name in ("clone_steps", "updates", "evolve_every", "pool", "seed"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"train {name} must not be negative, got {getattr(self, name)!r}")
+        for name in ("clone_learning_rate", "learning_rate"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"train {name} must be positive, got {getattr(self, name)!r}")
+        if self.evolve_mutation not in MUTATIONS:
+            raise ValueError(f"train evolve_mutation must be one of {', '.join(MUTATIONS)}, got {self.evolve_mutation!r}")
+        self.observation()  # raises ValueError naming the observation setting
+        self.ppo()
+
+    def observation(self) -> Observation:
+        return Observation(window=self.window, hide_rules=self.hide_rules, padding=self.padding, blank_window=self.blank_window)
+
+    def ppo(self) -> PPOSettings:
+        names = ("envs", "steps", "updates", "epochs", "minibatches", "learning_rate", "gamma", "gae_lambda", "clip")
+        more = ("entropy", "value_coef", "max_grad_norm", "hidden", "seed", "device")
+        return PPOSettings(**{name: getattr(self, name) for name in names + more})
+
+
+#: ``cpu``: what fits 2 CPU cores in about an hour (the defaults). ``original``: the original's settings: cloning
+#: 100,000 steps of batch 4,096 at learning rate 1e-4; PPO with 100 games of 200 steps an update, 10 epochs of 4
+#: minibatches at learning rate 1e-5, a 256-wide network; 10,000 evaluation steps (for a GPU).
+PRESETS: dict[str, dict[str, Any]] = {
+    "cpu": {},
+    "original": {
+        "clone_steps": 100_000,
+        "clone_batch": 4096,
+        "clone_learning_rate": 1e-4,
+        "envs": 100,
+        "steps": 200,
+        "epochs": 10,
+        "minibatches": 4,
+        "learning_rate": 1e-5,
+        "hidden": 256,
+        "eval_steps": 10_000,
+        "evaluate_every": 10,
+    },
+}
+
+
+@torch.no_grad()
+def regret_scores(policy: Policy, games: list[dict[str, Any]], observation: Observation, gamma: float, seed: int) -> np.ndarray:
+    """Per game: the sum over one episode (actions sampled from ``policy``) of |G_t - V(s_t)|, with G_t the
+    discounted normalised return from step t to the episode's end."""
+    engine = Engine(games, device=next(policy.parameters()).device, mechanics=Mechanics())
+    bias, scale = normalisation(engine)
+    generator = torch.Generator(device=engine.device).manual_seed(seed)
+    state = engine.reset()
+    values, rewards = [], []
+    for _ in range(EPISODE_STEPS + 1):
+        logits, value = policy(*engine.observe(state, observation))
+        action = torch.multinomial(torch.softmax(logits, dim=1), 1, generator=generator).squeeze(1)
+        state, reward, _ = engine.step(state, action)
+        values.append(value)
+        rewards.append((reward + bias / EPISODE_STEPS) * scale)
+    to_come = torch.zeros(len(games), device=engine.device)
+    error = torch.zeros(len(games), device=engine.device)
+    for value, reward in zip(reversed(values), reversed(rewards)):
+        to_come = reward + gamma * to_come
+        error += (to_come - value).abs()
+    return error.cpu().numpy()
+
+
+def evolve_pool(
+    policy: Policy, pool: list[dict[str, Any]], settings: TrainSettings, size: int, rng: np.random.Generator, seed: int
+) -> tuple[list[dict[str, Any]], np.ndarray]:
+    """One round: a mutated child per game, parents and children scored by :func:`regret_scores`, the ``size``
+    highest kept (ties by order). Returns the new pool and its scores."""
+    children = [mutate_game(game, rng, settings.evolve_mutation) for game in pool]
+    together = pool + children
+    scores = regret_scores(policy, together, settings.observation(), settings.gamma, seed)
+    keep = np.argsort(-scores, kind="stable")[:size]
+    return [together[i] for i in keep], scores[keep]
+
+
+def _evaluate(policy: Policy, parts: dict[str, list[dict[str, Any]]], settings: TrainSettings, seed: int) -> dict[str, float]:
+    """Mean normalised return per episode (over ``eval_steps`` steps of each game) of each split."""
+    episodes = settings.eval_steps / (EPISODE_STEPS + 1)
+    was_training = policy.training
+    policy.eval()
+    scores = {
+        name: float(np.mean(evaluate_policy(policy, games, settings.observation(), settings.eval_steps, seed, settings.device)))
+        / episodes
+        for name, games in parts.items()
+        if games
+    }
+    policy.train(was_training)
+    return scores
+
+
+def learning_figure(rows: list[dict[str, Any]]) -> Any:
+    from evolution.plots import new_figure
+
+    figure = new_figure(figsize=(7, 4))
+    axes = figure.add_subplot(1, 1, 1)
+    tested = [row for row in rows if "test" in row]
+    for name, label in (("train", "training games"), ("val", "validation games"), ("test", "test games (held out)")):
+        marked = [row for row in tested if name in row]
+        axes.plot([r["update"] for r in marked], [r[name] for r in marked], "o-", label=label)
+    played = [row for row in rows if row.get("return") is not None]
+    if played:
+        axes.plot([r["update"] for r in played], [r["return"] for r in played], alpha=0.4, label="episodes played in training")
+    axes.set_xlabel("PPO update (0: after cloning)")
+    axes.set_ylabel("normalised return per episode")
+    axes.grid(alpha=0.3)
+    axes.legend(loc="best")
+    axes.set_title("Autoverse player: behaviour cloning, then PPO")
+    return figure
+
+
+def evolution_figure(rows: list[dict[str, Any]]) -> Any:
+    from evolution.plots import new_figure
+
+    figure = new_figure(figsize=(7, 6))
+    top, bottom = figure.add_subplot(2, 1, 1), figure.add_subplot(2, 1, 2, sharex=None)
+    evolved = [row for row in rows if "pool_regret" in row]
+    top.plot([r["update"] for r in evolved], [r["pool_regret"] for r in evolved], "o-", label="mean over the pool")
+    top.plot([r["update"] for r in evolved], [r["pool_regret_max"] for r in evolved], "s--", label="highest")
+    top.set_ylabel("sum of |G - V| per episode")
+    top.set_title("games evolved for the agent's value error")
+    top.legend(loc="best")
+    top.grid(alpha=0.3)
+    tested = [row for row in rows if "test" in row]
+    bottom.plot([r["update"] for r in tested], [r["test"] for r in tested], "o-", color="C2", label="test games (held out)")
+    bottom.set_xlabel("PPO update")
+    bottom.set_ylabel("normalised return per episode")
+    bottom.legend(loc="best")
+    bottom.grid(alpha=0.3)
+    return figure
+
+
+def _pictures(rows: list[dict[str, Any]], settings: TrainSettings) -> dict[str, Any]:
+    pictures = {LEARNING_PLOT: learning_figure(rows)}
+    if settings.evolve_every:
+        pictures[EVOLUTION_PLOT] = evolution_figure(rows)
+    return pictures
+
+
+def _save(path: Path, state: dict[str, Any]) -> None:
+    buffer = io.BytesIO()
+    torch.save(state, buffer)
+    atomic_write(path, buffer.getvalue())
+
+
+def _load(path: Path) -> dict[str, Any]:
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # a damaged file: say which, change nothing
+        raise InputError(f"{path}: cannot resume from this file ({type(err).__name__}: {err})") from None
+
+
+def _pool_arrays(pool: list[dict[str, Any]]) -> dict[str, torch.Tensor]:
+    return {key: torch.as_tensor(value) for key, value in stack_games(pool).items()}
+
+
+def _pool_from(arrays: dict[str, torch.Tensor]) -> list[dict[str, Any]]:
+    count = len(arrays["rewards"])
+    return [{key: arrays[key][i].numpy() for key in ("rules", "rewards", "map")} for i in range(count)]
+
+
+def read_settings(folder: RunFolder) -> TrainSettings:
+    return read_training_settings(folder, TrainSettings, _TABLE)
+
+
+def source_run(output: str | Path) -> Path:
+    """The evolution run whose games the training in ``output`` learns from."""
+    source = RunFolder(output).manifest().get("source_run")
+    if not source:
+        raise InputError(f"{output}: its manifest.json does not name the run it trains on (source_run)")
+    return Path(source)
+
+
+def training_summary(output: str | Path) -> dict[str, Any]:
+    """What ``structgen info`` says of a training folder: settings, progress, the last evaluation."""
+    folder = RunFolder(output)
+    settings = read_settings(folder)
+    rows = read_history(folder, settings.updates)
+    tested = [row for row in rows if "test" in row]
+    return {
+        "run_dir": str(output),
+        "run_kind": RUN_KIND,
+        "source_run": str(source_run(output)),
+        "updates": settings.updates,
+        "updates_done": rows[-1]["update"] if rows else 0,
+        "test": tested[-1]["test"] if tested else None,
+        "finished": (folder / POLICY_FILE).is_file(),
+        "settings": asdict(settings),
+    }
+
+
+def train(
+    run_dir: str | Path, output: str | Path, settings: TrainSettings, *, overwrite: bool = False, progress: bool = True
+) -> list[dict[str, Any]]:
+    """Train (or resume training) a player for the games of the Autoverse run ``run_dir`` in the folder ``output``;
+    returns the history rows."""
+    from tqdm import tqdm
+
+    from structgen.devices import resolve_device
+
+    resolve_device(settings.device, "train device")
+    parts = split(collect_playtraces(Path(run_dir), settings.min_fitness))
+    if not parts["train"]:
+        raise InputError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
+    folder = open_training_folder(
+        Path(output),
+        settings,
+        run_kind=RUN_KIND,
+        domain=DOMAIN,
+        table=_TABLE,
+        header=_HEADER,
+        overwrite=overwrite,
+        about={"source_run": str(Path(run_dir).resolve())},
+    )
+    torch.manual_seed(settings.seed)
+    observation = settings.observation()
+    policy = Policy(FLAT_SIZE, settings.hidden, VIEW).to(settings.device)
+    with folder.locked():
+        if (folder / CLONED_FILE).is_file():
+            policy.load_state_dict(_load(folder / CLONED_FILE)["policy"])
+        else:
+            if settings.clone_steps:
+                views, flats, actions = transitions(parts["train"], observation, device=settings.device)
+                fit_policy(
+                    policy, views, flats, actions, settings.clone_steps, settings.clone_batch,
+                    settings.clone_learning_rate, settings.seed, progress,
+                )  # fmt: skip
+                del views, flats, actions
+            first = {"update": 0, "agent_steps": 0, **_evaluate(policy, parts, settings, settings.seed)}
+            _save(folder / CLONED_FILE, {"policy": policy.state_dict(), "evaluation": first})
+            write_history(folder, [first], _pictures([first], settings))
+        ppo = PPO(policy, settings.ppo())
+        generator = torch.Generator().manual_seed(settings.seed)
+        rng = np.random.default_rng([settings.seed, 2])
+        pool = list(parts["train"])
+        size = settings.pool or len(pool)
+        done = 0
+        returns = EpisodeReturns(settings.envs, settings.device)
+        checkpoint = folder / CHECKPOINT_FILE
+        saved = _load(checkpoint) if checkpoint.is_file() else None
+        if saved is not None:
+            pool = _pool_from(saved["pool"])
+        env = GamePool(pool, settings.envs, observation, settings.device, generator)
+        if saved is not None:
+            try:
+                ppo.policy.load_state_dict(saved["policy"])
+                ppo.optimiser.load_state_dict(saved["optimiser"])
+                env.load_state_dict(saved["env"])
+                generator.set_state(saved["generator"])
+                rng.bit_generator.state = json.loads(saved["rng"])
+                torch.set_rng_state(saved["torch_rng"])
+                returns.running = saved["running"].to(returns.running.device)
+            except (KeyError, RuntimeError, ValueError, TypeError) as err:
+                raise InputError(f"{checkpoint}: cannot resume from this checkpoint ({type(err).__name__}: {err})") from None
+            done = int(saved["update"])
+        rows = read_history(folder, done)
+        bar = tqdm(total=settings.updates, initial=done, desc="autoverse PPO", unit="update", disable=not progress)
+        while done < settings.updates:
+            started = time.perf_counter()
+            rollout = ppo.collect(env, env.observe())
+            ended = returns.add_rollout(rollout)
+            losses = ppo.update(rollout)
+            done += 1
+            row: dict[str, Any] = {
+                "update": done,
+                "agent_steps": done * settings.envs * settings.steps,
+                "episodes": len(ended),
+                "return": float(np.mean(ended)) if ended else None,
+                **losses,
+            }
+            if settings.evolve_every and done % settings.evolve_every == 0:
+                pool, scores = evolve_pool(ppo.policy, pool, settings, size, rng, settings.seed + done)
+                env = GamePool(pool, settings.envs, observation, settings.device, generator)
+                returns = EpisodeReturns(settings.envs, settings.device)  # the episodes in play were cut off
+                row.update(pool_regret=float(scores.mean()), pool_regret_max=float(scores.max()))
+            if done % settings.evaluate_every == 0 or done == settings.updates:
+                row.update(_evaluate(ppo.policy, parts, settings, settings.seed))
+            row["seconds"] = time.perf_counter() - started
+            rows.append(row)
+            bar.update(1)
+            bar.set_postfix({k: round(row[k], 2) for k in ("return", "test") if row.get(k) is not None})
+            if done % settings.checkpoint_every == 0 or done == settings.updates:
+                _save(
+                    checkpoint,
+                    {
+                        "update": done,
+                        "policy": ppo.policy.state_dict(),
+                        "optimiser": ppo.optimiser.state_dict(),
+                        "env": env.state_dict(),
+                        "pool": _pool_arrays(pool),
+                        "generator": generator.get_state(),
+                        "rng": json.dumps(rng.bit_generator.state),
+                        "running": returns.running,
+                        "torch_rng": torch.get_rng_state(),
+                    },
+                )
+                write_history(folder, rows, _pictures(rows, settings))
+        bar.close()
+        _save(folder / POLICY_FILE, {"policy": ppo.policy.state_dict(), "settings": asdict(settings), "updates": done})
+    return rows
