@@ -105,7 +105,7 @@ def layer(name: str) -> int:
         return 2
     if name in ("structgen.domains", "structgen.domains.registry", "structgen.commands"):
         return 3
-    if name in ("structgen.experiment", "structgen.runs"):
+    if name in ("structgen.experiment", "structgen.runs", "structgen.training_folder"):
         return 4
     if name.startswith("structgen.domains."):
         return 5

@@ -302,7 +302,8 @@ def _train_options() -> list[tuple[str, str, Any, str]]:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from structgen.domains.autoverse.train import PRESETS, TrainSettings, train
+    from structgen.domains.autoverse.train import train
+    from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
 
     values = dict(PRESETS[args.preset])
     values.update({field: getattr(args, field) for _, field, _, _ in _train_options() if getattr(args, field) is not None})
@@ -330,9 +331,12 @@ def _print_training(output: Path, rows: list[dict[str, Any]]) -> None:
 
 
 def _add_train(subparsers: Any) -> None:
-    from structgen.domains.autoverse.train import PRESETS, TrainSettings
+    import dataclasses
 
-    defaults = TrainSettings()
+    from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
+
+    # The fields' defaults, read without building the settings (whose checks load torch).
+    defaults = {item.name: item.default for item in dataclasses.fields(TrainSettings)}
     p = subparsers.add_parser(
         "train",
         help="train a player for a run's games: behaviour cloning, then PPO (optionally on games evolved for it)",
@@ -349,7 +353,7 @@ def _add_train(subparsers: Any) -> None:
     p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="training folder (made, or resumed)")
     p.add_argument("--preset", choices=tuple(PRESETS), default="cpu", help="starting settings (default cpu)")
     for option, field, parse, text in _train_options():
-        default = getattr(defaults, field)
+        default = defaults[field]
         metavar = "N" if isinstance(default, int) else "X"
         p.add_argument(option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} (cpu preset: {default})")
     _observation_options(p)
