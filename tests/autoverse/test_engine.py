@@ -159,8 +159,12 @@ def test_bad_games_are_refused_with_the_field_named():
     from structgen.errors import InputError
 
     game = random_game(np.random.default_rng(0))
-    game["rules"][2, 1, 0, 0, 0, 0] = 1  # rule 2, rotation 1 reads the player
-    with pytest.raises(InputError, match=r"g.rules\[2\]\[1\]: rules may not read or write the player"):
+    game["dones"] = [0, 1, 2, 0, 0]
+    with pytest.raises(InputError, match=r"g.dones: expected five 0/1 values, one per rule, got \[0, 1, 2, 0, 0\]"):
+        check_game(game, "g")
+    game = random_game(np.random.default_rng(0))
+    game["free_moves"] = 3
+    with pytest.raises(InputError, match="g.free_moves: expected 0 or 1, got 3"):
         check_game(game, "g")
     game = random_game(np.random.default_rng(0))
     game["map"][0] = 0

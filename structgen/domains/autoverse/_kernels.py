@@ -32,11 +32,15 @@ def _step_game(
     match: np.ndarray,  # (G, S, L, 32) int64: rules satisfied by a code under that cell
     change: np.ndarray,  # (G, S, L, M, 5) int64: per-tile change written there by a set of matching rules
     rewards: np.ndarray,  # (G, M) int64: reward of a set of matching rules
+    done_table: np.ndarray,  # (G, M) bool: a set of matching rules holds one that ends the episode
+    free_moves: np.ndarray,  # (G,) bool: actions 2 and 3 move the player (else only rules do)
+    player_rules: np.ndarray,  # (G,) bool: the game's rules touch the player channel
     force_clear: bool,
     out_codes: np.ndarray,
     out_rot: np.ndarray,
     out_pos: np.ndarray,
     out_reward: np.ndarray,
+    out_ended: np.ndarray,  # (B,) bool: a rule ended the episode, or removed the player
 ) -> None:
     g = games[b]
     action = actions[b]
@@ -48,9 +52,9 @@ def _step_game(
     dy, dx = _DIRECTIONS[facing, 0], _DIRECTIONS[facing, 1]
     y, x = pos[b, 0], pos[b, 1]
     ny, nx = y, x
-    if action == 2:
+    if action == 2 and free_moves[g]:
         ny, nx = (y + dy + n) % n, (x + dx + n) % n
-    elif action == 3:
+    elif action == 3 and free_moves[g]:
         ny, nx = (y - dy + n) % n, (x - dx + n) % n
     grid = out_codes[b]
     grid[:, :] = codes[b]
@@ -63,6 +67,7 @@ def _step_game(
     grid[ny, nx] = grid[ny, nx] | 1
     delta = np.zeros((n, n, _N_TILES), dtype=np.int64)
     total = 0
+    ended = False
     for s in range(slots):
         used = n_cells[s]
         for i in range(n):
@@ -77,6 +82,7 @@ def _step_game(
                 if matching == 0:
                     continue
                 total += rewards[g, matching]
+                ended |= done_table[g, matching]
                 for k in range(used):
                     qi = (i + cells[s, k, 0] - 1 + n) % n
                     qj = (j + cells[s, k, 1] - 1 + n) % n
@@ -90,10 +96,21 @@ def _step_game(
                 if ((old >> t) & 1) + delta[i, j, t] >= 1:
                     new |= 1 << t
             grid[i, j] = new
+    if player_rules[g]:  # the rules may have moved or removed the player: its first cell in row-major order
+        found = False
+        for i in range(n):
+            for j in range(n):
+                if grid[i, j] & 1:
+                    ny, nx, found = i, j, True
+                    break
+            if found:
+                break
+        ended |= not found
     out_rot[b] = facing
     out_pos[b, 0] = ny
     out_pos[b, 1] = nx
     out_reward[b] = total
+    out_ended[b] = ended
 
 
 @nb.njit(parallel=True, cache=True)
@@ -108,11 +125,15 @@ def step(
     match: np.ndarray,  # (G, S, L, 32) int64: rules satisfied by a code under that cell
     change: np.ndarray,  # (G, S, L, M, 5) int64: per-tile change written there by a set of matching rules
     rewards: np.ndarray,  # (G, M) int64: reward of a set of matching rules
+    done_table: np.ndarray,  # (G, M) bool: a set of matching rules holds one that ends the episode
+    free_moves: np.ndarray,  # (G,) bool: actions 2 and 3 move the player (else only rules do)
+    player_rules: np.ndarray,  # (G,) bool: the game's rules touch the player channel
     force_clear: bool,
     out_codes: np.ndarray,
     out_rot: np.ndarray,
     out_pos: np.ndarray,
     out_reward: np.ndarray,
+    out_ended: np.ndarray,  # (B,) bool: a rule ended the episode, or removed the player
 ) -> None:
     """One step of every game, a game per thread."""
     count, n = codes.shape[0], codes.shape[1]
@@ -134,11 +155,15 @@ def step(
             match,
             change,
             rewards,
+            done_table,
+            free_moves,
+            player_rules,
             force_clear,
             out_codes,
             out_rot,
             out_pos,
             out_reward,
+            out_ended,
         )
 
 
@@ -154,11 +179,15 @@ def step_serial(
     match: np.ndarray,  # (G, S, L, 32) int64: rules satisfied by a code under that cell
     change: np.ndarray,  # (G, S, L, M, 5) int64: per-tile change written there by a set of matching rules
     rewards: np.ndarray,  # (G, M) int64: reward of a set of matching rules
+    done_table: np.ndarray,  # (G, M) bool: a set of matching rules holds one that ends the episode
+    free_moves: np.ndarray,  # (G,) bool: actions 2 and 3 move the player (else only rules do)
+    player_rules: np.ndarray,  # (G,) bool: the game's rules touch the player channel
     force_clear: bool,
     out_codes: np.ndarray,
     out_rot: np.ndarray,
     out_pos: np.ndarray,
     out_reward: np.ndarray,
+    out_ended: np.ndarray,  # (B,) bool: a rule ended the episode, or removed the player
 ) -> None:
     """:func:`step` on the calling thread alone, for batches too small to be worth waking the others."""
     count, n = codes.shape[0], codes.shape[1]
@@ -180,9 +209,13 @@ def step_serial(
             match,
             change,
             rewards,
+            done_table,
+            free_moves,
+            player_rules,
             force_clear,
             out_codes,
             out_rot,
             out_pos,
             out_reward,
+            out_ended,
         )

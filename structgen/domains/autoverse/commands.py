@@ -22,6 +22,11 @@ def _game_source(p: argparse.ArgumentParser) -> None:
     p.add_argument("game", nargs="?", metavar="GAME", help="game JSON file, or a run folder (its best game)")
     p.add_argument("--random", type=whole_number(0, MAX_SEED), metavar="SEED", help="a random game from this seed instead")
     p.add_argument(
+        "--builtin",
+        choices=("maze", "lava_maze", "sokoban"),
+        help="a hand-written game instead (after the original's; docs/autoverse.md)",
+    )
+    p.add_argument(
         "--original",
         action="store_true",
         help="the original's mechanics: actions other than placing clear force in front of the player, and rules "
@@ -39,10 +44,14 @@ def load_game(args: argparse.Namespace) -> dict[str, Any]:
     from evolution.files import parse_json, read_text
     from structgen.domains.autoverse.game import game_from_json, random_game
 
-    if (args.game is None) == (args.random is None):
-        raise InputError("give a GAME file or run folder, or --random SEED (one of them)")
+    if sum(source is not None for source in (args.game, args.random, args.builtin)) != 1:
+        raise InputError("give a GAME file or run folder, --random SEED or --builtin NAME (one of them)")
     if args.random is not None:
         return random_game(np.random.default_rng(args.random))
+    if args.builtin is not None:
+        from structgen.domains.autoverse.library import builtin_game
+
+        return builtin_game(args.builtin)
     path = Path(args.game)
     if path.is_dir():
         path = path / "best" / "genome.json"
@@ -153,7 +162,9 @@ def cmd_show(args: argparse.Namespace) -> int:
             raise InputError(f"{args.output}: a GIF shows a playtrace; give --actions or --search BUDGET")
         playtrace_gif(game, actions, args.output, mechanics=_mechanics(args))
     elif suffix == ".png":
-        draw_game(game, args.output, actions, mechanics=_mechanics(args))
+        from structgen.domains.autoverse.library import TILES
+
+        draw_game(game, args.output, actions, TILES.get(args.builtin), mechanics=_mechanics(args))
     else:
         raise InputError(f"{args.output}: write a .png (map and rules) or a .gif (a playtrace)")
     print(args.output)

@@ -164,10 +164,17 @@ def multi_hot(code: torch.Tensor) -> torch.Tensor:
 
 
 def stack_games(games: Sequence[dict[str, Any]]) -> dict[str, np.ndarray]:
-    """Games -> stacked arrays ``rules (G, ...)``, ``rewards (G, 5)``, ``map (G, 5, N, N)``."""
+    """Games -> stacked arrays ``rules (G, ...)``, ``rewards (G, R)``, ``map (G, 5, N, N)``, ``dones (G, R)`` and
+    ``free_moves (G,)`` (the last two from :func:`.game.game_options`, their defaults where a game has none)."""
+    from structgen.domains.autoverse.game import game_options
+
     if not games:
         raise ValueError("no games given")
-    return {key: np.stack([np.asarray(g[key]) for g in games]) for key in ("rules", "rewards", "map")}
+    stacked = {key: np.stack([np.asarray(g[key]) for g in games]) for key in ("rules", "rewards", "map")}
+    options = [game_options(g) for g in games]
+    stacked["dones"] = np.stack([o["dones"] for o in options])
+    stacked["free_moves"] = np.array([o["free_moves"] for o in options], dtype=np.uint8)
+    return stacked
 
 
 _FIELD = 10  # bits per tile in a packed write: up to 36 contributions of 0..10 each
@@ -178,8 +185,10 @@ class Engine:
     """The games' rules compiled for batched stepping, on one device.
 
     ``step`` is a function of (state, actions): states are never modified in place, so a search can keep any
-    number of them and step any subset. Rules must leave the player channel alone (as every generated rule does):
-    the player's position is tracked, not searched for.
+    number of them and step any subset. The player's position is tracked; in a game whose rules read or write the
+    player channel (hand-written games: generated rules never do) it is looked up after the rules (the first player
+    cell in row-major order, as the original finds it), and an episode ends where the rules removed the player. A
+    step also ends the episode where a rule marked ``done`` fired, or at the step cap.
     """
 
     def __init__(
@@ -211,8 +220,17 @@ class Engine:
         self.mechanics = mechanics = mechanics or Mechanics()
         self.episode_steps = episode_steps
         rules = torch.as_tensor(np.asarray(arrays["rules"], dtype=np.int8)).to(torch.int64)  # (G, R, 4, 2, C, 3, 3)
-        if (rules[:, :, :, :, PLAYER] != 0).any():
-            raise ValueError("rules must not read or write the player channel")
+        if "dones" not in arrays:  # arrays stacked by hand: the options' defaults
+            arrays = {
+                **arrays,
+                "dones": np.zeros(rules.shape[:2], dtype=np.uint8),
+                "free_moves": np.ones(len(rules), dtype=np.uint8),
+            }
+        rule_dones = torch.as_tensor(np.asarray(arrays["dones"], dtype=np.int64))
+        #: per game: actions 2 and 3 move the player (else only rules do), and the rules touch the player channel
+        self._free_moves = torch.as_tensor(np.asarray(arrays["free_moves"], dtype=np.int64)).to(self.device)
+        self._player_rules = (rules[:, :, :, :, PLAYER] != 0).flatten(1).any(dim=1).to(self.device)
+        self._any_player_rules = bool(self._player_rules.any())
         rewards = torch.as_tensor(np.asarray(arrays["rewards"])).to(torch.int64)
         maps = torch.as_tensor(np.asarray(arrays["map"], dtype=np.uint8))
         self.n_games, self.n_rules = rules.shape[:2]
@@ -232,6 +250,9 @@ class Engine:
         all_codes = torch.arange(1 << N_TILES)
         # reward of a cell from the set of rules matching there
         self._reward_table = (bits.unsqueeze(0) * rewards.unsqueeze(1)).sum(-1).to(self.device)  # (G, M)
+        # whether a set of matching rules holds one that ends the episode
+        self._done_table = ((bits.unsqueeze(0) * rule_dones.unsqueeze(1)).sum(-1) > 0).to(self.device)  # (G, M)
+        self._any_rule_dones = bool(rule_dones.any())
         self._slots = []
         kernel_tables = []
         for o in range(rules.shape[2]):
@@ -279,7 +300,16 @@ class Engine:
             cells[s, : len(slot_cells)] = slot_cells
             match[:, s, : len(slot_cells)] = slot_match.numpy()
             change[:, s, : len(slot_cells)] = slot_change.numpy()
-        return n_cells, cells, match, change, self._reward_table.cpu().numpy().astype(np.int64)
+        return (
+            n_cells,
+            cells,
+            match,
+            change,
+            self._reward_table.cpu().numpy().astype(np.int64),
+            self._done_table.cpu().numpy(),
+            self._free_moves.cpu().numpy().astype(np.bool_),
+            self._player_rules.cpu().numpy(),
+        )
 
     # -- states ----------------------------------------------------------------------------------------------------------
     def _player_positions(self, maps: torch.Tensor) -> torch.Tensor:
@@ -305,7 +335,8 @@ class Engine:
         n = self.size
         rot = (state.rot + self._turn[actions]) % 4
         facing = self._directions[rot]
-        pos = (state.pos + self._move[actions, None] * facing) % n
+        move = self._move[actions] * self._free_moves[state.game]
+        pos = (state.pos + move[:, None] * facing) % n
         target = (pos + facing) % n
         flat = state.map.reshape(len(state), n * n).clone()
         old_cell = (state.pos[:, 0] * n + state.pos[:, 1]).unsqueeze(1)
@@ -322,19 +353,24 @@ class Engine:
         flat.scatter_(1, new_cell, flat.gather(1, new_cell) | (1 << PLAYER))
         return State(flat.view(len(state), n, n), rot, pos, state.step, state.game)
 
-    def apply_rules(self, code: torch.Tensor, games: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        """Every rule on every map at once: ``(next codes, rewards)``; row ``i`` uses game ``games[i]``'s rules."""
+    def apply_rules(
+        self, code: torch.Tensor, games: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Every rule on every map at once: ``(next codes, rewards, whether a rule marked done fired)``; row ``i`` uses
+        game ``games[i]``'s rules."""
         # Decided outside the compiled part: a Python bool that depends on tensor values would break its graph.
         return self._rules(code, games, self._plays_every_game(games))
 
     def _rules_on_codes(
         self, code: torch.Tensor, games: torch.Tensor | None, identity: bool
-    ) -> tuple[torch.Tensor, torch.Tensor]:
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         count, n = len(code), self.size
         padded = F.pad(code.unsqueeze(1).float(), (1, 1, 1, 1), mode="circular").squeeze(1).to(torch.int64)
         writes = torch.zeros(count, n + 2, n + 2, dtype=torch.int64, device=self.device)
         reward_table = self._reward_table if identity else self._reward_table[games]
+        done_table = self._done_table if identity else self._done_table[games]
         reward = torch.zeros(count, dtype=torch.int64, device=self.device)
+        ended = torch.zeros(count, dtype=torch.bool, device=self.device)
         for cells, match_tables, write_tables in self._slots:
             if not identity:
                 match_tables, write_tables = match_tables[games], write_tables[games]
@@ -344,6 +380,7 @@ class Engine:
                 found = match_tables[:, index].gather(1, under)
                 matching = found if matching is None else matching & found
             reward += reward_table.gather(1, matching).sum(dim=1)
+            ended |= done_table.gather(1, matching).any(dim=1)
             for index, (dy, dx) in enumerate(cells):
                 writes[:, dy : dy + n, dx : dx + n] += write_tables[:, index].gather(1, matching).view(count, n, n)
         # Fold the writes that fell off an edge onto the other side of the torus (rows first, then columns, so that
@@ -359,7 +396,7 @@ class Engine:
         for tile in range(N_TILES):
             change = ((writes >> (_FIELD * tile)) & ((1 << _FIELD) - 1)) - base
             new |= ((((old >> tile) & 1) + change) >= 1).to(torch.int64) << tile
-        return new.to(torch.uint8), reward.float()
+        return new.to(torch.uint8), reward.float(), ended
 
     def _plays_every_game(self, games: torch.Tensor | None) -> bool:
         """Whether rows are the games in order (their tables are then used as they are, without a gather)."""
@@ -376,6 +413,7 @@ class Engine:
             count = len(state)
             codes, rot, pos = torch.empty_like(state.map), torch.empty_like(state.rot), torch.empty_like(state.pos)
             reward = np.empty(count, dtype=np.int64)
+            ended = np.empty(count, dtype=np.bool_)
             choosing = count >= _PARALLEL_FROM_BATCH and numba.get_num_threads() > 1
             way = self._kernel_choice.pick() if choosing else "serial"
             began = time.perf_counter()
@@ -391,13 +429,30 @@ class Engine:
                 rot.numpy(),
                 pos.numpy(),
                 reward,
+                ended,
             )
             if choosing:
                 self._kernel_choice.record(way, time.perf_counter() - began, count)
-            return State(codes, rot, pos, state.step + 1, state.game), torch.from_numpy(reward).float(), done
+            stepped = State(codes, rot, pos, state.step + 1, state.game)
+            return stepped, torch.from_numpy(reward).float(), done | torch.from_numpy(ended)
         moved = self.act(state, actions)
-        next_maps, reward = self.apply_rules(moved.map, state.game)
-        return State(next_maps, moved.rot, moved.pos, state.step + 1, state.game), reward, done
+        next_maps, reward, ended = self.apply_rules(moved.map, state.game)
+        pos = moved.pos
+        if self._any_player_rules:
+            pos, gone = self._find_players(next_maps, pos, state.game)
+            ended = ended | gone
+        return State(next_maps, moved.rot, pos, state.step + 1, state.game), reward, done | ended
+
+    def _find_players(self, maps: torch.Tensor, pos: torch.Tensor, games: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Where rules may have moved the player: its first cell in row-major order (the position kept where it has
+        none), and whether it has none."""
+        n = self.size
+        has = (maps.reshape(len(maps), n * n) & 1).bool()
+        gone = ~has.any(dim=1)
+        cell = has.to(torch.uint8).argmax(dim=1)
+        found = torch.stack([cell // n, cell % n], dim=1)
+        looked = (self._player_rules[games] & ~gone).unsqueeze(1)
+        return torch.where(looked, found, pos), self._player_rules[games] & gone
 
     # -- observations ----------------------------------------------------------------------------------------------------
     def observe(self, state: State, observation: Observation | None = None) -> tuple[torch.Tensor, torch.Tensor]:

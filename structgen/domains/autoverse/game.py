@@ -11,7 +11,16 @@ A game is a dict of three numpy arrays, the unit the original code exchanges too
   player places), 2-4 are the free tiles a, b, c. Random maps are one-hot; mutation makes cells with several tiles
   or none.
 
-Being plain data, games pickle, go through checkpoints and JSON unchanged, and hash by content (:func:`game_key`).
+Two optional entries describe games written by hand (:mod:`.library`); generated games never have them, and a game
+without them behaves as with their defaults (:func:`game_options`):
+
+- ``dones``: ``(5,)`` 0/1, a rule marked 1 ends the episode in the step it fires (the original's ``done`` rules);
+- ``free_moves``: 1 (default) when actions 2 and 3 move the player, 0 when only rules move it (the player places
+  force and a rule carries it there, as the original's hand-written games are written).
+
+Rules may read and write the player channel (generated rules never do); an episode also ends where the rules
+remove the player. Being plain data, games pickle, go through checkpoints and JSON unchanged, and hash by content
+(:func:`game_key`).
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ __all__ = [
     "TILE_NAMES",
     "check_game",
     "game_from_json",
+    "game_options",
     "game_key",
     "game_to_json",
     "mutate_game",
@@ -153,18 +163,41 @@ def check_game(game: Any, where: str = "game") -> dict[str, np.ndarray]:
         raise InputError(f"{where}.map: the player channel must hold exactly one cell, holds {int(checked['map'][PLAYER].sum())}")
     if (checked["rules"][:, :, 0] < 0).any():
         raise InputError(f"{where}.rules: input patterns must be 0 or 1")
-    touching = np.argwhere((checked["rules"][:, :, :, PLAYER] != 0).any(axis=(2, 3, 4)))
-    if len(touching):
-        rule, rotation = touching[0]
-        raise InputError(f"{where}.rules[{rule}][{rotation}]: rules may not read or write the player channel (tile 0)")
+    for key, shape in (("dones", (N_RULES,)), ("free_moves", ())):
+        if key not in game:
+            continue
+        array = np.asarray(game[key])
+        if array.shape != shape or not np.isin(array, (0, 1)).all():
+            raise InputError(
+                f"{where}.{key}: expected {'five 0/1 values, one per rule' if shape else '0 or 1'}, got {game[key]!r}"
+            )
+        checked[key] = array.astype(np.uint8)
     return checked
+
+
+def game_options(game: dict[str, Any]) -> dict[str, Any]:
+    """A game's ``dones`` and ``free_moves``, their defaults (no rule ends the episode; actions move the player)
+    where it has none."""
+    dones = np.asarray(game["dones"], dtype=np.uint8) if "dones" in game else np.zeros(N_RULES, dtype=np.uint8)
+    return {"dones": dones, "free_moves": int(game.get("free_moves", 1))}
+
+
+def _optional(game: dict[str, Any]) -> dict[str, Any]:
+    """The options that differ from their defaults (so that a generated game hashes and saves as it always has)."""
+    options = game_options(game)
+    found = {}
+    if options["dones"].any():
+        found["dones"] = options["dones"]
+    if options["free_moves"] != 1:
+        found["free_moves"] = options["free_moves"]
+    return found
 
 
 def game_key(game: dict[str, Any]) -> str:
     """A content hash of a game (rules, rewards, map): equal games share it."""
     digest = hashlib.blake2b(digest_size=12)
-    for key in ("rules", "rewards", "map"):
-        array = np.ascontiguousarray(game[key], dtype=np.int8)
+    for value in [game[key] for key in ("rules", "rewards", "map")] + list(_optional(game).values()):
+        array = np.ascontiguousarray(value, dtype=np.int8)
         digest.update(str(array.shape).encode())
         digest.update(array.tobytes())
     return digest.hexdigest()
@@ -173,6 +206,7 @@ def game_key(game: dict[str, Any]) -> str:
 def game_to_json(game: dict[str, Any]) -> dict[str, Any]:
     """Nested lists of small integers (``budget``, when present, kept)."""
     data = {key: np.asarray(game[key]).astype(int).tolist() for key in ("rules", "rewards", "map")}
+    data.update({key: np.asarray(value).astype(int).tolist() for key, value in _optional(game).items()})
     if "budget" in game:
         data["budget"] = int(game["budget"])
     return data

@@ -41,15 +41,21 @@ def _pattern_image(kernel: np.ndarray, scale: int = 16) -> np.ndarray:
     """One side of a rule (``(5, 3, 3)``, positive entries drawn) as a 3x3 picture; unconstrained cells grey."""
     cells = (kernel > 0).astype(np.uint8)
     image = map_image(cells, scale)
-    blank = cells[1:].sum(axis=0) == 0
+    blank = cells.sum(axis=0) == 0  # a cell that asks for the player alone shows it
     image[np.kron(blank, np.ones((scale, scale), dtype=bool))] = 110
     return image
 
 
-def draw_game(game: dict[str, Any], path: str | Path, actions: np.ndarray | None = None, **engine: Any) -> Path:
+def draw_game(
+    game: dict[str, Any],
+    path: str | Path,
+    actions: np.ndarray | None = None,
+    tile_names: tuple[str, str, str] | None = None,
+    **engine: Any,
+) -> Path:
     """A PNG of the game, written atomically: its initial map, and each rule (rotation 0) as the 3x3 pattern it
     matches and what the matched cells become, with its reward. With ``actions`` (a playtrace), also the map at the end
-    of the play and the return along it."""
+    of the play and the return along it. ``tile_names`` names tiles 2-4 in the legend (a hand-written game's)."""
     from evolution.files import atomic_write
     from evolution.plots import figure_png, new_figure
 
@@ -86,7 +92,8 @@ def draw_game(game: dict[str, Any], path: str | Path, actions: np.ndarray | None
         axis.set_xlabel("step of the play")
         axis.set_ylabel("return so far")
         axis.set_title(f"return along the play: {returns[-1]:g}", fontsize=9)
-    names = ", ".join(f"{name} {colour}" for name, colour in zip(TILE_NAMES[1:N_TILES], ("red", "green", "blue", "yellow")))
+    shown = (TILE_NAMES[1], *(tile_names or TILE_NAMES[2:N_TILES]))
+    names = ", ".join(f"{name} {colour}" for name, colour in zip(shown, ("red", "green", "blue", "yellow")))
     figure.suptitle(
         f"tiles: {names}; a cell holding several shows their mean colour, an empty one is black; white: the player.\n"
         "Rules (letter: reward a match) match a 3x3 pattern (grey: any tile) and rewrite it, in all four rotations.",
