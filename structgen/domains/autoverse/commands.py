@@ -298,6 +298,7 @@ def _train_options() -> list[tuple[str, str, Any, str]]:
         ("--hidden", "hidden", whole_number(1, 4096), "network width (the convolution's channels and the layers')"),
         ("--evaluate-every", "evaluate_every", whole_number(1, 10**7), "updates between evaluations on every split"),
         ("--eval-steps", "eval_steps", whole_number(1, 10**7), "steps each game is played for in an evaluation"),
+        ("--eval-games", "eval_games", whole_number(0, 10**6), "games of each split evaluated, spread over its fitness (0: all)"),
         ("--checkpoint-every", "checkpoint_every", whole_number(1, 10**7), "updates between checkpoints"),
         (
             "--evolve-every",

@@ -96,6 +96,13 @@ def evolve_pool(
     return [together[i] for i in keep], scores[keep]
 
 
+def evaluation_games(games: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
+    """``count`` games evenly spaced along ``games`` (a split, in order of fitness); all of them for 0."""
+    if count == 0 or count >= len(games):
+        return games
+    return [games[i] for i in np.unique(np.linspace(0, len(games) - 1, count).round().astype(int))]
+
+
 def _evaluate(policy: Policy, parts: dict[str, list[dict[str, Any]]], settings: TrainSettings, seed: int) -> dict[str, float]:
     """Mean normalised return per episode (over ``eval_steps`` steps of each game) of each split."""
     episodes = settings.eval_steps / (EPISODE_STEPS + 1)
@@ -104,7 +111,7 @@ def _evaluate(policy: Policy, parts: dict[str, list[dict[str, Any]]], settings: 
     scores = {
         name: float(np.mean(evaluate_policy(policy, games, settings.observation(), settings.eval_steps, seed, settings.device)))
         / episodes
-        for name, games in parts.items()
+        for name, games in ((name, evaluation_games(games, settings.eval_games)) for name, games in parts.items())
         if games
     }
     policy.train(was_training)

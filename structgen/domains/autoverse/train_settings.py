@@ -22,6 +22,7 @@ class TrainSettings:
     window, hide_rules, padding, blank_window: what the player sees (:class:`.engine.Observation`).
     min_fitness: games of the run below this fitness are left out (the original's 2).
     evaluate_every, eval_steps: updates between evaluations; steps each game is played for in one.
+    eval_games: games of each split evaluated, evenly spaced along the split's order of fitness (0: all).
     checkpoint_every: updates between checkpoints.
     evolve_every: updates between rounds of regret-driven evolution of the training games (0: the pool stays the
         training games).
@@ -53,6 +54,7 @@ class TrainSettings:
     min_fitness: float = 2.0
     evaluate_every: int = 10
     eval_steps: int = 303
+    eval_games: int = 200
     checkpoint_every: int = 5
     evolve_every: int = 0
     pool: int = 0
@@ -73,7 +75,7 @@ class TrainSettings:
         for name in at_least_one + ("checkpoint_every",):
             if getattr(self, name) < 1:
                 raise ValueError(f"train {name} must be at least 1, got {getattr(self, name)!r}")
-        for name in ("clone_steps", "updates", "evolve_every", "pool", "seed"):
+        for name in ("clone_steps", "updates", "evolve_every", "pool", "seed", "eval_games"):
             if getattr(self, name) < 0:
                 raise ValueError(f"train {name} must not be negative, got {getattr(self, name)!r}")
         for name in ("clone_learning_rate", "learning_rate"):
@@ -115,6 +117,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         "learning_rate": 1e-5,
         "hidden": 256,
         "eval_steps": 10_000,
+        "eval_games": 0,
         "evaluate_every": 10,
     },
 }
