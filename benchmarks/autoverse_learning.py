@@ -14,6 +14,9 @@ seeds.
 
     python benchmarks/autoverse_learning.py RUN_DIR [--seeds 3] [--clone-steps 2000] [--views full 5 hidden]
 
+The paper's scale, on a GPU: ``--clone-steps 100000 --clone-batch 4096 --hidden 256 --eval-steps 10000 --views full
+5 10 20 hidden --device cuda``.
+
 The original's figures (research notes A9: its cross_eval/obs_win table, test means over 10,000 steps, 3 seeds, 100,000
 cloning steps of batch 4,096 on the games of a 100-generation map-only run) are printed beside ours, scaled to our
 per-episode unit (x 101 / 10,000); the original's normalisation differs from ours on cascading games (see
@@ -47,14 +50,14 @@ class Constant(nn.Module):
         self.action = action
 
     def forward(self, view: torch.Tensor, flat: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        logits = torch.full((len(view), 5), -1e9)
+        logits = torch.full((len(view), 5), -1e9, device=view.device)
         logits[:, self.action] = 0.0
-        return logits, torch.zeros(len(view))
+        return logits, torch.zeros(len(view), device=view.device)
 
 
-def per_episode(policy: nn.Module, games: list, observation: Observation, steps: int, seed: int) -> np.ndarray:
-    policy.eval()
-    return evaluate_policy(policy, games, observation, steps, seed) / (steps / (EPISODE_STEPS + 1))
+def per_episode(policy: nn.Module, games: list, observation: Observation, steps: int, seed: int, device: str) -> np.ndarray:
+    policy.to(device).eval()
+    return evaluate_policy(policy, games, observation, steps, seed, device) / (steps / (EPISODE_STEPS + 1))
 
 
 def paired(policy: np.ndarray, baseline: np.ndarray) -> str:
@@ -82,6 +85,7 @@ def main() -> None:
     parser.add_argument("--views", nargs="+", default=["full"], choices=tuple(VIEWS), help="views to clone (default full)")
     parser.add_argument("--ppo-updates", type=int, default=0, help="PPO updates after cloning, full view (default 0: none)")
     parser.add_argument("--threads", type=int, default=2, help="torch threads (default 2)")
+    parser.add_argument("--device", default="cpu", help="torch device (default cpu; cuda for the paper's scale)")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     parts = split(collect_playtraces(args.run_dir))
@@ -93,14 +97,14 @@ def main() -> None:
     )
     full = Observation()
     seeds = range(args.seeds)
-    constants = np.stack([per_episode(Constant(a), test, full, args.eval_steps, 0) for a in range(5)])
+    constants = np.stack([per_episode(Constant(a), test, full, args.eval_steps, 0, args.device) for a in range(5)])
     best_action = int(constants.mean(axis=1).argmax())
     constant = constants[best_action][None]
     started = time.perf_counter()
     untrained = []
     for seed in seeds:
         torch.manual_seed(seed)
-        untrained.append(per_episode(Policy(hidden=args.hidden), test, full, args.eval_steps, seed))
+        untrained.append(per_episode(Policy(hidden=args.hidden), test, full, args.eval_steps, seed, args.device))
     untrained = np.stack(untrained)
     rows = [
         (f"constant action {best_action} (best of 5)", "-", f"{constant.mean():.3f}", "-", "-", "-"),
@@ -112,13 +116,13 @@ def main() -> None:
         window, hide = VIEWS[view]
         observation = Observation(window=window, hide_rules=hide)
         started = time.perf_counter()
-        views, flats, actions = transitions(parts["train"], observation)
+        views, flats, actions = transitions(parts["train"], observation, device=args.device)
         returns = []
         for seed in seeds:
             torch.manual_seed(seed)
-            policy = Policy(hidden=args.hidden)
+            policy = Policy(hidden=args.hidden).to(args.device)
             fit_policy(policy, views, flats, actions, args.clone_steps, args.clone_batch, args.lr, seed, progress=False)
-            returns.append(per_episode(policy, test, observation, args.eval_steps, seed))
+            returns.append(per_episode(policy, test, observation, args.eval_steps, seed, args.device))
             if view == "full":
                 cloned_full[seed] = policy
         returns = np.stack(returns)
@@ -138,7 +142,7 @@ def main() -> None:
                 updates=args.ppo_updates, envs=32, steps=101, hidden=args.hidden, seed=seed, learning_rate=1e-4
             )
             trained, _ = train_ppo(parts["train"], settings, full, policy)
-            returns.append(per_episode(trained, test, full, args.eval_steps, seed))
+            returns.append(per_episode(trained, test, full, args.eval_steps, seed, args.device))
         returns = np.stack(returns)
         label = f"cloned, then {args.ppo_updates} PPO updates"
         rows.append((label, "full", over_seeds(returns), paired(returns, constant), paired(returns, untrained), "-"))

@@ -231,6 +231,7 @@ class Engine:
         self._free_moves = torch.as_tensor(np.asarray(arrays["free_moves"], dtype=np.int64)).to(self.device)
         self._player_rules = (rules[:, :, :, :, PLAYER] != 0).flatten(1).any(dim=1).to(self.device)
         self._any_player_rules = bool(self._player_rules.any())
+        self._all_free = bool(self._free_moves.all())
         rewards = torch.as_tensor(np.asarray(arrays["rewards"])).to(torch.int64)
         maps = torch.as_tensor(np.asarray(arrays["map"], dtype=np.uint8))
         self.n_games, self.n_rules = rules.shape[:2]
@@ -335,7 +336,7 @@ class Engine:
         n = self.size
         rot = (state.rot + self._turn[actions]) % 4
         facing = self._directions[rot]
-        move = self._move[actions] * self._free_moves[state.game]
+        move = self._move[actions] if self._all_free else self._move[actions] * self._free_moves[state.game]
         pos = (state.pos + move[:, None] * facing) % n
         target = (pos + facing) % n
         flat = state.map.reshape(len(state), n * n).clone()
@@ -368,7 +369,7 @@ class Engine:
         padded = F.pad(code.unsqueeze(1).float(), (1, 1, 1, 1), mode="circular").squeeze(1).to(torch.int64)
         writes = torch.zeros(count, n + 2, n + 2, dtype=torch.int64, device=self.device)
         reward_table = self._reward_table if identity else self._reward_table[games]
-        done_table = self._done_table if identity else self._done_table[games]
+        done_table = self._done_table if identity or not self._any_rule_dones else self._done_table[games]
         reward = torch.zeros(count, dtype=torch.int64, device=self.device)
         ended = torch.zeros(count, dtype=torch.bool, device=self.device)
         for cells, match_tables, write_tables in self._slots:
@@ -380,7 +381,8 @@ class Engine:
                 found = match_tables[:, index].gather(1, under)
                 matching = found if matching is None else matching & found
             reward += reward_table.gather(1, matching).sum(dim=1)
-            ended |= done_table.gather(1, matching).any(dim=1)
+            if self._any_rule_dones:  # decided once per engine: generated games leave the step as it was
+                ended |= done_table.gather(1, matching).any(dim=1)
             for index, (dy, dx) in enumerate(cells):
                 writes[:, dy : dy + n, dx : dx + n] += write_tables[:, index].gather(1, matching).view(count, n, n)
         # Fold the writes that fell off an edge onto the other side of the torus (rows first, then columns, so that
