@@ -83,7 +83,10 @@ class TrainSettings:
                 raise ValueError(f"train {name} must be positive, got {getattr(self, name)!r}")
         if self.evolve_mutation not in MUTATIONS:
             raise ValueError(f"train evolve_mutation must be one of {', '.join(MUTATIONS)}, got {self.evolve_mutation!r}")
-        self.observation()  # raises ValueError naming the observation setting
+        try:
+            self.observation()
+        except ValueError as err:
+            raise ValueError(f"train {err}") from None
         self.ppo()
 
     def observation(self) -> Any:
