@@ -23,41 +23,9 @@ from typing import Any, Protocol
 import torch
 from torch import nn
 
-from structgen.devices import check_device_name
+from structgen.ppo_settings import PPOSettings
 
 __all__ = ["PPO", "PPOSettings", "Rollout", "BatchedEnv", "EpisodeReturns"]
-
-
-@dataclass(frozen=True)
-class PPOSettings:
-    """Attributes: envs (environments stepped at once), steps (per environment per update), updates, epochs,
-    minibatches, learning_rate, gamma, gae_lambda, clip, entropy, value_coef, max_grad_norm, hidden (network
-    width), seed, device."""
-
-    envs: int = 32
-    steps: int = 128
-    updates: int = 20
-    epochs: int = 4
-    minibatches: int = 4
-    learning_rate: float = 2.5e-4
-    gamma: float = 0.99
-    gae_lambda: float = 0.95
-    clip: float = 0.2
-    entropy: float = 0.01
-    value_coef: float = 0.5
-    max_grad_norm: float = 0.5
-    hidden: int = 64
-    seed: int = 0
-    device: str = "cpu"
-
-    def __post_init__(self) -> None:
-        check_device_name(self.device, "ppo device")
-        for name in ("envs", "steps", "updates", "epochs", "minibatches", "hidden"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < (0 if name == "updates" else 1):
-                raise ValueError(f"ppo {name} must be a positive integer, got {value!r}")
-        if self.envs * self.steps < self.minibatches:
-            raise ValueError(f"ppo minibatches ({self.minibatches}) cannot exceed envs x steps ({self.envs * self.steps})")
 
 
 class BatchedEnv(Protocol):

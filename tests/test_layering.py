@@ -88,6 +88,7 @@ CORE = {
     "structgen.nca",
     "structgen.nca_config",
     "structgen.ppo",
+    "structgen.ppo_settings",
     "structgen.reference_data",
     "structgen.structure",
     "structgen.threads",

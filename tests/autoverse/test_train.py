@@ -141,9 +141,16 @@ def test_the_original_preset_is_the_original_trainers_settings():
     from structgen.domains.autoverse.train_settings import PRESETS
 
     original = TrainSettings(**PRESETS["original"])
-    ppo = original.ppo()
+    ppo = original  # PPO takes the training's settings as they are
     assert (ppo.envs, ppo.steps, ppo.epochs, ppo.minibatches, ppo.learning_rate, ppo.hidden) == (100, 200, 10, 4, 1e-5, 256)
-    assert (ppo.gamma, ppo.gae_lambda, ppo.clip, ppo.entropy, ppo.value_coef, ppo.max_grad_norm) == (0.99, 0.95, 0.2, 0.01, 0.5, 0.5)
+    assert (ppo.gamma, ppo.gae_lambda, ppo.clip, ppo.entropy, ppo.value_coef, ppo.max_grad_norm) == (
+        0.99,
+        0.95,
+        0.2,
+        0.01,
+        0.5,
+        0.5,
+    )
     assert (original.clone_steps, original.clone_batch, original.clone_learning_rate) == (100_000, 4096, 1e-4)
     with pytest.raises(ValueError, match="train observation padding must be 'wrap' or 'zeros', got 'mirror'"):
         TrainSettings(padding="mirror")

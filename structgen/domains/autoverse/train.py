@@ -260,7 +260,7 @@ def train(
             first = {"update": 0, "agent_steps": 0, **_evaluate(policy, parts, settings, settings.seed)}
             _save(folder / CLONED_FILE, {"policy": policy.state_dict(), "evaluation": first})
             write_history(folder, [first], _pictures([first], settings))
-        ppo = PPO(policy, settings.ppo())
+        ppo = PPO(policy, settings)
         generator = torch.Generator().manual_seed(settings.seed)
         rng = np.random.default_rng([settings.seed, 2])
         pool = list(parts["train"])

@@ -4,21 +4,21 @@ can show their defaults without loading torch."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 from structgen.domains.autoverse.game import MUTATIONS
+from structgen.ppo_settings import PPOSettings
 
 __all__ = ["PRESETS", "TrainSettings"]
 
 
 @dataclass(frozen=True)
-class TrainSettings:
-    """Attributes:
+class TrainSettings(PPOSettings):
+    """PPO's settings (:class:`structgen.ppo_settings.PPOSettings`; ``hidden`` is the network's width, the original's
+    256, its convolution having as many channels), with their defaults for 2 CPU cores, and:
+
     clone_steps, clone_batch, clone_learning_rate: behaviour cloning (0 steps: PPO from an untrained network).
-    updates, envs, steps, epochs, minibatches, learning_rate, gamma, gae_lambda, clip, entropy, value_coef,
-        max_grad_norm: PPO (see :class:`structgen.ppo.PPOSettings`).
-    hidden: the network's width (the original's 256; its convolution has as many channels).
     window, hide_rules, padding, blank_window: what the player sees (:class:`.engine.Observation`).
     min_fitness: games of the run below this fitness are left out (the original's 2).
     evaluate_every, eval_steps: updates between evaluations; steps each game is played for in one.
@@ -28,25 +28,17 @@ class TrainSettings:
         training games).
     pool: games kept by evolution (0: as many as the training split has).
     evolve_mutation: how children differ from their parents (``rules_and_map`` or ``map_only``, as the run's).
-    seed, device.
     """
 
+    section: ClassVar[str] = "train"
+
+    updates: int = 50
+    steps: int = 101
+    learning_rate: float = 1e-4
+    hidden: int = 64
     clone_steps: int = 2000
     clone_batch: int = 256
     clone_learning_rate: float = 1e-4
-    updates: int = 50
-    envs: int = 32
-    steps: int = 101
-    epochs: int = 4
-    minibatches: int = 4
-    learning_rate: float = 1e-4
-    gamma: float = 0.99
-    gae_lambda: float = 0.95
-    clip: float = 0.2
-    entropy: float = 0.01
-    value_coef: float = 0.5
-    max_grad_norm: float = 0.5
-    hidden: int = 64
     window: int = -1
     hide_rules: bool = False
     padding: str = "zeros"
@@ -59,35 +51,35 @@ class TrainSettings:
     evolve_every: int = 0
     pool: int = 0
     evolve_mutation: str = "rules_and_map"
-    seed: int = 0
-    device: str = "cpu"
 
     def __post_init__(self) -> None:
-        for item in fields(self):
-            value = getattr(self, item.name)
-            if item.type == "int" and (not isinstance(value, int) or isinstance(value, bool)):
-                raise ValueError(f"train {item.name} must be a whole number, got {value!r}")
-            if item.type == "float" and (
-                isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
-            ):
-                raise ValueError(f"train {item.name} must be a finite number, got {value!r}")
-        at_least_one = ("clone_batch", "envs", "steps", "epochs", "minibatches", "hidden", "evaluate_every", "eval_steps")
-        for name in at_least_one + ("checkpoint_every",):
-            if getattr(self, name) < 1:
-                raise ValueError(f"train {name} must be at least 1, got {getattr(self, name)!r}")
-        for name in ("clone_steps", "updates", "evolve_every", "pool", "seed", "eval_games"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"train {name} must not be negative, got {getattr(self, name)!r}")
-        for name in ("clone_learning_rate", "learning_rate"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"train {name} must be positive, got {getattr(self, name)!r}")
+        super().__post_init__()
+        for name in (
+            "clone_steps",
+            "clone_batch",
+            "evaluate_every",
+            "eval_steps",
+            "eval_games",
+            "checkpoint_every",
+            "evolve_every",
+            "pool",
+        ):
+            value = getattr(self, name)
+            low = 1 if name in ("clone_batch", "evaluate_every", "eval_steps", "checkpoint_every") else 0
+            if not isinstance(value, int) or isinstance(value, bool) or value < low:
+                raise ValueError(f"train {name} must be a whole number of at least {low}, got {value!r}")
+        for name in ("clone_learning_rate", "min_fitness"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"train {name} must be a finite number, got {value!r}")
+        if not self.clone_learning_rate > 0:
+            raise ValueError(f"train clone_learning_rate must be positive, got {self.clone_learning_rate!r}")
         if self.evolve_mutation not in MUTATIONS:
             raise ValueError(f"train evolve_mutation must be one of {', '.join(MUTATIONS)}, got {self.evolve_mutation!r}")
         try:
             self.observation()
         except ValueError as err:
             raise ValueError(f"train {err}") from None
-        self.ppo()
 
     def observation(self) -> Any:
         """The :class:`.engine.Observation` of these settings."""
@@ -95,18 +87,10 @@ class TrainSettings:
 
         return Observation(window=self.window, hide_rules=self.hide_rules, padding=self.padding, blank_window=self.blank_window)
 
-    def ppo(self) -> Any:
-        """The :class:`structgen.ppo.PPOSettings` of these settings."""
-        from structgen.ppo import PPOSettings
 
-        names = ("envs", "steps", "updates", "epochs", "minibatches", "learning_rate", "gamma", "gae_lambda", "clip")
-        more = ("entropy", "value_coef", "max_grad_norm", "hidden", "seed", "device")
-        return PPOSettings(**{name: getattr(self, name) for name in names + more})
-
-
-#: ``cpu``: what fits 2 CPU cores in about an hour (the defaults). ``original``: the original's settings: cloning
-#: 100,000 steps of batch 4,096 at learning rate 1e-4; PPO with 100 games of 200 steps an update, 10 epochs of 4
-#: minibatches at learning rate 1e-5, a 256-wide network; 10,000 evaluation steps (for a GPU).
+#: ``cpu``: the defaults, a few minutes on 2 CPU cores for a 100-generation run's games. ``original``: the
+#: original's settings: cloning 100,000 steps of batch 4,096 at learning rate 1e-4; PPO with 100 games of 200 steps an
+#: update, 10 epochs of 4 minibatches at learning rate 1e-5, a 256-wide network; 10,000 evaluation steps (for a GPU).
 PRESETS: dict[str, dict[str, Any]] = {
     "cpu": {},
     "original": {

@@ -318,7 +318,7 @@ def train_agent(
     torch.manual_seed(settings.seed)
     curriculum = Curriculum(settings)
     env = CurriculumMazes(curriculum, settings)
-    ppo = PPO(MazePolicy(settings.hidden), settings.ppo())
+    ppo = PPO(MazePolicy(settings.hidden), settings)
     done = 0
     with folder.locked():
         if (folder / CHECKPOINT_FILE).is_file():
