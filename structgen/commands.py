@@ -171,6 +171,19 @@ class DomainCommands:
         raise InputError(f"{output}: this domain has nothing to export")
 
 
+def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_settings: Callable[[Any], Any], what: str) -> Any:
+    """``structgen resume`` on an agent training's folder (one that trains in this process, by PPO updates): its
+    settings, with ``--generations`` as the number of updates to reach."""
+    import dataclasses
+
+    from evolution import RunFolder
+
+    if args.cluster is not None or args.workers is not None:
+        raise InputError(f"{run_dir}: {what} runs in this process; give --generations (updates) only")
+    settings = read_settings(RunFolder(run_dir))
+    return settings if args.generations is None else dataclasses.replace(settings, updates=args.generations)
+
+
 def verbs_wanted(names: Iterable[str], only: Collection[str] | None) -> list[str]:
     """The verbs of ``names`` to add: all, or those in ``only``."""
     return [name for name in names if only is None or name in only]

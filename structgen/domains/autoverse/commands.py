@@ -13,7 +13,16 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import MAX_SEED, DomainCommands, InputError, device_name, finite_number, output_path, whole_number
+from structgen.commands import (
+    MAX_SEED,
+    DomainCommands,
+    InputError,
+    device_name,
+    finite_number,
+    output_path,
+    resumed_training_settings,
+    whole_number,
+)
 
 EXIT_OK = 0
 
@@ -380,18 +389,11 @@ class AutoverseCommands(DomainCommands):
     adders = {"play": _add_play, "search": _add_search, "show": _add_show, "clone": _add_clone, "train": _add_train}
 
     def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
-        import dataclasses
-
-        from evolution import RunFolder
         from structgen.domains.autoverse.train import RUN_KIND, read_settings, source_run, train
 
         if kind != RUN_KIND:
             return super().resume_run(kind, run_dir, args)
-        if args.cluster is not None or args.workers is not None:
-            raise InputError(f"{run_dir}: an Autoverse player's training runs in this process; give --generations (updates) only")
-        settings = read_settings(RunFolder(run_dir))
-        if args.generations is not None:
-            settings = dataclasses.replace(settings, updates=args.generations)
+        settings = resumed_training_settings(run_dir, args, read_settings, "an Autoverse player's training")
         _print_training(run_dir, train(source_run(run_dir), run_dir, settings, progress=True))
         return EXIT_OK
 

@@ -14,7 +14,16 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import DomainCommands, InputError, device_name, finite_number, output_path, verbs_wanted, whole_number
+from structgen.commands import (
+    DomainCommands,
+    InputError,
+    device_name,
+    finite_number,
+    output_path,
+    resumed_training_settings,
+    verbs_wanted,
+    whole_number,
+)
 from structgen.conv_nca import HIDDEN
 from structgen.domains.warehouse.layouts import KINDS, REPAIR_TIME_LIMIT, LayoutKind
 from structgen.grid import Grid
@@ -894,16 +903,11 @@ class LayoutCommands(DomainCommands):
             adders[name](subparsers, KINDS[self.kind])
 
     def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
-        from evolution import RunFolder
         from structgen.domains.warehouse.maze_training import RUN_KIND, read_settings, train_agent
 
         if kind != RUN_KIND:
             return super().resume_run(kind, run_dir, args)
-        if args.cluster is not None or args.workers is not None:
-            raise InputError(f"{run_dir}: a maze-agent training runs in this process; give --generations (updates) only")
-        settings = read_settings(RunFolder(run_dir))
-        if args.generations is not None:
-            settings = dataclasses.replace(settings, updates=args.generations)
+        settings = resumed_training_settings(run_dir, args, read_settings, "a maze-agent training")
         train_agent(run_dir, settings, progress=True)
         return EXIT_OK
 
