@@ -367,7 +367,7 @@ def _add_train(subparsers: Any) -> None:
         "where the agent's value prediction errs most are kept (the paper's open-ended phase). Evaluates on every "
         "split as it goes. OUT_DIR gets checkpoints (the same command resumes it; more --updates go on; so does "
         "structgen resume OUT_DIR), history.jsonl, learning.png (evolution.png) and policy.pt. Defaults are the "
-        "'cpu' preset (about an hour on 2 cores at the default scale of a 100-generation run); --preset original "
+        "'cpu' preset (about 4 minutes on 2 cores for the games of a 100-generation run); --preset original "
         "takes the original's settings (meant for a GPU).",
     )
     p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse evolution run folder (its playtraces)")
