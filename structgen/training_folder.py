@@ -27,6 +27,7 @@ __all__ = [
     "open_training_folder",
     "read_history",
     "read_training_settings",
+    "save_torch",
     "write_history",
 ]
 
@@ -118,3 +119,15 @@ def write_history(folder: RunFolder, rows: list[dict[str, Any]], pictures: dict[
     atomic_write(folder / HISTORY_FILE, "".join(json.dumps(row) + "\n" for row in rows))
     for name, figure in pictures.items():
         atomic_write(folder / name, figure_png(figure))
+
+
+def save_torch(path: Path, state: Any) -> Path:
+    """``torch.save`` of ``state`` to ``path``, written atomically (a checkpoint or weights file is never left half
+    written)."""
+    import io
+
+    import torch
+
+    buffer = io.BytesIO()
+    torch.save(state, buffer)
+    return atomic_write(path, buffer.getvalue())

@@ -330,6 +330,7 @@ def fit_policy(
 def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress: bool = True) -> dict[str, Any]:
     """Train a policy on the run's playtraces, evaluate it on every split, write ``policy.pt`` and ``report.json``."""
     from evolution.files import atomic_write
+    from structgen.training_folder import save_torch
 
     output = Path(output)
     if output.exists() and not output.is_dir():
@@ -373,10 +374,6 @@ def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress:
             }
         )
     output.mkdir(parents=True, exist_ok=True)
-    import io
-
-    buffer = io.BytesIO()
-    torch.save(policy.state_dict(), buffer)
-    atomic_write(output / "policy.pt", buffer.getvalue())
+    save_torch(output / "policy.pt", policy.state_dict())
     atomic_write(output / "report.json", json.dumps(report, indent=2) + "\n")
     return report

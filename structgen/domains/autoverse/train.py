@@ -23,7 +23,6 @@ on the same folder resumes it; more ``updates`` go on.
 
 from __future__ import annotations
 
-import io
 import json
 import time
 from dataclasses import asdict
@@ -34,7 +33,6 @@ import numpy as np
 import torch
 
 from evolution import RunFolder
-from evolution.files import atomic_write
 from structgen.domains.autoverse.clone import (
     Policy,
     collect_playtraces,
@@ -47,12 +45,10 @@ from structgen.domains.autoverse.clone import (
 from structgen.domains.autoverse.engine import EPISODE_STEPS, FLAT_SIZE, VIEW, Engine, Mechanics, Observation, stack_games
 from structgen.domains.autoverse.game import mutate_game
 from structgen.domains.autoverse.ppo import GamePool
-from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
+from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.errors import InputError
 from structgen.ppo import PPO, EpisodeReturns
-from structgen.training_folder import open_training_folder, read_history, read_training_settings, write_history
-
-__all__ = ["PRESETS", "TrainSettings", "evolve_pool", "regret_scores", "train"]
+from structgen.training_folder import open_training_folder, read_history, read_training_settings, save_torch, write_history
 
 RUN_KIND = "autoverse-player"
 DOMAIN = "autoverse-v0"
@@ -168,12 +164,6 @@ def _pictures(rows: list[dict[str, Any]], settings: TrainSettings) -> dict[str, 
     return pictures
 
 
-def _save(path: Path, state: dict[str, Any]) -> None:
-    buffer = io.BytesIO()
-    torch.save(state, buffer)
-    atomic_write(path, buffer.getvalue())
-
-
 def _load(path: Path) -> dict[str, Any]:
     try:
         return torch.load(path, map_location="cpu", weights_only=True)
@@ -258,7 +248,7 @@ def train(
                 )  # fmt: skip
                 del views, flats, actions
             first = {"update": 0, "agent_steps": 0, **_evaluate(policy, parts, settings, settings.seed)}
-            _save(folder / CLONED_FILE, {"policy": policy.state_dict(), "evaluation": first})
+            save_torch(folder / CLONED_FILE, {"policy": policy.state_dict(), "evaluation": first})
             write_history(folder, [first], _pictures([first], settings))
         ppo = PPO(policy, settings)
         generator = torch.Generator().manual_seed(settings.seed)
@@ -311,7 +301,7 @@ def train(
             bar.update(1)
             bar.set_postfix({k: round(row[k], 2) for k in ("return", "test") if row.get(k) is not None})
             if done % settings.checkpoint_every == 0 or done == settings.updates:
-                _save(
+                save_torch(
                     checkpoint,
                     {
                         "update": done,
@@ -327,5 +317,5 @@ def train(
                 )
                 write_history(folder, rows, _pictures(rows, settings))
         bar.close()
-        _save(folder / POLICY_FILE, {"policy": ppo.policy.state_dict(), "settings": asdict(settings), "updates": done})
+        save_torch(folder / POLICY_FILE, {"policy": ppo.policy.state_dict(), "settings": asdict(settings), "updates": done})
     return rows

@@ -28,7 +28,7 @@ import numpy as np
 import torch
 
 from evolution import RunFolder
-from evolution.files import MiB, atomic_write, read_bytes
+from evolution.files import MiB, read_bytes
 from structgen.domains.warehouse.agent_settings import AgentSettings
 from structgen.domains.warehouse.maze_agent import MazePolicy, RememberingMazes, run_agent
 from structgen.domains.warehouse.maze_env import TorchMazes, _has_two_connected_floor_cells, random_maze
@@ -39,6 +39,7 @@ from structgen.training_folder import (
     open_training_folder,
     read_history,
     read_training_settings,
+    save_torch,
     write_history,
 )
 
@@ -182,9 +183,7 @@ def held_out_mazes(size: int) -> list[np.ndarray]:
 # --- weights ------------------------------------------------------------------------------------------------------------------
 def save_agent(path: str | Path, policy: MazePolicy, **about: Any) -> Path:
     """Write the agent's weights with what made them (``about``: plain values) to ``path``, atomically."""
-    buffer = io.BytesIO()
-    torch.save({"format": "structgen maze agent 1", "hidden": policy.hidden, "policy": policy.state_dict(), **about}, buffer)
-    return atomic_write(path, buffer.getvalue())
+    return save_torch(path, {"format": "structgen maze agent 1", "hidden": policy.hidden, "policy": policy.state_dict(), **about})
 
 
 def load_agent(path: str | Path) -> tuple[MazePolicy, dict[str, Any]]:
@@ -287,9 +286,7 @@ def _save_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes, done: in
         "curriculum": env.curriculum.state_dict(),
         "torch_rng": torch.get_rng_state(),
     }
-    buffer = io.BytesIO()
-    torch.save(state, buffer)
-    atomic_write(folder / CHECKPOINT_FILE, buffer.getvalue())
+    save_torch(folder / CHECKPOINT_FILE, state)
 
 
 def _load_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes) -> int:
