@@ -171,6 +171,27 @@ class DomainCommands:
         raise InputError(f"{output}: this domain has nothing to export")
 
 
+def add_setting_options(
+    parser: argparse.ArgumentParser, options: Iterable[tuple[str, str, Any, str]], settings_class: type, label: str = "default"
+) -> None:
+    """Options that each set one field of a settings dataclass, from rows ``(option, field, parse, help)``. Each
+    defaults to None (the field keeps the settings' value, which the help shows as ``(label value)``), read from the
+    class's fields without building it, since building can check more than a parser needs (and load torch)."""
+    import dataclasses
+
+    defaults = {item.name: item.default for item in dataclasses.fields(settings_class)}
+    for option, field, parse, text in options:
+        metavar = "N" if isinstance(defaults[field], int) else "X"
+        parser.add_argument(
+            option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} ({label} {defaults[field]})"
+        )
+
+
+def given_settings(args: argparse.Namespace, options: Iterable[tuple[str, str, Any, str]]) -> dict[str, Any]:
+    """The fields that options added by :func:`add_setting_options` were given on the command line."""
+    return {field: getattr(args, field) for _, field, _, _ in options if getattr(args, field) is not None}
+
+
 def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_settings: Callable[[Any], Any], what: str) -> Any:
     """``structgen resume`` on an agent training's folder (one that trains in this process, by PPO updates): its
     settings, with ``--generations`` as the number of updates to reach."""

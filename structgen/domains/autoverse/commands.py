@@ -17,8 +17,10 @@ from structgen.commands import (
     MAX_SEED,
     DomainCommands,
     InputError,
+    add_setting_options,
     device_name,
     finite_number,
+    given_settings,
     output_path,
     resumed_training_settings,
     whole_number,
@@ -327,7 +329,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
 
     values = dict(PRESETS[args.preset])
-    values.update({field: getattr(args, field) for _, field, _, _ in _train_options() if getattr(args, field) is not None})
+    values.update(given_settings(args, _train_options()))
     observed = {"window": args.window, "hide_rules": args.hide_rules, "padding": args.padding, "blank_window": args.blank_window}
     try:
         settings = TrainSettings(**values, **observed, device=args.device)
@@ -352,12 +354,8 @@ def _print_training(output: Path, rows: list[dict[str, Any]]) -> None:
 
 
 def _add_train(subparsers: Any) -> None:
-    import dataclasses
-
     from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
 
-    # The fields' defaults, read without building the settings (whose checks load torch).
-    defaults = {item.name: item.default for item in dataclasses.fields(TrainSettings)}
     p = subparsers.add_parser(
         "train",
         help="train a player for a run's games: behaviour cloning, then PPO (optionally on games evolved for it)",
@@ -373,10 +371,7 @@ def _add_train(subparsers: Any) -> None:
     p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse evolution run folder (its playtraces)")
     p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="training folder (made, or resumed)")
     p.add_argument("--preset", choices=tuple(PRESETS), default="cpu", help="starting settings (default cpu)")
-    for option, field, parse, text in _train_options():
-        default = defaults[field]
-        metavar = "N" if isinstance(default, int) else "X"
-        p.add_argument(option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} (cpu preset: {default})")
+    add_setting_options(p, _train_options(), TrainSettings, "cpu preset:")
     _observation_options(p)
     p.add_argument("--device", type=device_name, default="cpu", help="torch device: cpu, cuda, cuda:N (default cpu)")
     p.add_argument(

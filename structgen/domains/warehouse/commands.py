@@ -17,8 +17,10 @@ import numpy as np
 from structgen.commands import (
     DomainCommands,
     InputError,
+    add_setting_options,
     device_name,
     finite_number,
+    given_settings,
     output_path,
     resumed_training_settings,
     verbs_wanted,
@@ -621,7 +623,7 @@ def cmd_train_agent(args: argparse.Namespace) -> int:
     from structgen.domains.warehouse.agent_settings import AgentSettings
     from structgen.domains.warehouse.maze_training import AGENT_FILE, train_agent
 
-    values = {field: getattr(args, field) for _, field, _, _ in _agent_options() if getattr(args, field) is not None}
+    values = given_settings(args, _agent_options())
     try:
         settings = AgentSettings(**values, device=args.device)
     except ValueError as err:
@@ -642,7 +644,6 @@ def cmd_train_agent(args: argparse.Namespace) -> int:
 def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
     from structgen.domains.warehouse.agent_settings import AgentSettings
 
-    defaults = AgentSettings()
     p = subparsers.add_parser(
         "train-agent",
         help="train the maze agent (PPO with a PLR/ACCEL curriculum) in a run folder",
@@ -655,10 +656,7 @@ def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
     p.add_argument(
         "--run-dir", required=True, type=Path, metavar="DIR", help="run folder (made, or resumed if it holds this training)"
     )
-    for option, field, parse, text in _agent_options():
-        default = getattr(defaults, field)
-        metavar = "N" if isinstance(default, int) else "X"
-        p.add_argument(option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} (default {default})")
+    add_setting_options(p, _agent_options(), AgentSettings)
     p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
     p.add_argument(
         "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"
