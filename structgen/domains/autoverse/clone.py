@@ -35,6 +35,7 @@ from structgen.errors import InputError
 
 __all__ = [
     "CloneSettings",
+    "EvaluationGames",
     "Policy",
     "clone_run",
     "collect_playtraces",
@@ -268,10 +269,19 @@ def _random_returns(engine: Engine, episodes: int, rng: np.random.Generator) -> 
     return total
 
 
+class EvaluationGames:
+    """Games made ready for :func:`evaluate_policy` (their engine and normalisation, the normalisation drawn from
+    ``seed``), for evaluating more than once without building them again."""
+
+    def __init__(self, entries: list[dict[str, Any]], seed: int = 0, device: str = "cpu") -> None:
+        self.engine = Engine(entries, device=device, mechanics=Mechanics())
+        self.bias, self.scale = normalisation(self.engine, seed)
+
+
 @torch.no_grad()
 def evaluate_policy(
     policy: Policy,
-    entries: list[dict[str, Any]],
+    entries: list[dict[str, Any]] | EvaluationGames,
     observation: Observation,
     steps: int,
     seed: int = 0,
@@ -279,11 +289,12 @@ def evaluate_policy(
     progress: str | None = None,
 ) -> np.ndarray:
     """Sum of normalised reward over ``steps`` steps of each game (episodes restart where they end), actions sampled
-    from the policy; ``progress`` names a progress bar on standard error (None: none)."""
+    from the policy; ``progress`` names a progress bar on standard error (None: none). ``entries`` are games, made
+    ready here with ``seed`` and ``device``, or :class:`EvaluationGames` made before."""
     from tqdm import tqdm
 
-    engine = Engine(entries, device=device, mechanics=Mechanics())
-    bias, scale = normalisation(engine, seed)
+    ready = entries if isinstance(entries, EvaluationGames) else EvaluationGames(entries, seed, device)
+    engine, bias, scale = ready.engine, ready.bias, ready.scale
     generator = torch.Generator(device=engine.device).manual_seed(seed)
     state, start = engine.reset(), engine.reset()
     total = torch.zeros(engine.n_games, device=engine.device)

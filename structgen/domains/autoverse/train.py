@@ -34,6 +34,7 @@ import torch
 
 from evolution import RunFolder
 from structgen.domains.autoverse.clone import (
+    EvaluationGames,
     Policy,
     collect_playtraces,
     evaluate_policy,
@@ -49,6 +50,8 @@ from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.errors import InputError
 from structgen.ppo import PPO, EpisodeReturns
 from structgen.training_folder import open_training_folder, read_history, read_training_settings, save_torch, write_history
+
+__all__ = ["RUN_KIND", "TrainSettings", "evolve_pool", "regret_scores", "train"]
 
 RUN_KIND = "autoverse-player"
 DOMAIN = "autoverse-v0"
@@ -99,16 +102,21 @@ def evaluation_games(games: list[dict[str, Any]], count: int) -> list[dict[str, 
     return [games[i] for i in np.unique(np.linspace(0, len(games) - 1, count).round().astype(int))]
 
 
-def _evaluate(policy: Policy, parts: dict[str, list[dict[str, Any]]], settings: TrainSettings, seed: int) -> dict[str, float]:
+def _evaluation_splits(parts: dict[str, list[dict[str, Any]]], settings: TrainSettings) -> dict[str, EvaluationGames]:
+    """Each split's evaluation games, made ready once for every evaluation of the training."""
+    chosen = {name: evaluation_games(games, settings.eval_games) for name, games in parts.items()}
+    return {name: EvaluationGames(games, settings.seed, settings.device) for name, games in chosen.items() if games}
+
+
+def _evaluate(policy: Policy, splits: dict[str, EvaluationGames], settings: TrainSettings) -> dict[str, float]:
     """Mean normalised return per episode (over ``eval_steps`` steps of each game) of each split."""
     episodes = settings.eval_steps / (EPISODE_STEPS + 1)
     was_training = policy.training
     policy.eval()
+    observation = settings.observation()
     scores = {
-        name: float(np.mean(evaluate_policy(policy, games, settings.observation(), settings.eval_steps, seed, settings.device)))
-        / episodes
-        for name, games in ((name, evaluation_games(games, settings.eval_games)) for name, games in parts.items())
-        if games
+        name: float(np.mean(evaluate_policy(policy, games, observation, settings.eval_steps, settings.seed))) / episodes
+        for name, games in splits.items()
     }
     policy.train(was_training)
     return scores
@@ -235,6 +243,7 @@ def train(
     )
     torch.manual_seed(settings.seed)
     observation = settings.observation()
+    splits = _evaluation_splits(parts, settings)
     policy = Policy(FLAT_SIZE, settings.hidden, VIEW).to(settings.device)
     with folder.locked():
         if (folder / CLONED_FILE).is_file():
@@ -247,7 +256,7 @@ def train(
                     settings.clone_learning_rate, settings.seed, progress,
                 )  # fmt: skip
                 del views, flats, actions
-            first = {"update": 0, "agent_steps": 0, **_evaluate(policy, parts, settings, settings.seed)}
+            first = {"update": 0, "agent_steps": 0, **_evaluate(policy, splits, settings)}
             save_torch(folder / CLONED_FILE, {"policy": policy.state_dict(), "evaluation": first})
             write_history(folder, [first], _pictures([first], settings))
         ppo = PPO(policy, settings)
@@ -295,7 +304,7 @@ def train(
                 returns = EpisodeReturns(settings.envs, settings.device)  # the episodes in play were cut off
                 row.update(pool_regret=float(scores.mean()), pool_regret_max=float(scores.max()))
             if done % settings.evaluate_every == 0 or done == settings.updates:
-                row.update(_evaluate(ppo.policy, parts, settings, settings.seed))
+                row.update(_evaluate(ppo.policy, splits, settings))
             row["seconds"] = time.perf_counter() - started
             rows.append(row)
             bar.update(1)
