@@ -31,7 +31,7 @@ from __future__ import annotations
 import collections
 import io
 import pickle
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from typing import Any
 
 import numpy as np
@@ -180,9 +180,16 @@ def _numpy_scalar_type(module: str, name: str) -> bool:
 class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions can be checked one by one
     dispatch = pickle._Unpickler.dispatch.copy()
 
-    def __init__(self, file: io.BytesIO, genome_types: Collection[type]) -> None:
+    def __init__(self, file: io.BytesIO, genome_types: Collection[type], genomes: Callable[[Any], Any] | None) -> None:
         super().__init__(file)
         self.genome_types = {_name(kind): kind for kind in genome_types}
+        self.genomes = genomes
+
+    def persistent_load(self, pid: Any) -> Any:
+        # A genome kept in the run's genome store, named by its key (the pid is plain data, read by this reader).
+        if self.genomes is None or not (isinstance(pid, tuple) and len(pid) == 2 and pid[0] == "genome" and type(pid[1]) is int):
+            raise UnsafeCheckpointError(f"it refers to an outside object {pid!r} that no genome store provides")
+        return self.genomes(pid[1])
 
     def find_class(self, module: str, name: str) -> Any:
         key = (module, name)
@@ -228,9 +235,10 @@ class _Unpickler(pickle._Unpickler):  # the pure-Python reader: its instructions
     del _code
 
 
-def loads(data: bytes, genome_types: Collection[type] = ()) -> Any:
+def loads(data: bytes, genome_types: Collection[type] = (), genomes: Callable[[int], Any] | None = None) -> Any:
     """The object pickled in ``data``, if it is made only of what checkpoints hold; else UnsafeCheckpointError.
 
     ``genome_types`` are the classes the run's genomes are made of (the problem's ``genome_types``); each must be a
-    plain dataclass (:func:`plain_dataclass`), or it is refused like any other class."""
-    return _Unpickler(io.BytesIO(data), genome_types).load()
+    plain dataclass (:func:`plain_dataclass`), or it is refused like any other class. ``genomes`` gives the genome
+    of a key, for checkpoints that refer to genomes in the run's genome store (``("genome", key)``)."""
+    return _Unpickler(io.BytesIO(data), genome_types, genomes).load()

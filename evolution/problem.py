@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Evaluation", "Problem"]
+__all__ = ["Evaluation", "GenomeStore", "Problem"]
 
 
 @dataclass(frozen=True)
@@ -89,6 +89,27 @@ class Evaluation:
         }
 
 
+class GenomeStore:
+    """A run folder's genomes as arrays, for problems whose genomes are large: every genome is written once, when a
+    checkpoint first holds it, and the checkpoint and the archive refer to it by a whole-number key.
+
+    :meth:`keys` gives the key of each genome, registering those not stored yet; :meth:`flush` writes them (a new
+    file, atomically, before the checkpoint that refers to them); :meth:`load` reads genomes back by key. Genomes
+    read back, or derived from stored ones, share what is already stored: a mutant costs only what changed.
+    ``genome_type`` is the class of the genomes it keeps (checkpoints name objects of exactly this class by key)."""
+
+    genome_type: type = object
+
+    def keys(self, genomes: Any) -> list[int]:
+        raise NotImplementedError
+
+    def flush(self) -> None:
+        raise NotImplementedError
+
+    def load(self, keys: Any) -> list[Any]:
+        raise NotImplementedError
+
+
 class Problem:
     """Base class of everything the engine can optimise. Subclasses set the attributes and override the methods.
 
@@ -108,6 +129,7 @@ class Problem:
         genome_types: for object genomes, the classes they are made of beyond numbers, strings and containers
             (a world and its entity classes). Checkpoints hold genomes, and loading one admits no class it is not
             told of (:mod:`evolution.checkpoint`): each must be a plain dataclass, whose restore only sets fields.
+            A problem with a genome store (:meth:`open_genome_store`) needs none: its genomes stay out of pickles.
     """
 
     name: str = "problem"
@@ -197,6 +219,11 @@ class Problem:
         """Keep what a generation's evaluation found beyond its numbers (``evaluation.extras``) in the run folder.
         Called after every generation with the genomes as evaluated; must write atomically, and writing the same
         generation again (a resumed run repeats the generations after its checkpoint) must give the same files."""
+
+    def open_genome_store(self, folder: Path) -> GenomeStore | None:
+        """Where a run folder keeps this problem's genomes as arrays, written once each (see :class:`GenomeStore`);
+        None (the default): checkpoints pickle genomes and the archive's are written as JSON lines."""
+        return None
 
     def write_artifacts(self, genome: Any, folder: Path) -> list[Path]:
         """Write files that show a genome (a structure, a picture) into ``folder``; returns their paths."""

@@ -5,7 +5,6 @@ Imported only when a quality-diversity optimiser is built (pyribs pulls in numba
 
 from __future__ import annotations
 
-import copy
 from functools import partial
 from typing import Any
 
@@ -120,7 +119,8 @@ class ProblemMutationEmitter(EmitterBase):
             genomes = []
             if immigrants < self.batch_size:
                 elites = self.archive.sample_elites(self.batch_size - immigrants)["solution"]
-                genomes = [self.problem.mutate(copy.deepcopy(e), self.rng) for e in elites]
+                # Problem.mutate returns a copy and leaves its argument alone, so the elites are not copied here.
+                genomes = [self.problem.mutate(e, self.rng) for e in elites]
             if immigrants:
                 genomes += list(self.problem.initial_genomes(immigrants, self.rng))
         if self.problem.flat:

@@ -226,7 +226,7 @@ def _checkpoint(folder: RunFolder, problem: Problem, state: RunState) -> None:
         state.best_written = state.best.generation
     if state.optimizer.archive is not None:
         folder.write_archive(state.optimizer.archive, problem)
-    folder.save_checkpoint(state)
+    folder.save_checkpoint(state, problem)
 
 
 def _progress_bar(start: int, total: int) -> Any:

@@ -10,7 +10,10 @@ A run folder holds:
 - ``metrics.jsonl``: one JSON object per generation; on resume it is cut back to the checkpoint.
 - ``archive.csv``: the quality-diversity archive, one row per elite, numbers only (``pandas.read_csv`` reads it as
   it is). The genome of each row, in the same order, is in ``archive_solutions.npy`` for flat genomes and in
-  ``archive_genomes.jsonl`` (one JSON value per line) for any other kind.
+  ``archive_genomes.jsonl`` (one JSON value per line) for any other kind, unless the problem keeps a genome store.
+- a genome store, for problems that keep one (:meth:`Problem.open_genome_store`; the fortress's ``genomes/``):
+  every genome written once, as arrays, when a checkpoint first holds it; ``checkpoint.pkl`` and
+  ``archive_genome_keys.npy`` (one key per row of archive.csv) refer to genomes by key.
 - ``best/``: the best genome (``genome.npy`` or ``genome.json``), its scores (``best.json``), and whatever the
   problem writes to show it (a structure, a mesh, a picture).
 - ``objective.png`` and, for quality diversity, ``archive.png`` and ``qd.png`` (QD score and coverage over
@@ -53,7 +56,7 @@ from evolution.files import (
     read_text,
 )
 from evolution.optimizers import Optimizer
-from evolution.problem import Problem
+from evolution.problem import GenomeStore, Problem
 
 __all__ = [
     "CHECKPOINT_SCHEMA",
@@ -174,11 +177,40 @@ def _npy_bytes(array: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
+@dataclass
+class _StoredGenomes:
+    """The archive's genomes as keys into the run's genome store (``archive_genome_keys.npy``)."""
+
+    store: GenomeStore
+    keys: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.keys)
+
+    def load(self, positions: Any) -> list[Any]:
+        return self.store.load([int(self.keys[p]) for p in positions])
+
+
+class _StorePickler(pickle.Pickler):
+    """Pickles a run state with the genomes of a genome store replaced by their keys."""
+
+    def __init__(self, file: io.BytesIO, store: GenomeStore) -> None:
+        super().__init__(file)
+        self.store = store
+        self.kind = getattr(store, "genome_type", None)
+
+    def persistent_id(self, obj: Any) -> Any:
+        if self.kind is not None and type(obj) is self.kind:
+            return ("genome", int(self.store.keys([obj])[0]))
+        return None
+
+
 class RunFolder:
     """The files of one run."""
 
     CONFIG, MANIFEST, CHECKPOINT, METRICS = "config.toml", "manifest.json", "checkpoint.pkl", "metrics.jsonl"
     ARCHIVE, SOLUTIONS, GENOMES, BEST = "archive.csv", "archive_solutions.npy", "archive_genomes.jsonl", "best"
+    GENOME_KEYS = "archive_genome_keys.npy"
     LOCK = ".lock"
     OBJECTIVE_PLOT, ARCHIVE_PLOT, QD_PLOT = "objective.png", "archive.png", "qd.png"
 
@@ -318,17 +350,37 @@ class RunFolder:
         return manifest if isinstance(manifest, dict) else {}
 
     # -- checkpoint -----------------------------------------------------------------------------------------------------
-    def save_checkpoint(self, state: RunState) -> None:
-        atomic_write(self / self.CHECKPOINT, pickle.dumps({"schema": CHECKPOINT_SCHEMA, "state": state}))
+    def genome_store(self, problem: Problem) -> GenomeStore | None:
+        """The problem's genome store in this folder (:meth:`Problem.open_genome_store`), opened once."""
+        stores = self.__dict__.setdefault("_stores", {})
+        if id(problem) not in stores:
+            stores[id(problem)] = (problem, problem.open_genome_store(self.path))
+        return stores[id(problem)][1]
 
-    def load_checkpoint(self, genome_types: Collection[type] = ()) -> RunState:
+    def save_checkpoint(self, state: RunState, problem: Problem | None = None) -> None:
+        """Write the state; with a problem that has a genome store, its genomes go to the store (only those not
+        there yet) and the checkpoint names them by key."""
+        store = self.genome_store(problem) if problem is not None else None
+        data = {"schema": CHECKPOINT_SCHEMA, "state": state}
+        if store is None:
+            atomic_write(self / self.CHECKPOINT, pickle.dumps(data))
+            return
+        buffer = io.BytesIO()
+        _StorePickler(buffer, store).dump(data)
+        store.flush()  # the genomes first: a checkpoint never names a key that was not written
+        atomic_write(self / self.CHECKPOINT, buffer.getvalue())
+
+    def load_checkpoint(self, genome_types: Collection[type] = (), problem: Problem | None = None) -> RunState:
         """The last checkpoint's state; ``genome_types`` are the problem's (:attr:`Problem.genome_types`), the only
-        classes beyond the engine's own that the checkpoint may hold."""
+        classes beyond the engine's own that the checkpoint may hold; ``problem``: its genome store, if it has one,
+        gives back the genomes the checkpoint names by key."""
         path = self / self.CHECKPOINT
         if not path.exists() and not path.is_symlink():
             raise RunFolderError(f"{self.path}: no checkpoint yet")
+        store = self.genome_store(problem) if problem is not None else None
+        genomes = None if store is None else (lambda key: store.load([key])[0])
         try:
-            data = checkpoint.loads(read_bytes(path, _MAX_STATE), genome_types)
+            data = checkpoint.loads(read_bytes(path, _MAX_STATE), genome_types, genomes)
         except InputFileError:
             raise
         except checkpoint.UnsafeCheckpointError as err:
@@ -449,8 +501,15 @@ class RunFolder:
         for r in range(len(order)):
             lines.append(",".join(repr(kind(values[r])) for _, values, kind in columns))
         solutions = data["solution"][order]
+        store = None if problem.flat else self.genome_store(problem)
         if problem.flat:
             atomic_write(self / self.SOLUTIONS, _npy_bytes(np.asarray(solutions, dtype=np.float64)))
+        elif store is not None:
+            keys = np.asarray(store.keys(list(solutions)), dtype=np.int64)
+            store.flush()
+            atomic_write(self / self.GENOME_KEYS, _npy_bytes(keys))
+            # A run of an older version, resumed: its JSON lines would now describe an older archive.
+            (self / self.GENOMES).unlink(missing_ok=True)
         else:
             text = "".join(json.dumps(problem.genome_to_json(genome)) + "\n" for genome in solutions)
             atomic_write(self / self.GENOMES, text)
@@ -482,11 +541,18 @@ class RunFolder:
         per row; None for an archive of structgen 0.1, which kept object genomes in a CSV column."""
         if rows and "genome" in rows[0]:
             return None
+        store = None if problem.flat else self.genome_store(problem)
         if problem.flat:
             source = self / self.SOLUTIONS
             genomes: Any = read_npy(source, _MAX_STATE)
             if genomes.ndim != 2:
                 raise InputFileError(f"{source}: expected one genome per row, got shape {genomes.shape}")
+        elif store is not None and (self / self.GENOME_KEYS).is_file():
+            source = self / self.GENOME_KEYS
+            genomes = read_npy(source, _MAX_STATE)
+            if genomes.ndim != 1 or genomes.dtype.kind not in "iu":
+                raise InputFileError(f"{source}: expected one whole-number key per row, got {genomes.dtype} {genomes.shape}")
+            genomes = _StoredGenomes(store, genomes)
         else:
             source = self / self.GENOMES
             genomes = read_text(source, _MAX_STATE, what="JSON lines").splitlines()
@@ -504,6 +570,8 @@ class RunFolder:
         source, genomes = store
         if problem.flat:
             return self._vector(source, genomes[position], problem)
+        if isinstance(genomes, _StoredGenomes):
+            return genomes.load([position])[0]
         where = f"{source}, line {position + 1}"
         return self._from_json(where, parse_json(genomes[position], where), problem)
 
@@ -546,4 +614,6 @@ class RunFolder:
         """The genome of every archive elite, in the order of ``rows`` (default: :meth:`archive_rows`)."""
         rows = self.archive_rows() if rows is None else rows
         store = self._genome_store(rows, problem)
+        if store is not None and isinstance(store[1], _StoredGenomes):
+            return store[1].load(range(len(rows)))
         return [self._genome_at(rows, store, position, problem) for position in range(len(rows))]

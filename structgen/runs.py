@@ -228,7 +228,7 @@ def resume(
         problem = experiment.make_problem()
         try:
             if folder.has_checkpoint():
-                state = folder.load_checkpoint(problem.genome_types)
+                state = folder.load_checkpoint(problem.genome_types, problem)
             else:
                 # Killed before its first checkpoint: the run starts again, and ends as if it had never stopped.
                 rows = folder.metrics()

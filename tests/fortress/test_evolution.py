@@ -12,6 +12,7 @@ from ribs.archives import GridArchive
 
 from evolution.optimizers import MapElitesSettings
 from evolution.qd import map_elites
+from evolution.runfolder import RunFolder
 from structgen.domains.fortress.engine import simulate
 from structgen.domains.fortress.formats import read_fortress_file
 from structgen.domains.fortress.problem import FortressProblem, FortressSettings
@@ -63,7 +64,7 @@ def test_evaluation_is_the_mean_over_the_simulations():
     outcome_ = simulate(worlds, [4, 5, 6], 30)
     assert np.allclose(evaluation.objective, outcome_.fitness.mean(axis=1))
     assert np.allclose(evaluation.measures[:, 0], np.minimum(outcome_.entities, 156).mean(axis=1))
-    assert evaluation.measures[:, 1].tolist() == [sum(len(e.nodes) for e in w.classes.values()) for w in worlds]
+    assert evaluation.measures[:, 1].tolist() == [sum(len(e.nodes) for e in w.classes) for w in worlds]
     again = problem.evaluate(worlds, np.ones(3, dtype=np.int64))  # the engine's seeds do not matter
     assert np.array_equal(again.objective, evaluation.objective)
 
@@ -90,7 +91,7 @@ def test_genomes_round_trip_through_json():
     problem = FortressProblem()
     world = random_world(np.random.default_rng(9))
     again = problem.genome_from_json(json.loads(json.dumps(problem.genome_to_json(world))))
-    assert again.classes == world.classes and again.initial == world.initial
+    assert again == world
 
 
 def test_bad_settings_name_the_setting():
@@ -115,15 +116,19 @@ def test_a_killed_fortress_run_resumes_to_the_same_archive(tmp_path, capsys):
     assert [r["evaluations"] for r in rows] == [5, 10, 15, 20, 25, 30]
     assert rows[-1]["num_elites"] >= 5 and rows[-1]["qd_score"] > 0
     assert (whole / "best" / "world.txt").is_file() and (whole / "best" / "world.png").read_bytes()[:4] == b"\x89PNG"
-    genomes = (whole / "archive_genomes.jsonl").read_text().splitlines()
-    assert len(genomes) == rows[-1]["num_elites"]
+    problem = FortressProblem(FortressSettings(steps=15, sims=2))
+    genomes = RunFolder(whole).archive_genomes(problem)
+    assert len(genomes) == rows[-1]["num_elites"] and not (whole / "archive_genomes.jsonl").exists()
 
     run = tmp_path / "killed"
     kill_during_evolve(config, run, 3, limit=300)
+    written = {path.name: path.read_bytes() for path in (run / "genomes").glob("*.npz")}
     code, out, err = cli(capsys, "resume", run)
     assert code == 0, err
     assert outcome(run) == outcome(whole)
-    assert (run / "archive_genomes.jsonl").read_text() == (whole / "archive_genomes.jsonl").read_text()
+    assert RunFolder(run).archive_genomes(problem) == genomes
+    # What the store had written before the kill is left as it was: checkpoints only add files.
+    assert all((run / "genomes" / name).read_bytes() == data for name, data in written.items())
 
     # The robustness table: the archive as evolved, merged with itself, and re-evaluated.
     code, out, err = cli(capsys, "fortress", "robustness", whole, run, "--json", "-o", tmp_path / "table.json")
@@ -144,6 +149,24 @@ def test_a_killed_fortress_run_resumes_to_the_same_archive(tmp_path, capsys):
     code, out, err = cli(capsys, "export", whole, "--elite", f"index:{index}", "-o", tmp_path / "elite.txt")
     assert code == 0, err
     assert read_fortress_file(tmp_path / "elite.txt").classes
+
+
+@pytest.mark.slow
+def test_a_run_folder_of_the_text_format_still_reads(tmp_path, capsys):
+    config = tmp_path / "fortress.toml"
+    config.write_text(TINY)
+    run = tmp_path / "run"
+    assert cli(capsys, "evolve", config, "--run-dir", run)[0] == 0
+    problem = FortressProblem(FortressSettings(steps=15, sims=2))
+    genomes = RunFolder(run).archive_genomes(problem)
+    # As earlier versions left it: one world per line as JSON text, no genome store.
+    lines = "".join(json.dumps(problem.genome_to_json(world)) + "\n" for world in genomes)
+    (run / "archive_genomes.jsonl").write_text(lines)
+    (run / "archive_genome_keys.npy").unlink()
+    assert RunFolder(run).archive_genomes(problem) == genomes
+    index = (run / "archive.csv").read_text().splitlines()[1].split(",")[0]
+    code, out, err = cli(capsys, "export", run, "--elite", f"index:{index}", "-o", tmp_path / "elite.txt")
+    assert code == 0, err
 
 
 def own_world(tmp_path, text: str, name: str = "world.txt"):

@@ -1,26 +1,38 @@
-"""Random worlds and the original's mutation operators: sizes in the measures' ranges, the orphan-edge quirk,
-node deletion renumbering edges, reproducibility, and the entropy measure."""
+"""Random worlds and the original's mutation operators on array genomes: sizes in the measures' ranges, edges kept
+as the original's dict keeps them, the orphan-edge quirk, node deletion renumbering edges, reproducibility, the
+entropy measure, and the text form round trip."""
 
 from __future__ import annotations
-
-import copy
 
 import numpy as np
 import pytest
 
 from structgen.domains.fortress.formats import EntityClass, FortressFile, format_fortress, parse_fortress
+from structgen.domains.fortress.genome import CONDITION_NAMES, ClassArrays, Genome
 from structgen.domains.fortress.world import (
     CHARACTERS,
     Variation,
-    _remove_node,
     connect_orphans,
     fsm_size_entropy,
     mutate_world,
     node_types,
     random_class,
     random_world,
+    remove_node,
+    set_edges,
     world_size,
 )
+from structgen.errors import InputError
+
+NONE = CONDITION_NAMES.index("none")
+
+
+def edges_of(rows):
+    return np.array([(s, d, NONE, -1, 0) for s, d in rows], dtype=np.int16).reshape(-1, 5)
+
+
+def keys(edges):
+    return [f"{s}-{d}" for s, d in edges[:, :2].tolist()]
 
 
 def test_there_are_94_node_types_and_1410_nodes_at_most():
@@ -35,15 +47,27 @@ def test_random_worlds_stay_inside_the_measure_ranges(start):
     for _ in range(20):
         world = random_world(rng, start=start)
         nodes, _ = world_size(world)
-        assert sorted(world.classes) == sorted(CHARACTERS)
+        assert sorted(world.chars) == sorted(CHARACTERS)
         assert 15 <= nodes <= 1410
-        assert all(1 <= len(e.nodes) <= 94 and e.nodes[0] == "idle" for e in world.classes.values())
-        assert all(len(set(e.nodes)) == len(e.nodes) for e in world.classes.values())
+        assert all(1 <= len(e.nodes) <= 94 and e.nodes[0] == 0 for e in world.classes)
+        assert all(len(set(e.nodes.tolist())) == len(e.nodes) for e in world.classes)
         assert 1 <= len(world.initial) <= 30
-        assert len({(x, y) for _, x, y in world.initial}) == len(world.initial)
-        assert all(1 <= x <= 13 and 1 <= y <= 6 for _, x, y in world.initial)
+        assert len({(x, y) for _, x, y in world.initial.tolist()}) == len(world.initial)
+        assert all(1 <= x <= 13 and 1 <= y <= 6 for _, x, y in world.initial.tolist())
         assert 0 <= fsm_size_entropy(world) <= 1
-        assert parse_fortress(format_fortress(world)).classes == world.classes
+
+
+def test_a_world_reads_back_from_its_text_the_same():
+    world = random_world(np.random.default_rng(2))
+    text = format_fortress(world.to_file())
+    assert Genome.from_file(parse_fortress(text)) == world
+    assert format_fortress(Genome.from_file(parse_fortress(text)).to_file()) == text
+
+
+def test_a_world_with_a_class_outside_the_qd_classes_is_refused_by_name():
+    world = FortressFile(classes={"a": EntityClass("a", ["idle"], {})})
+    with pytest.raises(InputError, match="class 'a' is not one of the QD classes"):
+        Genome.from_file(world, "mine.txt")
 
 
 def test_entropy_starts_spread_over_entropy_and_size_starts_do_not():
@@ -53,55 +77,70 @@ def test_entropy_starts_spread_over_entropy_and_size_starts_do_not():
     assert np.std(by_entropy) > np.std(by_size)
 
 
+def test_setting_an_edge_keeps_its_place_and_a_new_one_goes_last():
+    edges = edges_of([(0, 1), (1, 2), (2, 0)])
+    step = np.array([[CONDITION_NAMES.index("step"), -1, 3], [NONE, -1, 0]], dtype=np.int16)
+    after = set_edges(edges, np.array([1, 2]), np.array([2, 2]), step)
+    assert keys(after) == ["0-1", "1-2", "2-0", "2-2"]
+    assert after[1, 2:].tolist() == [CONDITION_NAMES.index("step"), -1, 3]
+
+
 def test_the_orphan_repair_adds_an_edge_to_every_node_as_the_original_does():
-    edges = {"0-1": "none", "1-2": "none", "2-0": "none"}
-    every = EntityClass("A", ["idle", "move", "die"], dict(edges))
-    connect_orphans(every, np.random.default_rng(0), CHARACTERS, Variation())
+    edges = edges_of([(0, 1), (1, 2), (2, 0)])
+    every = connect_orphans(3, edges, np.random.default_rng(0), Variation())
     # each node gets a new incoming edge from another node (some may overwrite the ones there)
-    assert all(any(k.endswith(f"-{n}") and k != f"{n}-{n}" for k in every.edges) for n in range(3))
-    assert every.edges != edges
-    fixed = EntityClass("A", ["idle", "move", "die"], dict(edges))
-    connect_orphans(fixed, np.random.default_rng(0), CHARACTERS, Variation(orphan_edges="orphans_only"))
-    assert fixed.edges == edges  # nobody was an orphan
-    assert list(every.edges) == sorted(every.edges)  # sorted as strings, as the original
+    for n in range(3):
+        assert ((every[:, 1] == n) & (every[:, 0] != n)).any()
+    assert not np.array_equal(every, edges)
+    fixed = connect_orphans(3, edges, np.random.default_rng(0), Variation(orphan_edges="orphans_only"))
+    assert np.array_equal(fixed, edges)  # nobody was an orphan
+    orphan = connect_orphans(3, edges_of([(0, 1), (1, 0)]), np.random.default_rng(0), Variation(orphan_edges="orphans_only"))
+    assert len(orphan) == 3 and orphan[:, 1].tolist().count(2) == 1  # only node 2 needed one
+    big = connect_orphans(12, edges_of([(0, 11), (10, 2)]), np.random.default_rng(0), Variation())
+    assert keys(big) == sorted(keys(big))  # sorted as strings, as the original: "10-2" before "2-0"
 
 
 def test_random_class_has_its_nodes_and_twice_as_many_edges_at_most_before_repair():
-    entity = random_class("A", 10, np.random.default_rng(3))
+    entity = random_class(0, 10, np.random.default_rng(3))
     assert len(entity.nodes) == 11
     assert 11 <= len(entity.edges) <= 20 + 11
-    assert list(entity.edges) == sorted(entity.edges)
-    assert random_class("A", 0, np.random.default_rng(3)).edges == {}
+    assert keys(entity.edges) == sorted(keys(entity.edges))
+    assert len(random_class(0, 0, np.random.default_rng(3)).edges) == 0
 
 
 def test_removing_a_node_drops_its_edges_and_renumbers_the_rest():
-    entity = EntityClass("A", ["idle", "move", "die", "clone"], {"0-1": "none", "1-2": "step 2", "3-0": "touch A", "2-3": "none"})
-    _remove_node(entity, 1)
-    assert entity.nodes == ["idle", "die", "clone"]
-    assert entity.edges == {"2-0": "touch A", "1-2": "none"}
+    entity = EntityClass("@", ["idle", "move", "die", "clone"], {"0-1": "none", "1-2": "step 2", "3-0": "touch @", "2-3": "none"})
+    arrays = ClassArrays.from_entity(entity)
+    nodes, edges = remove_node(arrays.nodes, arrays.edges, 1)
+    after = ClassArrays(arrays.char, nodes, edges).to_entity()
+    assert after.nodes == ["idle", "die", "clone"]
+    assert after.edges == {"2-0": "touch @", "1-2": "none"}
 
 
-def test_mutation_copies_is_reproducible_and_changes_something():
+def test_mutation_leaves_the_parent_alone_is_reproducible_and_changes_something():
     rng = np.random.default_rng(4)
     world = random_world(rng)
-    before = copy.deepcopy(world)
+    before = format_fortress(world.to_file())
     first = [mutate_world(world, np.random.default_rng(s)) for s in range(30)]
     again = [mutate_world(world, np.random.default_rng(s)) for s in range(30)]
-    assert world == before
-    assert [format_fortress(a) for a in first] == [format_fortress(b) for b in again]
-    changed = sum(format_fortress(m) != format_fortress(world) for m in first)
+    assert format_fortress(world.to_file()) == before
+    assert first == again
+    changed = sum(m != world for m in first)
     assert changed >= 20  # the three coins all fail one time in eight
+    # A mutation touches a class or a few: the others are shared with the parent, not copied.
+    shared = sum(a is b for mutant in first for a, b in zip(mutant.classes, world.classes))
+    assert shared >= 0.8 * len(first) * len(CHARACTERS)
     for mutant in first:
-        for entity in mutant.classes.values():
-            assert len(entity.nodes) >= 1 and len(set(entity.nodes)) == len(entity.nodes)
-            for src, dst, *_ in entity.edge_list():
-                assert src < len(entity.nodes) and dst < len(entity.nodes)
+        for entity in mutant.classes:
+            assert len(entity.nodes) >= 1 and len(set(entity.nodes.tolist())) == len(entity.nodes)
+            assert (entity.edges[:, :2] < len(entity.nodes)).all()
+            assert len({(s, d) for s, d in entity.edges[:, :2].tolist()}) == len(entity.edges)
 
 
 def test_fsm_size_entropy_follows_the_original_binning():
     def world_of(sizes):
-        classes = {c: EntityClass(c, node_types(CHARACTERS)[:n], {}) for c, n in zip(CHARACTERS, sizes)}
-        return FortressFile(classes=classes)
+        classes = tuple(ClassArrays(k, np.arange(n), np.zeros((0, 5))) for k, n in enumerate(sizes))
+        return Genome(classes, np.zeros((0, 3)))
 
     assert fsm_size_entropy(world_of([1] * 15)) == 0.0  # one bin
     # The original bins size - 1 over [1, 94] into 15 bins, so the last bin needs 95 nodes: 14 bins are reachable.

@@ -27,20 +27,21 @@ def _world_source(p: argparse.ArgumentParser) -> None:
     p.add_argument("--steps", type=whole_number(0, 10**6), default=100, metavar="N", help="ticks at most (default 100)")
     p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="simulation seed (default 0)")
     p.add_argument(
-        "--paper-rules",
-        action="store_true",
-        help="the rules as the paper describes them where the code differs: nextTo is north/south/east/west, take "
-        "reaches neighbouring tiles only, move_wall is blocked by any entity of its class, and 20 ticks without "
-        "an event stop the simulation (default: the original code's rules)",
+        "--rules",
+        choices=["code", "af-paper", "qd-paper"],
+        default="code",
+        help="whose rules: the original code's (default); 'af-paper', the first paper's words where they differ "
+        "(nextTo north/south/east/west only, a stop after 20 ticks without an event, more than 120 entities "
+        "overpopulate); 'qd-paper', the quality-diversity paper's (nextTo north/south/east/west only, move_wall "
+        "blocked by any entity of its class). docs/fortress.md quotes the sentence behind each",
     )
+    p.add_argument("--paper-rules", action="store_const", const="af-paper", dest="rules", help="the same as --rules af-paper")
 
 
 def _rules(args: argparse.Namespace) -> Any:
-    from structgen.domains.fortress.engine import Rules
+    from structgen.domains.fortress.engine import RULES
 
-    if args.paper_rules:
-        return Rules(next_to="orthogonal", take_reach=1, wall_blocks="any", inactivity_limit=20)
-    return Rules()
+    return RULES[args.rules]
 
 
 def load_world(args: argparse.Namespace) -> tuple[Any, str]:
@@ -51,7 +52,7 @@ def load_world(args: argparse.Namespace) -> tuple[Any, str]:
     if (args.world is None) == (args.random is None):
         raise InputError("give a WORLD file or run folder, or --random SEED (one of them)")
     if args.random is not None:
-        return random_world(np.random.default_rng(args.random)), f"random world {args.random}"
+        return random_world(np.random.default_rng(args.random)).to_file(), f"random world {args.random}"
     path = Path(args.world)
     if path.is_dir():
         from structgen.domains.fortress import FORTRESS
@@ -61,7 +62,7 @@ def load_world(args: argparse.Namespace) -> tuple[Any, str]:
         folder, experiment = open_run(path)
         if experiment.domain != FORTRESS.id:
             raise InputError(f"{path}: a run of the {experiment.domain} domain, not a fortress run")
-        return elite_genome(folder, FortressProblem(), args.elite), f"{path} ({args.elite})"
+        return elite_genome(folder, FortressProblem(), args.elite).to_file(), f"{path} ({args.elite})"
     if not path.is_file():
         raise InputError(f"{path}: no such fortress file or run folder")
     world = read_fortress_file(path)
@@ -259,10 +260,99 @@ def _add_robustness(subparsers: Any) -> None:
     p.set_defaults(handler=cmd_robustness)
 
 
+def cmd_experiment(args: argparse.Namespace) -> int:
+    from structgen.domains.fortress.experiment import run_experiment, table_markdown
+
+    report = run_experiment(
+        args.measures, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, threads=args.threads,
+        cluster=args.cluster or "", generations=args.generations, longer=args.longer, progress=not args.json,
+    )  # fmt: skip
+    print(json.dumps(report) if args.json else table_markdown(report), end="" if not args.json else "\n")
+    return EXIT_OK
+
+
+def _add_experiment(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "experiment",
+        help="one of the paper's experiments end to end: 10 MAP-Elites runs, then its half of Table 3",
+        description="Run the paper's configuration once per seed (OUT_DIR/seed-S; a folder there is resumed, or kept "
+        "if finished), several runs at a time, then re-evaluate every archive as the paper's Table 3 does (on new "
+        "seeds, and on new seeds with --longer times longer episodes; each run re-binned, the runs merged best per "
+        "cell) and write OUT_DIR/table.json and OUT_DIR/table.md beside the paper's numbers.",
+    )
+    p.add_argument("measures", choices=["entities_nodes", "entities_entropy"], help="the experiment: its measures")
+    p.add_argument("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)")
+    p.add_argument(
+        "--config", default="configs/fortress_paper.toml", metavar="TOML",
+        help="each run's configuration (default configs/fortress_paper.toml: the paper's run)",
+    )  # fmt: skip
+    p.add_argument(
+        "--seeds", type=whole_number(0, 2**31), nargs="+", default=list(range(20, 30)), metavar="S",
+        help="run seeds (default 20 to 29, the original's sweep)",
+    )  # fmt: skip
+    p.add_argument("--parallel", type=whole_number(1, 1024), default=2, metavar="N", help="runs at once (default 2)")
+    p.add_argument(
+        "--threads", type=whole_number(1, 1024), default=1, metavar="T",
+        help="engine threads of each run (default 1: on a few cores, runs side by side use them best)",
+    )  # fmt: skip
+    p.add_argument("--cluster", metavar="ADDRESS", help="run the seeds on the Dask scheduler at ADDRESS instead")
+    p.add_argument(
+        "--generations", type=whole_number(1, 10**7), metavar="N", help="generations of each run (default: the config's)"
+    )
+    p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")
+    p.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
+    p.set_defaults(handler=cmd_experiment)
+
+
+def cmd_figure(args: argparse.Namespace) -> int:
+    from structgen.domains.fortress import figures
+
+    if args.kind == "archive":
+        written = figures.archive_figure(args.run_dirs, args.output, args.colour)
+    elif args.kind == "robustness":
+        if len(args.run_dirs) != 1:
+            raise InputError("the robustness figure shows one run: give one RUN_DIR")
+        written = figures.robustness_figure(args.run_dirs[0], args.output, longer=args.longer)
+    else:
+        written = figures.populations_figure(args.run_dirs, args.output, longer=args.longer, seed=args.seed)
+    print(written)
+    return EXIT_OK
+
+
+def _add_figure(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "figure",
+        help="draw one of the paper's result figures from run folders (archive heatmaps, robustness, populations)",
+        description="archive: the archive of one run, or the best elite per cell over several, as a heatmap over "
+        "its measures coloured by --colour (Figures 4, 7a/7b, 8a/8b); robustness: one run's archive as evolved, on "
+        "new seeds, and on new seeds with --longer times longer episodes (Figure 5); populations: entities of each "
+        "class over --longer times the evolution episode for the highest-entropy elite and the two ends of the "
+        "entities measure (Figure 6).",
+    )
+    p.add_argument("kind", choices=["archive", "robustness", "populations"], help="which figure")
+    p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="fortress MAP-Elites run folders (same settings)")
+    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png", help="picture to write")
+    p.add_argument(
+        "--colour", choices=["fitness", "entropy", "nodes"], default="fitness",
+        help="archive: colour cells by fitness (default), by the entropy of the class sizes or by total nodes",
+    )  # fmt: skip
+    p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")
+    p.add_argument("--seed", type=whole_number(0, 2**31), default=0, metavar="S", help="populations: simulation seed (default 0)")
+    p.set_defaults(handler=cmd_figure)
+
+
 class FortressCommands(DomainCommands):
-    adders = {"run": _add_run, "replay": _add_replay, "show": _add_show, "robustness": _add_robustness}
+    adders = {
+        "run": _add_run,
+        "replay": _add_replay,
+        "show": _add_show,
+        "robustness": _add_robustness,
+        "experiment": _add_experiment,
+        "figure": _add_figure,
+    }
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
+        genome = genome.to_file()  # the run's array world, as the original's text
         suffix = output.suffix.lower()
         if suffix == ".txt":
             _save(genome, output)

@@ -34,18 +34,21 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from structgen.budget import check_memory
 from structgen.domains.fortress.formats import ACTIONS, CONDITIONS, EntityClass, FortressFile
+from structgen.domains.fortress.genome import CHARACTERS, Genome
 from structgen.errors import InputError
 
 __all__ = [
     "CAUSES",
     "HEIGHT",
     "POPULATION_CAP",
+    "RULES",
     "WIDTH",
     "Outcome",
     "Rules",
@@ -81,6 +84,10 @@ class Rules:
             event the original would log (a move, birth, death, take, push, failed clone or blocked move).
         visit_start_nodes: False (the code: node 0 counts as visited only when an entity is on it after an update)
             or True (every class with an initial entity has visited its start node).
+        population_cap: a simulation stops when more entities than this are alive (the code: 156, twice the floor
+            tiles; the first paper says the map's w x h, 120); at most 156.
+
+    :data:`RULES` names the rules of the code and of each paper.
     """
 
     next_to: str = "chebyshev"
@@ -88,6 +95,7 @@ class Rules:
     wall_blocks: str = "first"
     inactivity_limit: int = 0
     visit_start_nodes: bool = False
+    population_cap: int = POPULATION_CAP
 
     def __post_init__(self) -> None:
         if self.next_to not in ("chebyshev", "orthogonal"):
@@ -100,6 +108,18 @@ class Rules:
             raise ValueError(f"inactivity_limit must be a whole number >= 0, got {self.inactivity_limit!r}")
         if not isinstance(self.visit_start_nodes, bool):
             raise ValueError(f"visit_start_nodes must be true or false, got {self.visit_start_nodes!r}")
+        if not isinstance(self.population_cap, int) or not 1 <= self.population_cap <= POPULATION_CAP:
+            raise ValueError(f"population_cap must be a whole number from 1 to {POPULATION_CAP}, got {self.population_cap!r}")
+
+
+#: The rules as the original's code runs them and as each paper describes them (docs/fortress.md quotes the
+#: sentence behind every switch): "af-paper" the first paper (Charity et al., ALIFE for Games 2023), "qd-paper" the
+#: quality-diversity sequel (Earle et al., ALOE 2023), whose runs these are.
+RULES = {
+    "code": Rules(),
+    "af-paper": Rules(next_to="orthogonal", inactivity_limit=20, population_cap=WIDTH * HEIGHT),
+    "qd-paper": Rules(next_to="orthogonal", wall_blocks="any"),
+}
 
 
 @dataclass
@@ -184,9 +204,79 @@ def _compile_class(entity: EntityClass, index: dict[str, int], order: tuple[str,
     return compiled
 
 
-def compile_worlds(worlds: Sequence[FortressFile], where: Sequence[str] | None = None) -> Tables:
-    """The kernel's arrays for these worlds. An ``add`` or ``transform`` of a class a world does not define is an
-    :class:`InputError` (the original crashes on it); conditions and targets naming such a class never hold."""
+def _compile_genomes(worlds: Sequence[Genome]) -> Tables:
+    """The kernel's arrays for array worlds: each class compiles once in its life (:meth:`.ClassArrays.compiled`),
+    so a mutant costs only the classes it changed; here they are laid out, all at once, with their class arguments
+    renumbered in the world's class order."""
+    n_worlds = len(worlds)
+    k_max = max((len(w.classes) for w in worlds), default=1) or 1
+    compiled = [c.compiled() for w in worlds for c in w.classes]
+    owner = np.repeat(np.arange(n_worlds), [len(w.classes) for w in worlds])  # the world of each class
+    slot = np.concatenate([np.arange(len(w.classes)) for w in worlds]) if compiled else np.zeros(0, dtype=np.int64)
+    sizes = np.array([len(c.act) for c in compiled], dtype=np.int64)
+    live = np.array([len(c.edges) for c in compiled], dtype=np.int64)
+    counted = np.array([len(c.edges) for w in worlds for c in w.classes], dtype=np.int64)  # with never-taken edges
+    n_max = max(int(sizes.max(initial=1)), 1)
+    e_total = int(live.sum())
+    check_memory(n_worlds * k_max * (n_max * 11 + 4) + e_total * 48, f"the tables of {n_worlds:,} worlds")
+    # orders[w, c]: world w's class number of character number c; the extra last column maps "no class" (-1) to -1.
+    orders = np.full((n_worlds, len(CHARACTERS) + 1), -1, dtype=np.int32)
+    orders[owner, [c.char for w in worlds for c in w.classes]] = slot
+
+    def before(values: np.ndarray) -> np.ndarray:  # sum of the earlier classes' values in the same world
+        totals = np.bincount(owner, weights=values, minlength=n_worlds).astype(np.int64)
+        return np.cumsum(values) - values - (np.cumsum(totals) - totals)[owner]
+
+    n_nodes = np.bincount(owner, weights=sizes, minlength=n_worlds).astype(np.int64)
+    n_edges = np.bincount(owner, weights=counted, minlength=n_worlds).astype(np.int64)
+    node_vid = np.zeros((n_worlds, k_max), dtype=np.int32)
+    node_vid[owner, slot] = before(sizes)
+    # Every node's place in the padded (world, class, node) tables.
+    node_owner = np.repeat(np.arange(len(compiled)), sizes)
+    place = (owner * k_max + slot)[node_owner] * n_max + np.arange(len(node_owner)) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    node_act = np.zeros((n_worlds, k_max, n_max), dtype=np.int8)
+    node_arg = np.full((n_worlds, k_max, n_max), -1, dtype=np.int16)
+    edge_start = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
+    edge_stop = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
+    if len(node_owner):
+        first_edge = np.repeat(np.cumsum(live) - live, sizes)
+        node_act.reshape(-1)[place] = np.concatenate([c.act for c in compiled])
+        node_arg.reshape(-1)[place] = orders[owner[node_owner], np.concatenate([c.arg for c in compiled])]
+        edge_start.reshape(-1)[place] = first_edge + np.concatenate([c.starts[:-1] for c in compiled])
+        edge_stop.reshape(-1)[place] = first_edge + np.concatenate([c.starts[1:] for c in compiled])
+    if e_total:
+        edges = np.concatenate([c.edges for c in compiled])
+        edge_owner = np.repeat(np.arange(len(compiled)), live)
+        edge_vid = (n_nodes[owner] + before(counted))[edge_owner] + edges[:, 4]
+        edge_arg = orders[owner[edge_owner], edges[:, 1]]
+    else:
+        edges, edge_vid, edge_arg = np.zeros((1, 5), dtype=np.int32), np.zeros(1, dtype=np.int64), np.full(1, -1)
+    initial = [[(int(orders[w, c]), x, y) for c, x, y in world.initial.tolist()] for w, world in enumerate(worlds)]
+    return Tables(
+        chars=[world.chars for world in worlds],
+        node_act=node_act,
+        node_arg=node_arg,
+        node_vid=node_vid,
+        edge_start=edge_start,
+        edge_stop=edge_stop,
+        edge_cond=edges[:, 0].astype(np.int8),
+        edge_arg=edge_arg.astype(np.int16),
+        edge_int=edges[:, 2].astype(np.int32),
+        edge_dst=edges[:, 3].astype(np.int16),
+        edge_vid=edge_vid.astype(np.int32),
+        n_nodes=n_nodes,
+        n_edges=n_edges,
+        initial=initial,
+    )
+
+
+def compile_worlds(worlds: Sequence[FortressFile | Genome], where: Sequence[str] | None = None) -> Tables:
+    """The kernel's arrays for these worlds (fortress files or array genomes, not mixed). An ``add`` or
+    ``transform`` of a class a world does not define is an :class:`InputError` (the original crashes on it);
+    conditions and targets naming such a class never hold."""
+    if worlds and all(isinstance(w, Genome) for w in worlds):
+        return _compile_genomes(worlds)
+    worlds = [w.to_file() if isinstance(w, Genome) else w for w in worlds]
     compiled, initial = [], []
     for w, world in enumerate(worlds):
         index = {char: k for k, char in enumerate(world.classes)}
@@ -287,12 +377,13 @@ class Outcome:
     tables: Tables
     traces: list[list[Trace]] | None = None
 
-    def visit_sets(self, world: int, seed: int, worlds: Sequence[FortressFile]) -> dict[str, dict[str, set]]:
+    def visit_sets(self, world: int, seed: int, worlds: Sequence[FortressFile | Genome]) -> dict[str, dict[str, set]]:
         """The original's CHAR_VISIT_TREE for one simulation: per class, the node indices and edge keys visited."""
         flags = self.visits[world, seed]
         found: dict[str, dict[str, set]] = {}
         node_at = 0
-        entity_classes = list(worlds[world].classes.values())
+        chosen = worlds[world]
+        entity_classes = list((chosen.to_file() if isinstance(chosen, Genome) else chosen).classes.values())
         edge_at = int(self.tables.n_nodes[world])
         for entity in entity_classes:
             nodes = {n for n in range(len(entity.nodes)) if flags[node_at + n]}
@@ -318,8 +409,15 @@ def memory_needed(worlds: int, seeds: int, steps: int, record: bool = False) -> 
 
 def random_streams(seeds: Sequence[int], draws: int) -> np.ndarray:
     """``(len(seeds), draws)`` uint32: the first outputs of ``numpy.random.default_rng(seed)`` for each seed, the
-    numbers the simulations' random choices are made from."""
-    return np.stack([np.random.default_rng(int(s)).integers(0, 1 << 32, size=draws, dtype=np.uint32) for s in seeds])
+    numbers the simulations' random choices are made from (read-only: every evaluation of a run uses the same)."""
+    return _streams(tuple(int(s) for s in seeds), int(draws))
+
+
+@lru_cache(maxsize=4)
+def _streams(seeds: tuple[int, ...], draws: int) -> np.ndarray:
+    found = np.stack([np.random.default_rng(s).integers(0, 1 << 32, size=draws, dtype=np.uint32) for s in seeds])
+    found.flags.writeable = False
+    return found
 
 
 def placements(initial: Sequence[tuple]) -> list[tuple]:
@@ -351,8 +449,11 @@ def _state(tables: Tables, worlds_of: np.ndarray, rules: Rules) -> dict[str, np.
         "updates": np.zeros(count, dtype=np.int64),
         "visited": np.zeros((count, tables.visit_width), dtype=np.uint8),
     }
+    placed_in: dict[int, list[tuple]] = {}
     for b, w in enumerate(worlds_of):
-        placed = placements(tables.initial[w])
+        placed = placed_in.get(w)
+        if placed is None:
+            placed = placed_in[w] = placements(tables.initial[w])
         for k, (c, x, y) in enumerate(placed):
             state["cls"][b, k], state["ex"][b, k], state["ey"][b, k] = c, x, y
             state["alive"][b, k] = True
@@ -365,15 +466,23 @@ def _state(tables: Tables, worlds_of: np.ndarray, rules: Rules) -> dict[str, np.
 def _run(
     tables: Tables, state: dict, worlds_of: np.ndarray, draws: np.ndarray, stream: np.ndarray, until: int, rules: Rules
 ) -> None:
+    import numba
+
     from structgen.domains.fortress import _kernels
 
+    # Simulations differ a lot in length (one entity or 156), so threads take them one at a time.
+    with numba.parallel_chunksize(1):
+        _run_kernel(_kernels, tables, state, worlds_of, draws, stream, until, rules)
+
+
+def _run_kernel(_kernels, tables: Tables, state: dict, worlds_of, draws, stream, until: int, rules: Rules) -> None:
     _kernels.run(
         until, worlds_of, tables.node_act, tables.node_arg, tables.node_vid, tables.edge_start, tables.edge_stop,
         tables.edge_cond, tables.edge_arg, tables.edge_int, tables.edge_dst, tables.edge_vid, draws, stream,
         state["used"], state["cls"], state["ex"], state["ey"], state["node"], state["age"], state["alive"],
         state["slots"], state["tick"], state["cause"], state["last_event"], state["visited"], state["updates"],
         WIDTH, HEIGHT,
-        POPULATION_CAP, rules.inactivity_limit, rules.next_to == "orthogonal",
+        rules.population_cap, rules.inactivity_limit, rules.next_to == "orthogonal",
         -1 if rules.take_reach is None else rules.take_reach, rules.wall_blocks == "any",
     )  # fmt: skip
 
@@ -388,7 +497,7 @@ def _snapshot(tables: Tables, state: dict, b: int, w: int) -> list[tuple[str, in
 
 
 def simulate(
-    worlds: Sequence[FortressFile],
+    worlds: Sequence[FortressFile | Genome],
     seeds: Sequence[int],
     steps: int = 100,
     rules: Rules = Rules(),

@@ -25,16 +25,9 @@ from evolution.files import atomic_write
 from evolution.problem import Evaluation, Problem
 from structgen.budget import check_memory
 from structgen.domains.fortress.engine import POPULATION_CAP, Outcome, Rules, memory_needed, simulate
-from structgen.domains.fortress.formats import EntityClass, FortressFile, format_fortress, parse_fortress
-from structgen.domains.fortress.world import (
-    CHARACTERS,
-    Variation,
-    fsm_size_entropy,
-    mutate_world,
-    node_types,
-    random_world,
-    world_size,
-)
+from structgen.domains.fortress.formats import format_fortress, parse_fortress
+from structgen.domains.fortress.genome import CHARACTERS, Genome, node_types
+from structgen.domains.fortress.world import Variation, fsm_size_entropy, mutate_world, random_world
 
 __all__ = ["FortressProblem", "FortressSettings", "MEASURES"]
 
@@ -55,8 +48,8 @@ class FortressSettings:
         the class sizes); a run over entropy also starts from worlds drawn evenly over entropy, as the original.
     sims: simulations per evaluation (5); steps: ticks per simulation (100; the paper also ran 500).
     sim_seed: the first simulation seed; every evaluation uses ``sim_seed .. sim_seed + sims - 1``.
-    next_to, take_reach, wall_blocks, inactivity_limit, visit_start_nodes: :class:`.engine.Rules` (defaults: the
-        original's code).
+    next_to, take_reach, wall_blocks, inactivity_limit, visit_start_nodes, population_cap: :class:`.engine.Rules`
+        (defaults: the original's code; :data:`.engine.RULES` lists each paper's).
     orphan_edges, edge_coin, node_coin, instance_coin: :class:`.world.Variation` (defaults: the original's).
     """
 
@@ -69,6 +62,7 @@ class FortressSettings:
     wall_blocks: str = "first"
     inactivity_limit: int = 0
     visit_start_nodes: bool = False
+    population_cap: int = POPULATION_CAP
     orphan_edges: str = "every_node"
     edge_coin: float = 0.5
     node_coin: float = 0.5
@@ -92,6 +86,7 @@ class FortressSettings:
                 wall_blocks=self.wall_blocks,
                 inactivity_limit=self.inactivity_limit,
                 visit_start_nodes=self.visit_start_nodes,
+                population_cap=self.population_cap,
             )
         except ValueError as error:
             raise ValueError(f"problem {error}") from None
@@ -114,7 +109,7 @@ class FortressProblem(Problem):
     field_names = ("nodes", "edges", "entities", "ticks", "visited_nodes", "visited_edges")
     plot_fields = ("nodes", "entities")
     objective_floor = 0.0
-    genome_types = (FortressFile, EntityClass)
+    genome_types = ()
 
     def __init__(self, settings: FortressSettings = FortressSettings()) -> None:
         self.settings = settings
@@ -133,17 +128,17 @@ class FortressProblem(Problem):
             self.measure_names = ("entities", "entropy")
             self.measure_ranges = (_stretched(0, POPULATION_CAP), _stretched(0.0, 1.0))
 
-    def initial_genomes(self, count: int, rng: np.random.Generator) -> list[FortressFile]:
+    def initial_genomes(self, count: int, rng: np.random.Generator) -> list[Genome]:
         start = "entropy" if self.settings.measures == "entities_entropy" else "n_nodes"
-        return [random_world(rng, CHARACTERS, self.variation, start=start) for _ in range(count)]
+        return [random_world(rng, self.variation, start=start) for _ in range(count)]
 
-    def mutate(self, genome: FortressFile, rng: np.random.Generator) -> FortressFile:
+    def mutate(self, genome: Genome, rng: np.random.Generator) -> Genome:
         return mutate_world(genome, rng, self.variation)
 
     def seeds(self) -> list[int]:
         return list(range(self.settings.sim_seed, self.settings.sim_seed + self.settings.sims))
 
-    def scores(self, worlds: list[FortressFile], seeds: list[int], steps: int) -> tuple[Outcome, np.ndarray, np.ndarray]:
+    def scores(self, worlds: list[Genome], seeds: list[int], steps: int) -> tuple[Outcome, np.ndarray, np.ndarray]:
         """Simulate the worlds under ``seeds``: the outcome, each world's objective (mean share of its machines
         visited) and its entities measure (mean of the ends, each capped at 156)."""
         outcome = simulate(worlds, seeds, steps, self.rules)
@@ -153,7 +148,7 @@ class FortressProblem(Problem):
         # Every world runs under the same simulation seeds (as the original); the engine's seeds are not needed.
         worlds = list(genomes)
         outcome, objective, entities = self.scores(worlds, self.seeds(), self.settings.steps)
-        sizes = np.array([world_size(w) for w in worlds], dtype=np.float64).reshape(-1, 2)
+        sizes = np.array([w.size() for w in worlds], dtype=np.float64).reshape(-1, 2)
         if self.settings.measures == "entities_nodes":
             second = sizes[:, 0]
         else:
@@ -171,18 +166,24 @@ class FortressProblem(Problem):
             },
         )
 
-    def genome_to_json(self, genome: FortressFile) -> str:
-        return format_fortress(genome)
+    def genome_to_json(self, genome: Genome) -> str:
+        return format_fortress(genome.to_file())
 
-    def genome_from_json(self, data: Any) -> FortressFile:
-        return parse_fortress(data, "genome")
+    def genome_from_json(self, data: Any) -> Genome:
+        return Genome.from_file(parse_fortress(data, "genome"), "genome")
 
-    def write_artifacts(self, genome: FortressFile, folder: Path) -> list[Path]:
+    def open_genome_store(self, folder: Path) -> Any:
+        from structgen.domains.fortress.store import FortressStore
+
+        return FortressStore(folder)
+
+    def write_artifacts(self, genome: Genome, folder: Path) -> list[Path]:
         from structgen.domains.fortress.show import draw_world
 
         folder = Path(folder)
+        world = genome.to_file()
         text = folder / "world.txt"
-        atomic_write(text, format_fortress(genome).encode())
+        atomic_write(text, format_fortress(world).encode())
         picture = folder / "world.png"
-        draw_world(genome, picture)
+        draw_world(world, picture)
         return [text, picture]

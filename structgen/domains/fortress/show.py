@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -13,7 +14,7 @@ from evolution.plots import figure_png, new_figure
 from structgen.domains.fortress.engine import HEIGHT, WIDTH, Trace, placements
 from structgen.domains.fortress.formats import FortressFile
 
-__all__ = ["draw_world", "map_image", "map_text", "population_figure", "trace_gif", "trace_strip"]
+__all__ = ["draw_world", "map_image", "map_text", "population_figure", "population_panel", "trace_gif", "trace_strip"]
 
 _SCALE = 24
 
@@ -88,11 +89,10 @@ def trace_strip(trace: Trace, chars: Sequence[str], path: str | Path, *, frames:
     return atomic_write(path, figure_png(figure))
 
 
-def population_figure(trace: Trace, chars: Sequence[str], title: str = "") -> object:
-    """How many entities of each class there were after each tick (classes that never appear are left out)."""
+def population_panel(axes: Any, trace: Trace, chars: Sequence[str], title: str) -> None:
+    """How many entities of each class there were after each tick, on ``axes`` (classes that never appear are left
+    out), with the total dashed and a legend beside it."""
     counts = trace.populations(chars)
-    figure = new_figure(figsize=(7, 3.6))
-    axes = figure.add_subplot(1, 1, 1)
     colours = _colours(chars)
     for k, c in enumerate(chars):
         if counts[:, k].any():
@@ -100,8 +100,14 @@ def population_figure(trace: Trace, chars: Sequence[str], title: str = "") -> ob
     axes.plot(counts.sum(axis=1), label="all", color="black", linestyle="--")
     axes.set_xlabel("tick")
     axes.set_ylabel("entities")
-    axes.set_title(title or f"population by class (seed {trace.seed})")
+    axes.set_title(title, fontsize=9)
     axes.legend(fontsize=7, ncol=2, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+
+
+def population_figure(trace: Trace, chars: Sequence[str], title: str = "") -> object:
+    """:func:`population_panel` as a figure of its own."""
+    figure = new_figure(figsize=(7, 3.6))
+    population_panel(figure.add_subplot(1, 1, 1), trace, chars, title or f"population by class (seed {trace.seed})")
     figure.tight_layout()
     return figure
 
