@@ -35,6 +35,9 @@ from structgen.domains.fortress.world import random_world
 ORIGINAL = {"steps_per_s": 103, "updates_per_s": 2500, "generation_s": 50}
 ORIGINAL_ALONE = {"steps_per_s": 311, "updates_per_s": 8505}
 ORIGINAL_HERE = {"steps_per_s": 78, "generation_s": 5000 / 78}
+# This engine before worlds became arrays (commit c79a476, the same machine, 2 threads, 2026-11-25, timed back to back
+# with this version): seconds per generation over generations 151-200 and 351-400 of this script's run.
+BEFORE = {"151-200": 0.137, "351-400": 0.138}
 
 
 def engine_rows(worlds_counts: list[int], threads: list[int], repeats: int) -> list[str]:
@@ -121,6 +124,11 @@ def main() -> None:
     print(
         f"| original, this machine (5,000 steps at {ORIGINAL_HERE['steps_per_s']}/s) | 1 | {here:.0f} s | {here * 10_000 / 3600:.0f} h | 1x |"
     )
+    for window, seconds in BEFORE.items():
+        print(
+            f"| before worlds were arrays (c79a476), generations {window} | 2 | {seconds:.3f} s | "
+            f"{seconds * 10_000 / 3600:.2f} h | {here / seconds:,.0f}x |"
+        )
     for row in generation_rows(args.generations, max(args.threads)):
         print(row)
 

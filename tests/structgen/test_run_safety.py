@@ -167,9 +167,9 @@ def test_a_checkpoint_is_written_when_its_time_has_come_and_waits_longer_after_a
     seen = []
     original = RunFolder.save_checkpoint
 
-    def save(self, state):
+    def save(self, state, problem=None):
         seen.append(state.generation)
-        original(self, state)
+        original(self, state, problem)
 
     # The run loop's clock reads 0, 1, 2, ... seconds, a second a reading: each generation's check costs one, each
     # checkpoint two (its start and its end).

@@ -204,36 +204,44 @@ def _compile_class(entity: EntityClass, index: dict[str, int], order: tuple[str,
     return compiled
 
 
-def _compile_genomes(worlds: Sequence[Genome]) -> Tables:
-    """The kernel's arrays for array worlds: each class compiles once in its life (:meth:`.ClassArrays.compiled`),
-    so a mutant costs only the classes it changed; here they are laid out, all at once, with their class arguments
-    renumbered in the world's class order."""
-    n_worlds = len(worlds)
-    k_max = max((len(w.classes) for w in worlds), default=1) or 1
-    compiled = [c.compiled() for w in worlds for c in w.classes]
-    owner = np.repeat(np.arange(n_worlds), [len(w.classes) for w in worlds])  # the world of each class
-    slot = np.concatenate([np.arange(len(w.classes)) for w in worlds]) if compiled else np.zeros(0, dtype=np.int64)
+def _lay_out(
+    classes_of: Sequence[Sequence[Any]],
+    counted: Sequence[Sequence[int]],
+    orders: np.ndarray | None,
+    initial: Sequence[Sequence[tuple]],
+    chars: list[list[str]],
+) -> Tables:
+    """The kernel's padded tables from compiled classes (``act``, ``arg``, ``starts``, ``edges`` as in
+    :class:`.genome.Compiled`), all worlds at once. ``counted[w][k]``: the edges class k of world w counts (never-taken
+    edges included); ``orders`` (worlds, characters + 1): renumbers class arguments from character numbers to the
+    world's class numbers (None: they are class numbers already); ``initial``: (class, x, y) in class numbers."""
+    n_worlds = len(classes_of)
+    k_max = max((len(classes) for classes in classes_of), default=1) or 1
+    compiled = [c for classes in classes_of for c in classes]
+    owner = np.repeat(np.arange(n_worlds), [len(classes) for classes in classes_of])  # the world of each class
+    slot = np.concatenate([np.arange(len(classes)) for classes in classes_of]) if compiled else np.zeros(0, dtype=np.int64)
     sizes = np.array([len(c.act) for c in compiled], dtype=np.int64)
     live = np.array([len(c.edges) for c in compiled], dtype=np.int64)
-    counted = np.array([len(c.edges) for w in worlds for c in w.classes], dtype=np.int64)  # with never-taken edges
+    counted_flat = np.array([n for counts in counted for n in counts], dtype=np.int64)
     n_max = max(int(sizes.max(initial=1)), 1)
     e_total = int(live.sum())
     check_memory(n_worlds * k_max * (n_max * 11 + 4) + e_total * 48, f"the tables of {n_worlds:,} worlds")
-    # orders[w, c]: world w's class number of character number c; the extra last column maps "no class" (-1) to -1.
-    orders = np.full((n_worlds, len(CHARACTERS) + 1), -1, dtype=np.int32)
-    orders[owner, [c.char for w in worlds for c in w.classes]] = slot
+
+    def renumbered(classes: np.ndarray, values: np.ndarray) -> np.ndarray:
+        return values if orders is None else orders[owner[classes], values]
 
     def before(values: np.ndarray) -> np.ndarray:  # sum of the earlier classes' values in the same world
         totals = np.bincount(owner, weights=values, minlength=n_worlds).astype(np.int64)
         return np.cumsum(values) - values - (np.cumsum(totals) - totals)[owner]
 
     n_nodes = np.bincount(owner, weights=sizes, minlength=n_worlds).astype(np.int64)
-    n_edges = np.bincount(owner, weights=counted, minlength=n_worlds).astype(np.int64)
+    n_edges = np.bincount(owner, weights=counted_flat, minlength=n_worlds).astype(np.int64)
     node_vid = np.zeros((n_worlds, k_max), dtype=np.int32)
     node_vid[owner, slot] = before(sizes)
     # Every node's place in the padded (world, class, node) tables.
     node_owner = np.repeat(np.arange(len(compiled)), sizes)
-    place = (owner * k_max + slot)[node_owner] * n_max + np.arange(len(node_owner)) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    first_node = np.repeat(np.cumsum(sizes) - sizes, sizes)
+    place = (owner * k_max + slot)[node_owner] * n_max + np.arange(len(node_owner)) - first_node
     node_act = np.zeros((n_worlds, k_max, n_max), dtype=np.int8)
     node_arg = np.full((n_worlds, k_max, n_max), -1, dtype=np.int16)
     edge_start = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
@@ -241,32 +249,46 @@ def _compile_genomes(worlds: Sequence[Genome]) -> Tables:
     if len(node_owner):
         first_edge = np.repeat(np.cumsum(live) - live, sizes)
         node_act.reshape(-1)[place] = np.concatenate([c.act for c in compiled])
-        node_arg.reshape(-1)[place] = orders[owner[node_owner], np.concatenate([c.arg for c in compiled])]
+        node_arg.reshape(-1)[place] = renumbered(node_owner, np.concatenate([c.arg for c in compiled]))
         edge_start.reshape(-1)[place] = first_edge + np.concatenate([c.starts[:-1] for c in compiled])
         edge_stop.reshape(-1)[place] = first_edge + np.concatenate([c.starts[1:] for c in compiled])
     if e_total:
         edges = np.concatenate([c.edges for c in compiled])
         edge_owner = np.repeat(np.arange(len(compiled)), live)
-        edge_vid = (n_nodes[owner] + before(counted))[edge_owner] + edges[:, 4]
-        edge_arg = orders[owner[edge_owner], edges[:, 1]]
+        edge_vid = (n_nodes[owner] + before(counted_flat))[edge_owner] + edges[:, 4]
+        edge_arg = renumbered(edge_owner, edges[:, 1])
     else:
         edges, edge_vid, edge_arg = np.zeros((1, 5), dtype=np.int32), np.zeros(1, dtype=np.int64), np.full(1, -1)
-    initial = [[(int(orders[w, c]), x, y) for c, x, y in world.initial.tolist()] for w, world in enumerate(worlds)]
     return Tables(
-        chars=[world.chars for world in worlds],
+        chars=chars,
         node_act=node_act,
         node_arg=node_arg,
         node_vid=node_vid,
         edge_start=edge_start,
         edge_stop=edge_stop,
         edge_cond=edges[:, 0].astype(np.int8),
-        edge_arg=edge_arg.astype(np.int16),
+        edge_arg=np.asarray(edge_arg).astype(np.int16),
         edge_int=edges[:, 2].astype(np.int32),
         edge_dst=edges[:, 3].astype(np.int16),
         edge_vid=edge_vid.astype(np.int32),
         n_nodes=n_nodes,
         n_edges=n_edges,
-        initial=initial,
+        initial=[list(entities) for entities in initial],
+    )
+
+
+def _compile_genomes(worlds: Sequence[Genome]) -> Tables:
+    """Array worlds: each class compiles once in its life (:meth:`.ClassArrays.compiled`), so a mutant costs only
+    the classes it changed; class arguments are character numbers, renumbered in each world's class order."""
+    orders = np.full((len(worlds), len(CHARACTERS) + 1), -1, dtype=np.int32)  # the last column maps -1 to -1
+    for w, world in enumerate(worlds):
+        orders[w, [c.char for c in world.classes]] = np.arange(len(world.classes))
+    return _lay_out(
+        [[c.compiled() for c in world.classes] for world in worlds],
+        [[len(c.edges) for c in world.classes] for world in worlds],
+        orders,
+        [[(int(orders[w, c]), x, y) for c, x, y in world.initial.tolist()] for w, world in enumerate(worlds)],
+        [world.chars for world in worlds],
     )
 
 
@@ -284,54 +306,8 @@ def compile_worlds(worlds: Sequence[FortressFile | Genome], where: Sequence[str]
         label = where[w] if where is not None else f"world {w}"
         compiled.append([_compile_class(entity, index, order, label) for entity in world.classes.values()])
         initial.append([(index[c], x, y) for c, x, y in world.initial])
-    n_worlds = len(worlds)
-    k_max = max((len(c) for c in compiled), default=1) or 1
-    n_max = max((len(c.act) for classes in compiled for c in classes), default=1) or 1
-    e_total = sum(len(c.edges) for classes in compiled for c in classes)
-    # node_act, node_arg, node_vid, edge_start, edge_stop: 1 + 2 + 4 + 4 bytes a slot of the worlds' padded tables.
-    check_memory(n_worlds * k_max * (n_max * 11 + 4) + e_total * 48, f"the tables of {n_worlds:,} worlds")
-    node_act = np.zeros((n_worlds, k_max, n_max), dtype=np.int8)
-    node_arg = np.full((n_worlds, k_max, n_max), -1, dtype=np.int16)
-    node_vid = np.zeros((n_worlds, k_max), dtype=np.int32)
-    edge_start = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
-    edge_stop = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
-    edges = np.zeros((max(e_total, 1), 5), dtype=np.int64)
-    edge_vid = np.zeros(max(e_total, 1), dtype=np.int32)
-    n_nodes = np.zeros(n_worlds, dtype=np.int64)
-    n_edges = np.zeros(n_worlds, dtype=np.int64)
-    at = 0
-    for w, classes in enumerate(compiled):
-        total_nodes = sum(len(c.act) for c in classes)
-        node_offset, edge_offset = 0, total_nodes
-        for k, c in enumerate(classes):
-            size, live = len(c.act), len(c.edges)
-            node_vid[w, k] = node_offset
-            node_act[w, k, :size], node_arg[w, k, :size] = c.act, c.arg
-            edge_start[w, k, :size] = at + c.starts[:-1]
-            edge_stop[w, k, :size] = at + c.starts[1:]
-            edges[at : at + live] = c.edges
-            edge_vid[at : at + live] = edge_offset + c.edges[:, 4]
-            at += live
-            node_offset += size
-            edge_offset += c.n_edges
-        n_nodes[w] = total_nodes
-        n_edges[w] = edge_offset - total_nodes
-    return Tables(
-        chars=[list(world.classes) for world in worlds],
-        node_act=node_act,
-        node_arg=node_arg,
-        node_vid=node_vid,
-        edge_start=edge_start,
-        edge_stop=edge_stop,
-        edge_cond=edges[:, 0].astype(np.int8),
-        edge_arg=edges[:, 1].astype(np.int16),
-        edge_int=edges[:, 2].astype(np.int32),
-        edge_dst=edges[:, 3].astype(np.int16),
-        edge_vid=edge_vid,
-        n_nodes=n_nodes,
-        n_edges=n_edges,
-        initial=initial,
-    )
+    counted = [[c.n_edges for c in classes] for classes in compiled]
+    return _lay_out(compiled, counted, None, initial, [list(world.classes) for world in worlds])
 
 
 @dataclass

@@ -140,10 +140,8 @@ def table_markdown(report: dict[str, Any]) -> str:
     merged = [row for row in rows if row["name"].startswith("merged")]
     runs = len(report["run_seeds"])
     singles = [[row for row in rows if row["name"].startswith("run ") and _pass_of(row["name"]) == p] for p in range(len(PASSES))]
-    lines = [
-        f"| {report['measures']} ({runs} runs) | ticks | best | QD score | cells | QD score of one run (min-max) | paper: best / QD score / cells |",
-        "|---|---:|---:|---:|---:|---:|---:|",
-    ]
+    header = f"| {report['measures']} ({runs} runs) | ticks | best | QD score | cells | QD score of one run (min-max) |"
+    lines = [header + " paper: best / QD score / cells |", "|---|---:|---:|---:|---:|---:|---:|"]
     ticks = [report["steps"], report["steps"], report["steps"] * report["longer"]]
     for p, name in enumerate(PASSES):
         row = merged[p] if len(merged) > p else (singles[p][0] if singles[p] else None)

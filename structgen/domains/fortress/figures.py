@@ -176,5 +176,6 @@ def populations_figure(run_dirs: Sequence[str | Path], output: str | Path, *, lo
         axes.axvline(steps, color="tab:blue", linestyle=":", linewidth=1.2, label=f"evolution's episode ({steps})")
         title = f"{name}:\nentropy {entropy[i]:.2f}, {world.size()[0]} nodes, fitness {merged.objective[i]:.2f}"
         population_panel(axes, trace, world.chars, title)
+        axes.set_xlim(0, steps * longer)  # a simulation that stopped early ends where it stopped
     figure.tight_layout()
     return atomic_write(output, figure_png(figure))

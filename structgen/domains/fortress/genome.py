@@ -208,7 +208,7 @@ class Genome:
     @classmethod
     def from_file(cls, world: FortressFile, where: str = "world") -> Genome:
         classes = tuple(ClassArrays.from_entity(entity, where) for entity in world.classes.values())
-        for c, x, y in world.initial:
+        for c, *_ in world.initial:
             if c not in _CHAR_INDEX:
                 raise InputError(f"{where}: initial entity of class {c!r}, not one of the QD classes")
         initial = np.array([(_CHAR_INDEX[c], x, y) for c, x, y in world.initial], dtype=np.int16).reshape(-1, 3)

@@ -47,8 +47,10 @@ class FortressStore(GenomeStore):
         self._known: dict[int, tuple[weakref.ref, int]] = {}
         self._pending_classes: list[ClassArrays] = []
         self._pending_worlds: list[tuple[Genome, list[int]]] = []
+        # What has been read back, by key (worlds written in this process are not kept: a run lets go of elites).
         self._classes: dict[int, ClassArrays] = {}
         self._worlds: dict[int, Genome] = {}
+        self._world_rows: dict[Path, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._segments: list[tuple[int, int, int, int, Path]] = []  # class first, count, world first, count, file
         self._loaded: set[Path] = set()
         for path in sorted(self.path.glob("segment-*.npz")) if self.path.is_dir() else []:
@@ -65,7 +67,8 @@ class FortressStore(GenomeStore):
         return found[1] if found is not None and found[0]() is obj else None
 
     def _remember(self, obj: Any, key: int) -> None:
-        self._known[id(obj)] = (weakref.ref(obj, lambda _, i=id(obj): self._known.pop(i, None)), key)
+        name = id(obj)
+        self._known[name] = (weakref.ref(obj, lambda _: self._known.pop(name, None)), key)
 
     def _class_key(self, entity: ClassArrays) -> int:
         key = self._key_of(entity)
@@ -121,11 +124,6 @@ class FortressStore(GenomeStore):
             path = path.with_name(f"segment-{int(_SEGMENT.match(path.name)[1]) + 1:06d}.npz")
         atomic_write(path, buffer.getvalue())
         self._segments.append((first_class, len(classes), first_world, len(worlds), path))
-        self._loaded.add(path)
-        for offset, entity in enumerate(classes):
-            self._classes[first_class + offset] = entity
-        for offset, (world, _) in enumerate(worlds):
-            self._worlds[first_world + offset] = world
         self._pending_classes, self._pending_worlds = [], []
 
     # -- reading -----------------------------------------------------------------------------------------------------
@@ -147,7 +145,6 @@ class FortressStore(GenomeStore):
                 self._classes[key] = entity
                 self._remember(entity, key)
         self._loaded.add(path)
-        self._world_rows = getattr(self, "_world_rows", {})
         initial_at = np.concatenate([[0], np.cumsum(arrays["world_initial"].astype(np.int64))])
         self._world_rows[path] = (arrays["world_classes"], arrays["initial"].T, initial_at)
 
@@ -156,13 +153,9 @@ class FortressStore(GenomeStore):
         order = sorted(range(len(firsts)), key=firsts.__getitem__)
         at = bisect.bisect_right([firsts[i] for i in order], key) - 1
         if at >= 0:
-            first, count, path = (
-                self._segments[order[at]][column],
-                self._segments[order[at]][column + 1],
-                self._segments[order[at]][4],
-            )
-            if key < first + count:
-                return path
+            segment = self._segments[order[at]]
+            if key < segment[column] + segment[column + 1]:
+                return segment[4]
         raise InputFileError(f"{self.path}: no stored {'world' if column else 'class'} {key} (a file of the store is missing)")
 
     def _class(self, key: int) -> ClassArrays:

@@ -204,7 +204,7 @@ def _sizes_by_total(rng, n_classes: int, per_class: int) -> list[int]:
 def _entropy(counts: np.ndarray, base: int) -> float:
     """Shannon entropy of a histogram, in base ``base`` (the number of classes, as the original's measure)."""
     share = counts[counts > 0] / counts.sum()
-    return float(-(share * np.log(share)).sum() / np.log(base))
+    return max(0.0, float(-(share * np.log(share)).sum() / np.log(base)))  # one bin: 0, not -0
 
 
 @lru_cache(maxsize=4)
