@@ -170,15 +170,10 @@ def cmd_show(args: argparse.Namespace) -> int:
 # -- robustness -----------------------------------------------------------------------------------------------------------
 def cmd_robustness(args: argparse.Namespace) -> int:
     from evolution.files import atomic_write
-    from structgen.domains.fortress.robustness import reevaluate
-    from structgen.runs import open_run
+    from structgen.domains.fortress.robustness import open_runs, reevaluate
 
-    opened = [open_run(run_dir) for run_dir in args.run_dirs]
-    experiment = opened[0][1]
-    for folder, other in opened[1:]:
-        if other.problem_settings != experiment.problem_settings:
-            raise InputError(f"{folder.path}: its [problem] settings differ from {opened[0][0].path}'s; merge like runs only")
-    report = reevaluate([f for f, _ in opened], experiment, longer=args.longer, chunk=args.chunk, progress=not args.json)
+    folders, experiment = open_runs(args.run_dirs)
+    report = reevaluate(folders, experiment, longer=args.longer, chunk=args.chunk, progress=not args.json)
     if args.output is not None:
         atomic_write(args.output, json.dumps(report, indent=1) + "\n")
     if args.json:

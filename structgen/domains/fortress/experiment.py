@@ -102,8 +102,7 @@ def run_experiment(
 ) -> dict[str, Any]:
     """Run (or finish) every seed's run, then write and return the table (see the module's description)."""
     from structgen.domains.fortress.problem import MEASURES
-    from structgen.domains.fortress.robustness import reevaluate
-    from structgen.runs import open_run
+    from structgen.domains.fortress.robustness import open_runs, reevaluate
 
     if measures not in MEASURES:
         raise InputError(f"measures must be one of {', '.join(MEASURES)}, got {measures!r}")
@@ -122,12 +121,8 @@ def run_experiment(
     finally:
         if bar is not None:
             bar.close()
-    opened = [open_run(job[3]) for job in jobs]
-    settings = opened[0][1].problem_settings
-    for folder, other in opened[1:]:
-        if other.problem_settings != settings:
-            raise InputError(f"{folder.path}: its [problem] settings differ from {opened[0][0].path}'s")
-    report = reevaluate([folder for folder, _ in opened], opened[0][1], longer=longer, progress=progress)
+    folders, experiment = open_runs([job[3] for job in jobs])
+    report = reevaluate(folders, experiment, longer=longer, progress=progress)
     report.update({"measures": measures, "run_seeds": list(seeds), "longer": longer, "paper": PAPER_TABLE[measures]})
     atomic_write(out / "table.json", json.dumps(report, indent=1) + "\n")
     atomic_write(out / "table.md", table_markdown(report))

@@ -30,17 +30,13 @@ _COLOURS = {"fitness": "share of machines visited (fitness)", "entropy": "entrop
 
 def _open(run_dirs: Sequence[str | Path]) -> tuple[list[RunFolder], Any, Any]:
     from structgen.domains.fortress.problem import FortressProblem
-    from structgen.runs import open_run
+    from structgen.domains.fortress.robustness import open_runs
 
-    opened = [open_run(run_dir) for run_dir in run_dirs]
-    experiment = opened[0][1]
-    for folder, other in opened[1:]:
-        if other.problem_settings != experiment.problem_settings:
-            raise InputError(f"{folder.path}: its [problem] settings differ from {opened[0][0].path}'s")
+    folders, experiment = open_runs(run_dirs)
     problem = experiment.make_problem()
     if not isinstance(problem, FortressProblem):
-        raise InputError(f"{opened[0][0].path}: not a fortress run (its domain is {experiment.domain})")
-    return [folder for folder, _ in opened], experiment, problem
+        raise InputError(f"{folders[0].path}: not a fortress run (its domain is {experiment.domain})")
+    return folders, experiment, problem
 
 
 def _cells(experiment: Any) -> tuple[int, ...]:
@@ -177,5 +173,6 @@ def populations_figure(run_dirs: Sequence[str | Path], output: str | Path, *, lo
         title = f"{name}:\nentropy {entropy[i]:.2f}, {world.size()[0]} nodes, fitness {merged.objective[i]:.2f}"
         population_panel(axes, trace, world.chars, title)
         axes.set_xlim(0, steps * longer)  # a simulation that stopped early ends where it stopped
+        axes.set_ylim(bottom=0)
     figure.tight_layout()
     return atomic_write(output, figure_png(figure))

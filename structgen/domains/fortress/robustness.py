@@ -18,7 +18,7 @@ from evolution.runfolder import RunFolder
 from structgen.domains.fortress.problem import FortressProblem
 from structgen.errors import InputError
 
-__all__ = ["Elites", "load_elites", "merge", "rebin", "reevaluate"]
+__all__ = ["Elites", "load_elites", "merge", "open_runs", "rebin", "reevaluate"]
 
 
 class Elites:
@@ -29,6 +29,18 @@ class Elites:
 
     def __len__(self) -> int:
         return len(self.worlds)
+
+
+def open_runs(run_dirs: Sequence[Any]) -> tuple[list[RunFolder], Any]:
+    """Run folders to merge, and the first one's experiment; their [problem] settings must agree."""
+    from structgen.runs import open_run
+
+    opened = [open_run(run_dir) for run_dir in run_dirs]
+    experiment = opened[0][1]
+    for folder, other in opened[1:]:
+        if other.problem_settings != experiment.problem_settings:
+            raise InputError(f"{folder.path}: its [problem] settings differ from {opened[0][0].path}'s; merge like runs only")
+    return [folder for folder, _ in opened], experiment
 
 
 def load_elites(folder: RunFolder, problem: FortressProblem, rows: list[dict[str, str]] | None = None) -> Elites:
