@@ -216,6 +216,8 @@ class RunFolder:
 
     def __init__(self, path: str | os.PathLike) -> None:
         self.path = Path(path)
+        # Genome stores opened in this folder, by the problem that opened them (kept with it, so its id stays its).
+        self._stores: dict[int, tuple[Problem, GenomeStore | None]] = {}
 
     def __truediv__(self, name: str) -> Path:
         return self.path / name
@@ -352,10 +354,9 @@ class RunFolder:
     # -- checkpoint -----------------------------------------------------------------------------------------------------
     def genome_store(self, problem: Problem) -> GenomeStore | None:
         """The problem's genome store in this folder (:meth:`Problem.open_genome_store`), opened once."""
-        stores = self.__dict__.setdefault("_stores", {})
-        if id(problem) not in stores:
-            stores[id(problem)] = (problem, problem.open_genome_store(self.path))
-        return stores[id(problem)][1]
+        if id(problem) not in self._stores:
+            self._stores[id(problem)] = (problem, problem.open_genome_store(self.path))
+        return self._stores[id(problem)][1]
 
     def save_checkpoint(self, state: RunState, problem: Problem | None = None) -> None:
         """Write the state; with a problem that has a genome store, its genomes go to the store (only those not

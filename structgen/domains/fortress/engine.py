@@ -41,7 +41,7 @@ import numpy as np
 
 from structgen.budget import check_memory
 from structgen.domains.fortress.formats import ACTIONS, CONDITIONS, EntityClass, FortressFile
-from structgen.domains.fortress.genome import CHARACTERS, Genome
+from structgen.domains.fortress.genome import CHARACTERS, Compiled, Genome, tried_edges
 from structgen.errors import InputError
 
 __all__ = [
@@ -148,31 +148,8 @@ class Tables:
         return max(int((self.n_nodes + self.n_edges).max(initial=0)), 1)
 
 
-@dataclass(frozen=True)
-class _CompiledClass:
-    """One class as arrays: its nodes' actions and arguments, and its live edges in the order they are tried
-    (grouped by source node: ``starts[n]:starts[n + 1]``), with their index in the class's file order."""
-
-    act: np.ndarray
-    arg: np.ndarray
-    starts: np.ndarray
-    edges: np.ndarray  # (live edges, 5): condition, argument, number, destination, file index
-    n_edges: int
-
-
-# Worlds in a QD run share most classes with their parents: compiled classes are kept, keyed by their content and
-# the world's class order (arguments are class indices).
-_CACHE: dict[tuple, _CompiledClass] = {}
-_CACHE_SIZE = 8192
-
-
-def _compile_class(entity: EntityClass, index: dict[str, int], order: tuple[str, ...], where: str) -> _CompiledClass:
-    # ``order`` is the world's class order, one tuple shared by every class of the world: a key per class that built
-    # its own copy would cost classes x classes.
-    key = (order, entity.char, tuple(entity.nodes), tuple(entity.edges.items()))
-    found = _CACHE.get(key)
-    if found is not None:
-        return found
+def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> Compiled:
+    """A class of a fortress file, its class arguments numbered in the world's class order (``index``)."""
     act = np.zeros(len(entity.nodes), dtype=np.int8)
     arg = np.full(len(entity.nodes), -1, dtype=np.int16)
     for n, text in enumerate(entity.nodes):
@@ -183,25 +160,16 @@ def _compile_class(entity: EntityClass, index: dict[str, int], order: tuple[str,
             raise InputError(f"{where}: class {entity.char!r} node {n} ({text!r}) makes a class the world does not define")
         act[n], arg[n] = _ACTION_CODES[name], target
     rows = []
-    for q, (src, dst, name, arguments) in enumerate(entity.edge_list()):
-        if src >= len(entity.nodes):  # never taken, but counted in the class's total
-            continue
-        target, number = -1, 1 if name == "nextTo" else 0
+    for src, dst, name, arguments in entity.edge_list():
+        target, number = -1, 0
         for argument in arguments:
             if argument.isascii() and argument.isdigit():
                 number = int(argument)
             else:
                 target = index.get(argument, -1)
-        rows.append((src, -_CONDITION_CODES[name], q, _CONDITION_CODES[name], target, number, dst))
-    table = np.array(rows, dtype=np.int64).reshape(-1, 7)
-    # Out of each node: highest priority first, file order within a priority.
-    table = table[np.lexsort((table[:, 2], table[:, 1], table[:, 0]))]
-    starts = np.searchsorted(table[:, 0], np.arange(len(entity.nodes) + 1))
-    compiled = _CompiledClass(act, arg, starts, table[:, [3, 4, 5, 6, 2]], len(entity.edges))
-    if len(_CACHE) >= _CACHE_SIZE:
-        _CACHE.pop(next(iter(_CACHE)))
-    _CACHE[key] = compiled
-    return compiled
+        rows.append((src, dst, _CONDITION_CODES[name], target, number))
+    starts, edges = tried_edges(len(entity.nodes), np.array(rows, dtype=np.int64).reshape(-1, 5))
+    return Compiled(act, arg, starts, edges)
 
 
 def _lay_out(
@@ -302,11 +270,10 @@ def compile_worlds(worlds: Sequence[FortressFile | Genome], where: Sequence[str]
     compiled, initial = [], []
     for w, world in enumerate(worlds):
         index = {char: k for k, char in enumerate(world.classes)}
-        order = tuple(index)
         label = where[w] if where is not None else f"world {w}"
-        compiled.append([_compile_class(entity, index, order, label) for entity in world.classes.values()])
+        compiled.append([_compile_class(entity, index, label) for entity in world.classes.values()])
         initial.append([(index[c], x, y) for c, x, y in world.initial])
-    counted = [[c.n_edges for c in classes] for classes in compiled]
+    counted = [[len(entity.edges) for entity in world.classes.values()] for world in worlds]
     return _lay_out(compiled, counted, None, initial, [list(world.classes) for world in worlds])
 
 
@@ -448,19 +415,15 @@ def _run(
 
     # Simulations differ a lot in length (one entity or 156), so threads take them one at a time.
     with numba.parallel_chunksize(1):
-        _run_kernel(_kernels, tables, state, worlds_of, draws, stream, until, rules)
-
-
-def _run_kernel(_kernels, tables: Tables, state: dict, worlds_of, draws, stream, until: int, rules: Rules) -> None:
-    _kernels.run(
-        until, worlds_of, tables.node_act, tables.node_arg, tables.node_vid, tables.edge_start, tables.edge_stop,
-        tables.edge_cond, tables.edge_arg, tables.edge_int, tables.edge_dst, tables.edge_vid, draws, stream,
-        state["used"], state["cls"], state["ex"], state["ey"], state["node"], state["age"], state["alive"],
-        state["slots"], state["tick"], state["cause"], state["last_event"], state["visited"], state["updates"],
-        WIDTH, HEIGHT,
-        rules.population_cap, rules.inactivity_limit, rules.next_to == "orthogonal",
-        -1 if rules.take_reach is None else rules.take_reach, rules.wall_blocks == "any",
-    )  # fmt: skip
+        _kernels.run(
+            until, worlds_of, tables.node_act, tables.node_arg, tables.node_vid, tables.edge_start, tables.edge_stop,
+            tables.edge_cond, tables.edge_arg, tables.edge_int, tables.edge_dst, tables.edge_vid, draws, stream,
+            state["used"], state["cls"], state["ex"], state["ey"], state["node"], state["age"], state["alive"],
+            state["slots"], state["tick"], state["cause"], state["last_event"], state["visited"], state["updates"],
+            WIDTH, HEIGHT,
+            rules.population_cap, rules.inactivity_limit, rules.next_to == "orthogonal",
+            -1 if rules.take_reach is None else rules.take_reach, rules.wall_blocks == "any",
+        )  # fmt: skip
 
 
 def _snapshot(tables: Tables, state: dict, b: int, w: int) -> list[tuple[str, int, int, int]]:

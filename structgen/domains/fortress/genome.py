@@ -24,7 +24,7 @@ import numpy as np
 from structgen.domains.fortress.formats import CONDITIONS, EntityClass, FortressFile
 from structgen.errors import InputError
 
-__all__ = ["CHARACTERS", "CONDITION_NAMES", "ClassArrays", "Genome", "edge_order_rank", "node_types"]
+__all__ = ["CHARACTERS", "CONDITION_NAMES", "ClassArrays", "Compiled", "Genome", "edge_order_rank", "node_types", "tried_edges"]
 
 #: The 15 classes of the QD experiments.
 CHARACTERS = tuple("@$&+;!><XO*^MDS")
@@ -63,6 +63,20 @@ def edge_order_rank() -> np.ndarray:
     rank = np.empty(len(keys), dtype=np.int32)
     rank[sorted(range(len(keys)), key=keys.__getitem__)] = np.arange(len(keys), dtype=np.int32)
     return rank.reshape(_KEYS, _KEYS)
+
+
+def tried_edges(n_nodes: int, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A class's edges (rows ``(src, dst, condition, class argument, number)`` in file order) in the order the engine
+    tries them: out of each node (``starts[n]:starts[n + 1]``), highest priority first, file order within a
+    priority. Rows come back as ``(condition, class argument, number, destination, file position)``, ``nextTo``
+    with its reach of 1; an edge from a node the class lacks never fires and is left out."""
+    position = np.flatnonzero(edges[:, SRC] < n_nodes)
+    live = edges[position]
+    order = np.lexsort((position, -live[:, COND], live[:, SRC]))
+    live, position = live[order], position[order]
+    number = np.where(live[:, COND] == CONDITIONS["nextTo"][0], 1, live[:, NUMBER])
+    rows = np.stack([live[:, COND], live[:, CHAR], number, live[:, DST], position], axis=1).astype(np.int32)
+    return np.searchsorted(live[:, SRC], np.arange(n_nodes + 1)).astype(np.int32), rows.reshape(-1, 5)
 
 
 @dataclass(frozen=True)
@@ -106,19 +120,12 @@ class ClassArrays:
 
     def compiled(self) -> Compiled:
         if self._compiled is None:
-            n = len(self.nodes)
-            live = self.edges[self.edges[:, SRC] < n]  # an edge from a node the class lacks never fires
-            position = np.flatnonzero(self.edges[:, SRC] < n)
-            # Out of each node: highest priority first, file order within a priority.
-            order = np.lexsort((position, -live[:, COND], live[:, SRC]))
-            live, position = live[order], position[order]
-            number = np.where(live[:, COND] == CONDITIONS["nextTo"][0], 1, live[:, NUMBER])
-            rows = np.stack([live[:, COND], live[:, CHAR], number, live[:, DST], position], axis=1).astype(np.int32)
+            starts, rows = tried_edges(len(self.nodes), self.edges)
             self._compiled = Compiled(
                 act=TYPE_ACTION[self.nodes.astype(np.int64)],
                 arg=TYPE_CHAR[self.nodes.astype(np.int64)],
-                starts=np.searchsorted(live[:, SRC], np.arange(n + 1)).astype(np.int32),
-                edges=rows.reshape(-1, 5),
+                starts=starts,
+                edges=rows,
             )
         return self._compiled
 
