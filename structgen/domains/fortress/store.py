@@ -120,7 +120,9 @@ class FortressStore(GenomeStore):
         )
         self.path.mkdir(exist_ok=True)
         path = self.path / f"segment-{len(self._segments):06d}.npz"
-        while path.exists():  # a file left by a run killed before its checkpoint: its keys are reused, it is not
+        # A file left by a run killed before its checkpoint keeps its name and its keys (the next keys start after
+        # every file's), and nothing refers to it.
+        while path.exists():
             path = path.with_name(f"segment-{int(_SEGMENT.match(path.name)[1]) + 1:06d}.npz")
         atomic_write(path, buffer.getvalue())
         self._segments.append((first_class, len(classes), first_world, len(worlds), path))
