@@ -116,6 +116,8 @@ class StabilityReport:
             )
         if self.broken_joints:
             return f"breaks: {len(self.broken_joints)} of {self.n_joints} joints broke"
+        if self.method == "statics":  # nothing moves in a static analysis, so "came to rest" would say nothing
+            return "stands: the static analysis finds no joint over the break force"
         if self.falling:
             return (
                 f"still falling when the simulation ended: {self.falling} "

@@ -357,6 +357,25 @@ def test_render_statics_writes_a_png(tmp_path, capsys, column_4):
     assert code == 0 and "breaks" in out and (tmp_path / "c.png").read_bytes().startswith(b"\x89PNG")
 
 
+def test_check_pictures_explain_their_colours():
+    from physics import PhysicsConfig, check_statics
+    from structgen.domains.structures.render import check_figure
+
+    def labels(figure):
+        legend = [text.get_text() for text in figure.legends[0].get_texts()]
+        return legend, [axes.get_ylabel() for axes in figure.axes if axes.name != "3d"]
+
+    config = PhysicsConfig.preset("fast")
+    small = check_figure(check_statics(([[0, 0, 0], [0, 0, 1]], [[0, 1]]), config))
+    assert labels(small) == (["edge, joints intact", "edge with a broken joint", "vertex"], [])
+    # A flat 11x11 grid has 220 edges; 15x15 has 420, past the size drawn in height colours.
+    cells = [[x, y, 0] for x in range(15) for y in range(15)]
+    grid = [[i, i + 1] for i in range(225) if i % 15 < 14] + [[i, i + 15] for i in range(210)]
+    large = check_figure(check_statics((cells, grid), config))
+    assert "stands: the static analysis finds no joint over the break force" in large._suptitle.get_text()
+    assert labels(large) == (["edge with a broken joint"], ["height of an intact edge or vertex"])
+
+
 # -- the command line as a whole ------------------------------------------------------------------------------------------
 def all_parsers(parser=None, path=()):
     """Every parser of the command line, with the words that reach it."""

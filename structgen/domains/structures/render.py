@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from physics import StabilityReport
     from structgen.structure import Structure
 
-__all__ = ["render_check", "render_growth", "render_structure"]
+__all__ = ["check_figure", "render_check", "render_growth", "render_structure"]
 
 INTACT, BROKEN, VERTEX, GROUND = "#5b6f8a", "#d62728", "#e0703c", "#d9d4c7"
 # Beyond this many broken joints, crosses would hide the structure; the red edges still show where it failed.
@@ -178,11 +178,16 @@ def _after_segments(report: StabilityReport) -> np.ndarray:
 
 
 def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int = 110) -> Path:
-    """Draw the structure as placed and as it ended up, side by side, and write a PNG to ``path`` atomically.
+    """Write :func:`check_figure`'s picture of ``report`` to ``path`` as a PNG, atomically."""
+    return atomic_write(path, figure_png(check_figure(report), dpi))
+
+
+def check_figure(report: StabilityReport) -> Any:
+    """The structure as placed and as it ended up, side by side, as a matplotlib figure.
 
     Edges with a broken joint are red, in both pictures; in the first, a red cross marks each broken joint (when
     there are at most 200). The title spells out the paper's measures (integrity, height, complexity, score) and a
-    legend says what the colours are.
+    legend says what the colours are; structures of 300 edges or more are drawn in height colours, with a colour bar.
     """
     from matplotlib.lines import Line2D
 
@@ -206,8 +211,10 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
         (before, start_segments, "before (as placed on the ground)"),
         (after, after_segments, _after_title(report)),
     ]
+    large = len(edges) >= _LARGE
+    width = 0.46 if large else 0.5  # room on the right for the colour bar of height colours
     for column, (centres, segments, title) in enumerate(panels, start=1):
-        axes = figure.add_axes([(column - 1) * 0.5, 0.02, 0.5, 0.78], projection="3d")
+        axes = figure.add_axes([(column - 1) * width, 0.02, width, 0.78], projection="3d")
         _stage(axes, middle, half, top)
         _draw(axes, centres, segments, broken_edges, size, title, top)
         if column == 1 and 0 < len(report.broken_joints) <= _MAX_CROSSES:
@@ -218,12 +225,21 @@ def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int =
                 here, there = (before[a], before[b]) if joint.vertex == a else (before[b], before[a])
                 joints.append(here + radius * (there - here) / np.linalg.norm(there - here))
             axes.scatter(*np.array(joints).T, marker="x", s=60, color=BROKEN, depthshade=False, linewidths=2)
-    legend = [
-        Line2D([], [], color=INTACT, linewidth=2, label="edge, joints intact"),
-        Line2D([], [], color=BROKEN, linewidth=2, label="edge with a broken joint"),
-        Line2D([], [], marker="o", color="none", markerfacecolor=VERTEX, markeredgecolor="black", label="vertex"),
-    ]
+    if large:  # drawn in height colours (see _draw), which a colour bar explains
+        from matplotlib.cm import ScalarMappable
+        from matplotlib.colors import ListedColormap, Normalize
+
+        scale = ScalarMappable(Normalize(0.0, top), ListedColormap(_height_colours(np.linspace(0.0, 1.0, 256))))
+        bar = figure.colorbar(scale, cax=figure.add_axes([0.955, 0.22, 0.01, 0.5]))
+        bar.set_label("height of an intact edge or vertex", fontsize=8)
+        legend = [Line2D([], [], color=BROKEN, linewidth=2, label="edge with a broken joint")]
+    else:
+        legend = [
+            Line2D([], [], color=INTACT, linewidth=2, label="edge, joints intact"),
+            Line2D([], [], color=BROKEN, linewidth=2, label="edge with a broken joint"),
+            Line2D([], [], marker="o", color="none", markerfacecolor=VERTEX, markeredgecolor="black", label="vertex"),
+        ]
     if report.broken_joints:
         legend.append(Line2D([], [], marker="x", color="none", markeredgecolor=BROKEN, markeredgewidth=2, label="broken joint"))
     figure.legend(handles=legend, loc="lower center", ncol=len(legend), fontsize=8, frameon=False)
-    return atomic_write(path, figure_png(figure, dpi))
+    return figure
