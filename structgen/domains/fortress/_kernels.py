@@ -56,6 +56,12 @@ def _closest(b, i, c, cls, ex, ey, alive, count):
     return best
 
 
+@nb.njit(inline="always")
+def _another_of(total, c, k):
+    """Whether an entity of class c lives besides the asking one (of class k); an undefined class (-1) has none."""
+    return c >= 0 and total[c] > (c == k)
+
+
 @nb.njit
 def _first_at(b, x, y, ex, ey, alive, count):
     """The original's entAtPos: the earliest created live entity on tile (x, y), or -1."""
@@ -225,13 +231,13 @@ def run(
                     if placed or act == CLONE:  # the original logs a failed clone, not a failed add
                         mine[LAST_EVENT] = t
                 elif act == TAKE:
-                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if total[arg] > (arg == k) else -1
+                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if _another_of(total, arg, k) else -1
                     if j >= 0 and (take_reach < 0 or max(abs(ex[b, j] - x), abs(ey[b, j] - y)) <= take_reach):
                         alive[b, j] = False
                         _count(grid, total, occupied, stale, arg, ex[b, j], ey[b, j], -1)
                         mine[LAST_EVENT] = t
                 elif act == CHASE:
-                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if total[arg] > (arg == k) else -1
+                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if _another_of(total, arg, k) else -1
                     if j >= 0:
                         tx, ty = ex[b, j], ey[b, j]
                         sx = 1 if tx > x else (-1 if tx < x else 0)
@@ -250,7 +256,7 @@ def run(
                                 ex[b, i], ey[b, i] = x + sx, y + sy
                                 mine[LAST_EVENT] = t
                 elif act == PUSH:
-                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if total[arg] > (arg == k) else -1
+                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if _another_of(total, arg, k) else -1
                     if j >= 0:
                         d = _draw(draws, row, mine, 4)
                         nx, ny = x + _DX[d], y + _DY[d]
