@@ -228,6 +228,20 @@ def test_writes_never_follow_a_symbolic_link_out_of_the_run(tmp_path):
     assert list(outside.iterdir()) == []
 
 
+def test_metrics_reach_the_disk_before_the_checkpoint_that_covers_them(tmp_path, monkeypatch):
+    folder, _, state, _ = new_run(tmp_path, "run", "ga-ones", 2)
+    synced = []
+    real_fsync = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: (synced.append(os.fstat(fd).st_ino), real_fsync(fd))[1])
+    for generation in (1, 2):
+        folder.append_metrics({"generation": generation})
+    metrics = os.stat(folder / "metrics.jsonl").st_ino
+    assert synced == []  # no sync a generation: it cost fortress runs 5% of their time
+    folder.save_checkpoint(state)
+    assert synced[0] == metrics and len(synced) == 2  # the metrics, then the checkpoint's temporary file
+    assert [row["generation"] for row in folder.metrics()] == [1, 2]
+
+
 def test_opening_and_resuming_broken_folders_fails_clearly(tmp_path):
     with pytest.raises(RunFolderError, match="no such run folder"):
         RunFolder.open(tmp_path / "missing")
