@@ -25,7 +25,12 @@ from structgen.errors import InputError
 __all__ = ["FIGURES", "archive_figure", "populations_figure", "robustness_figure"]
 
 FIGURES = ("archive", "robustness", "populations")
-_COLOURS = {"fitness": "share of machines visited (fitness)", "entropy": "entropy of class sizes", "nodes": "total nodes"}
+# What each colour (and a measure on an axis) is, spelled out.
+_COLOURS = {
+    "fitness": "share of machines visited (fitness)",
+    "entropy": "entropy of the classes' FSM sizes",
+    "nodes": "total FSM nodes",
+}
 
 
 def _open(run_dirs: Sequence[str | Path]) -> tuple[list[RunFolder], Any, Any]:
@@ -71,7 +76,7 @@ def _heatmap(
     (x_low, x_high), (y_low, y_high) = problem.measure_ranges
     image = axes.imshow(grid.T, origin="lower", aspect="auto", extent=(x_low, x_high, y_low, y_high), cmap="viridis", **options)
     axes.set_xlabel(f"{problem.measure_names[0]} at the end of an episode")
-    axes.set_ylabel(problem.measure_names[1] if problem.measure_names[1] != "nodes" else "total FSM nodes")
+    axes.set_ylabel(_COLOURS.get(problem.measure_names[1], problem.measure_names[1]))
     colourbar = axes.figure.colorbar(image, ax=axes)
     colourbar.set_label(label)
     return image
