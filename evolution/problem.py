@@ -151,6 +151,11 @@ class Problem:
         """``count`` random genomes: a ``(count, n_params)`` array, or a list for object genomes."""
         raise NotImplementedError
 
+    def immigrant_genomes(self, count: int, rng: np.random.Generator) -> Any:
+        """``count`` random genomes that join a running quality-diversity search (``immigrants``); by default drawn
+        as :meth:`initial_genomes` draws them."""
+        return self.initial_genomes(count, rng)
+
     def evaluate(self, genomes: Any, seeds: np.ndarray) -> Evaluation:
         """Evaluate a batch; ``seeds[i]`` is the seed for candidate ``i`` (deterministic problems may ignore it)."""
         raise NotImplementedError

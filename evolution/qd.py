@@ -122,7 +122,7 @@ class ProblemMutationEmitter(EmitterBase):
                 # Problem.mutate returns a copy and leaves its argument alone, so the elites are not copied here.
                 genomes = [self.problem.mutate(e, self.rng) for e in elites]
             if immigrants:
-                genomes += list(self.problem.initial_genomes(immigrants, self.rng))
+                genomes += list(self.problem.immigrant_genomes(immigrants, self.rng))
         if self.problem.flat:
             return np.stack([np.asarray(g, dtype=np.float64) for g in genomes])
         batch = np.empty(len(genomes), dtype=object)

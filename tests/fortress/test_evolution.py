@@ -71,20 +71,33 @@ def test_evaluation_is_the_mean_over_the_simulations():
 
 def test_a_generation_is_mutants_then_immigrants():
     class Counting(FortressProblem):
-        made = 0
+        made = immigrants = 0
 
         def initial_genomes(self, count, rng):
             self.made += count
             return super().initial_genomes(count, rng)
 
+        def immigrant_genomes(self, count, rng):
+            self.immigrants += count
+            return super().immigrant_genomes(count, rng)
+
     problem = Counting(FortressSettings(steps=5, sims=1))
     optimizer = map_elites(problem, MapElitesSettings(cells=(100, 100), batch_size=10, immigrants=1, variation="problem"), 0)
     first = optimizer.ask()
-    assert len(first) == 10 and problem.made == 10
+    assert len(first) == 10 and (problem.made, problem.immigrants) == (10, 0)
     evaluation = problem.evaluate(first, np.zeros(10, dtype=np.int64))
     optimizer.tell(evaluation.objective, evaluation.measures, **evaluation.fields)
     second = optimizer.ask()
-    assert len(second) == 10 and problem.made == 11
+    assert len(second) == 10 and (problem.made, problem.immigrants) == (10, 1)
+
+
+@pytest.mark.parametrize("measures", ["entities_nodes", "entities_entropy"])
+def test_immigrants_are_drawn_by_total_nodes_whatever_the_measures(measures):
+    # As the original: only the first population of an entropy run is drawn over entropy.
+    problem = FortressProblem(FortressSettings(measures=measures, steps=5, sims=1))
+    drawn = problem.immigrant_genomes(4, np.random.default_rng(3))
+    rng = np.random.default_rng(3)
+    assert [w.to_file() for w in drawn] == [random_world(rng, problem.variation, start="n_nodes").to_file() for _ in range(4)]
 
 
 def test_genomes_round_trip_through_json():

@@ -132,6 +132,11 @@ class FortressProblem(Problem):
         start = "entropy" if self.settings.measures == "entities_entropy" else "n_nodes"
         return [random_world(rng, self.variation, start=start) for _ in range(count)]
 
+    def immigrant_genomes(self, count: int, rng: np.random.Generator) -> list[Genome]:
+        # The original draws later random worlds by total nodes whatever the measures (illuminate.py's immigrants
+        # always use init_strat 'n_nodes'); these bring the small worlds that score best.
+        return [random_world(rng, self.variation, start="n_nodes") for _ in range(count)]
+
     def mutate(self, genome: Genome, rng: np.random.Generator) -> Genome:
         return mutate_world(genome, rng, self.variation)
 
