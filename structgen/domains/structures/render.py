@@ -239,7 +239,7 @@ def check_figure(report: StabilityReport) -> Any:
             Line2D([], [], color=BROKEN, linewidth=2, label="edge with a broken joint"),
             Line2D([], [], marker="o", color="none", markerfacecolor=VERTEX, markeredgecolor="black", label="vertex"),
         ]
-    if report.broken_joints:
+    if 0 < len(report.broken_joints) <= _MAX_CROSSES:  # the crosses are drawn only then (see above)
         legend.append(Line2D([], [], marker="x", color="none", markeredgecolor=BROKEN, markeredgewidth=2, label="broken joint"))
     figure.legend(handles=legend, loc="lower center", ncol=len(legend), fontsize=8, frameon=False)
     return figure
