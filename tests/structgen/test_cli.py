@@ -372,7 +372,7 @@ def test_check_pictures_explain_their_colours():
     cells = [[x, y, 0] for x in range(15) for y in range(15)]
     grid = [[i, i + 1] for i in range(225) if i % 15 < 14] + [[i, i + 15] for i in range(210)]
     large = check_figure(check_statics((cells, grid), config))
-    assert "stands: the static analysis finds no joint over the break force" in large._suptitle.get_text()
+    assert "stands: the static analysis finds no joint over the break force" in large.get_suptitle()
     assert labels(large) == (["edge with a broken joint"], ["height of an intact edge or vertex"])
 
 
