@@ -43,15 +43,19 @@ def _valid(x, y, width, height):
     return 1 <= x <= width - 2 and 1 <= y <= height - 2
 
 
-@nb.njit
-def _closest(b, i, c, cls, ex, ey, alive, count):
+@nb.njit(inline="always")
+def _closest(i, c, ex, ey, alive, members, n_members):
     """The original's closestEnt: the live entity of class c nearest (Manhattan) to entity i, not i itself, the
-    earliest created on ties; -1 if none."""
+    earliest created on ties; -1 if none. Only class c's entities are looked at (``members[c]``, in creation order)."""
     best, best_d = -1, 1 << 30
-    for j in range(count):
-        if j != i and alive[b, j] and cls[b, j] == c:
-            d = abs(ex[b, j] - ex[b, i]) + abs(ey[b, j] - ey[b, i])
+    x, y = ex[i], ey[i]
+    for m in range(n_members[c]):
+        j = members[c, m]
+        if j != i and alive[j]:
+            d = abs(ex[j] - x) + abs(ey[j] - y)
             if d < best_d:
+                if d == 0:
+                    return j  # nothing is nearer, and later ones lose ties
                 best, best_d = j, d
     return best
 
@@ -62,68 +66,242 @@ def _another_of(total, c, k):
     return c >= 0 and total[c] > (c == k)
 
 
-@nb.njit
-def _first_at(b, x, y, ex, ey, alive, count):
+@nb.njit(inline="always")
+def _first_at(x, y, ex, ey, alive, count):
     """The original's entAtPos: the earliest created live entity on tile (x, y), or -1."""
     for j in range(count):
-        if alive[b, j] and ex[b, j] == x and ey[b, j] == y:
+        if alive[j] and ex[j] == x and ey[j] == y:
             return j
     return -1
 
 
 @nb.njit(inline="always")
-def _count(grid, total, occupied, stale, c, x, y, delta):
+def _count(grid, rows, total, occupied, c, x, y, delta):
     grid[c, x, y] += delta
-    stale[c] = True
     total[c] += delta
     occupied[x, y] += delta
+    # rows[c, y]: a bit for each column of row y that holds a c.
+    if grid[c, x, y] == 0:
+        rows[c, y] &= ~(1 << x)
+    else:
+        rows[c, y] |= 1 << x
+
+
+@nb.njit(inline="always")
+def _spawn(c, x, y, cls, ex, ey, node, age, alive, slots, members, n_members):
+    k = slots[0]
+    cls[k], ex[k], ey[k], node[k], age[k], alive[k] = c, x, y, 0, 0, True
+    slots[0] = k + 1
+    members[c, n_members[c]] = k
+    n_members[c] += 1
+
+
+@nb.njit(inline="always")
+def _list_members(cls, count, members, n_members):
+    """Each class's entities in creation order (slots 0..count-1)."""
+    n_members[:] = 0
+    for j in range(count):
+        c = cls[j]
+        members[c, n_members[c]] = j
+        n_members[c] += 1
 
 
 @nb.njit
-def _near_counted(b, i, c, x, y, reach, orthogonal, cls, alive, grid, total, prefix, stale, width, height):
-    """Whether another live entity of class c is within Chebyshev distance ``reach`` of entity i, at (x, y)
-    (``orthogonal``: exactly one tile away north, south, east or west), from the per-class tile counts."""
-    if c < 0:
-        return False
-    own = 1 if (alive[b, i] and cls[b, i] == c) else 0
-    if total[c] - own <= 0:
-        return False
-    if orthogonal:
-        found = 0
-        if x + 1 < width:
-            found += grid[c, x + 1, y]
-        if x >= 1:
-            found += grid[c, x - 1, y]
-        if y + 1 < height:
-            found += grid[c, x, y + 1]
-        if y >= 1:
-            found += grid[c, x, y - 1]
-        return found > 0
-    x0, x1 = max(x - reach, 0), min(x + reach, width - 1)
-    y0, y1 = max(y - reach, 0), min(y + reach, height - 1)
-    if x0 == 0 and y0 == 0 and x1 == width - 1 and y1 == height - 1:
-        return True  # the box is the whole map, and another c is somewhere on it
-    if reach <= 1:
-        found = -own
-        for u in range(x0, x1 + 1):
-            for v in range(y0, y1 + 1):
-                found += grid[c, u, v]
-        return found > 0
-    # Larger boxes from the class's prefix sums, rebuilt only when its entities have changed since.
-    if stale[c]:
-        for u in range(width):
-            for v in range(height):
-                prefix[c, u + 1, v + 1] = grid[c, u, v] + prefix[c, u, v + 1] + prefix[c, u + 1, v] - prefix[c, u, v]
-        stale[c] = False
-    found = prefix[c, x1 + 1, y1 + 1] - prefix[c, x0, y1 + 1] - prefix[c, x1 + 1, y0] + prefix[c, x0, y0] - own
-    return found > 0
-
-
-@nb.njit
-def _spawn(b, c, x, y, cls, ex, ey, node, age, alive, slots):
-    k = slots[b]
-    cls[b, k], ex[b, k], ey[b, k], node[b, k], age[b, k], alive[b, k] = c, x, y, 0, 0, True
-    slots[b] = k + 1
+def _simulate(
+    until, w, node_act, node_arg, node_vid, edge_start, edge_stop, edge_cond, edge_arg, edge_int, edge_dst, edge_vid,
+    draws, row, mine, cls, ex, ey, node, age, alive, slots, clock, visited,
+    width, height, cap, inactivity_limit, orthogonal_next_to, take_reach, wall_any,
+):
+    """One simulation until it stops or reaches tick ``until``, on its own copies of its state (1-D arrays;
+    ``slots``, ``clock`` = [tick, cause] and ``mine`` = [used, updates, last event] are one-element counters)."""
+    n_classes = node_act.shape[1]
+    # Live entities per class and tile, per class, and per tile, and each class's entities in creation order:
+    # conditions and targets read these instead of scanning every entity.
+    grid = np.zeros((n_classes, width, height), dtype=np.int32)
+    rows = np.zeros((n_classes, height), dtype=np.int32)
+    total = np.zeros(n_classes, dtype=np.int32)
+    occupied = np.zeros((width, height), dtype=np.int32)
+    members = np.empty((n_classes, cls.shape[0]), dtype=np.int32)
+    n_members = np.zeros(n_classes, dtype=np.int32)
+    for j in range(slots[0]):
+        if alive[j]:
+            _count(grid, rows, total, occupied, cls[j], ex[j], ey[j], 1)
+    _list_members(cls, slots[0], members, n_members)
+    while clock[1] == RUNNING:
+        # The original checks these before each tick, in this order. Between ticks the slots hold only the
+        # living (the dead are dropped at the end of each tick, and placement makes no gaps).
+        live = slots[0]
+        if live == 0:
+            clock[1] = EXTINCT
+            break
+        if inactivity_limit > 0 and clock[0] - mine[LAST_EVENT] > inactivity_limit:
+            clock[1] = INACTIVE
+            break
+        if live > cap:
+            clock[1] = OVERPOPULATED
+            break
+        if clock[0] >= until:
+            break
+        clock[0] += 1
+        t = clock[0]
+        # Entities alive at the start of the tick act in creation order; newborns get later slots and wait.
+        n_start = slots[0]
+        for i in range(n_start):
+            if not alive[i]:
+                continue
+            k = cls[i]
+            mine[UPDATES] += 1
+            age[i] += 1
+            here = node[i]
+            act = node_act[w, k, here]
+            arg = node_arg[w, k, here]
+            x, y = ex[i], ey[i]
+            if act == MOVE:
+                d = _draw(draws, row, mine, 4)
+                nx, ny = x + _DX[d], y + _DY[d]
+                if _valid(nx, ny, width, height):
+                    _count(grid, rows, total, occupied, k, x, y, -1)
+                    _count(grid, rows, total, occupied, k, nx, ny, 1)
+                    ex[i], ey[i] = nx, ny
+                    mine[LAST_EVENT] = t
+            elif act == DIE:
+                alive[i] = False
+                _count(grid, rows, total, occupied, k, x, y, -1)
+                mine[LAST_EVENT] = t
+            elif act == CLONE or act == ADD:
+                d = _draw(draws, row, mine, 4)
+                nx, ny = x + _DX[d], y + _DY[d]
+                placed = _valid(nx, ny, width, height) and occupied[nx, ny] == 0
+                if placed:
+                    born = k if act == CLONE else arg
+                    _spawn(born, nx, ny, cls, ex, ey, node, age, alive, slots, members, n_members)
+                    _count(grid, rows, total, occupied, born, nx, ny, 1)
+                if placed or act == CLONE:  # the original logs a failed clone, not a failed add
+                    mine[LAST_EVENT] = t
+            elif act == TAKE:
+                j = _closest(i, arg, ex, ey, alive, members, n_members) if _another_of(total, arg, k) else -1
+                if j >= 0 and (take_reach < 0 or max(abs(ex[j] - x), abs(ey[j] - y)) <= take_reach):
+                    alive[j] = False
+                    _count(grid, rows, total, occupied, arg, ex[j], ey[j], -1)
+                    mine[LAST_EVENT] = t
+            elif act == CHASE:
+                j = _closest(i, arg, ex, ey, alive, members, n_members) if _another_of(total, arg, k) else -1
+                if j >= 0:
+                    tx, ty = ex[j], ey[j]
+                    sx = 1 if tx > x else (-1 if tx < x else 0)
+                    sy = 1 if ty > y else (-1 if ty < y else 0)
+                    if sx != 0 or sy != 0:
+                        # The original chooses among the needed directions, east/west first; a choice among
+                        # one draws nothing.
+                        if sx != 0 and sy != 0:
+                            if _draw(draws, row, mine, 2) == 0:
+                                sy = 0
+                            else:
+                                sx = 0
+                        if _valid(x + sx, y + sy, width, height):
+                            _count(grid, rows, total, occupied, k, x, y, -1)
+                            _count(grid, rows, total, occupied, k, x + sx, y + sy, 1)
+                            ex[i], ey[i] = x + sx, y + sy
+                            mine[LAST_EVENT] = t
+            elif act == PUSH:
+                j = _closest(i, arg, ex, ey, alive, members, n_members) if _another_of(total, arg, k) else -1
+                if j >= 0:
+                    d = _draw(draws, row, mine, 4)
+                    nx, ny = x + _DX[d], y + _DY[d]
+                    if nx == ex[j] and ny == ey[j]:
+                        if _valid(nx + _DX[d], ny + _DY[d], width, height):
+                            _count(grid, rows, total, occupied, k, x, y, -1)
+                            _count(grid, rows, total, occupied, k, nx, ny, 1)
+                            _count(grid, rows, total, occupied, arg, nx, ny, -1)
+                            _count(grid, rows, total, occupied, arg, nx + _DX[d], ny + _DY[d], 1)
+                            ex[i], ey[i] = nx, ny
+                            ex[j], ey[j] = nx + _DX[d], ny + _DY[d]
+                            mine[LAST_EVENT] = t
+                    elif _valid(nx, ny, width, height):
+                        _count(grid, rows, total, occupied, k, x, y, -1)
+                        _count(grid, rows, total, occupied, k, nx, ny, 1)
+                        ex[i], ey[i] = nx, ny
+                        mine[LAST_EVENT] = t
+            elif act == TRANSFORM:
+                _spawn(arg, x, y, cls, ex, ey, node, age, alive, slots, members, n_members)
+                _count(grid, rows, total, occupied, arg, x, y, 1)
+                alive[i] = False
+                _count(grid, rows, total, occupied, k, x, y, -1)
+                mine[LAST_EVENT] = t
+            elif act == MOVE_WALL:
+                d = _draw(draws, row, mine, 4)
+                nx, ny = x + _DX[d], y + _DY[d]
+                if _valid(nx, ny, width, height):
+                    if arg < 0 or grid[arg, nx, ny] == 0:
+                        blocked = False
+                    elif wall_any:
+                        blocked = True
+                    else:
+                        j = _first_at(nx, ny, ex, ey, alive, slots[0])
+                        blocked = j >= 0 and cls[j] == arg
+                    if not blocked:
+                        _count(grid, rows, total, occupied, k, x, y, -1)
+                        _count(grid, rows, total, occupied, k, nx, ny, 1)
+                        ex[i], ey[i] = nx, ny
+                    mine[LAST_EVENT] = t  # moving and being blocked are both logged
+            # Then the first edge out of the node (priority, then file order) whose condition holds is taken;
+            # this runs even for an entity that has just died, with its last position.
+            moved = -1
+            for e in range(edge_start[w, k, here], edge_stop[w, k, here]):
+                cond = edge_cond[e]
+                if cond == NONE:
+                    ok = True
+                elif cond == STEP:
+                    ok = age[i] % edge_int[e] == 0
+                else:
+                    # Another live c within reach of the entity: touch 0, nextTo 1 (or the four orthogonal
+                    # neighbours), within its range. Written out here rather than in a helper: numba counts
+                    # references to every array a helper is handed, atomically, on each call (the kernel's
+                    # hottest line spent most of its time on them).
+                    c = edge_arg[e]
+                    ok = False
+                    if c >= 0:
+                        px, py = ex[i], ey[i]
+                        own = 1 if (alive[i] and cls[i] == c) else 0
+                        if total[c] > own:
+                            if cond == NEXT_TO and orthogonal_next_to:
+                                ok = (
+                                    (px + 1 < width and grid[c, px + 1, py] > 0)
+                                    or (px >= 1 and grid[c, px - 1, py] > 0)
+                                    or (py + 1 < height and grid[c, px, py + 1] > 0)
+                                    or (py >= 1 and grid[c, px, py - 1] > 0)
+                                )
+                            elif grid[c, px, py] > own:
+                                ok = True
+                            elif cond != TOUCH:
+                                reach = 1 if cond == NEXT_TO else edge_int[e]
+                                x0, x1 = max(px - reach, 0), min(px + reach, width - 1)
+                                y0, y1 = max(py - reach, 0), min(py + reach, height - 1)
+                                # Columns x0..x1 as bits; the own tile was looked at above.
+                                columns = ((1 << (x1 + 1)) - 1) ^ ((1 << x0) - 1)
+                                for v in range(y0, y1 + 1):
+                                    if rows[c, v] & (columns if v != py else columns & ~(1 << px)):
+                                        ok = True
+                                        break
+                if ok:
+                    node[i] = edge_dst[e]
+                    moved = e
+                    break
+            visited[node_vid[w, k] + node[i]] = 1
+            if moved >= 0:
+                visited[edge_vid[moved]] = 1
+        # Drop the dead, keeping creation order.
+        kept = 0
+        for j in range(slots[0]):
+            if alive[j]:
+                if kept != j:
+                    cls[kept], ex[kept], ey[kept] = cls[j], ex[j], ey[j]
+                    node[kept], age[kept], alive[kept] = node[j], age[j], True
+                kept += 1
+        for j in range(kept, slots[0]):
+            alive[j] = False
+        slots[0] = kept
+        _list_members(cls, kept, members, n_members)
 
 
 @nb.njit(parallel=True, cache=True)
@@ -163,170 +341,21 @@ def run(
     take_reach,  # -1: anywhere on the map (the original); r: within Chebyshev distance r
     wall_any,  # move_wall blocked by any entity of the class on the tile (the original: only the first there)
 ):
-    n_classes = node_act.shape[1]
     for b in nb.prange(world.shape[0]):
-        w = world[b]
-        # Live entities per class and tile, per class, and per tile: conditions and placements read these instead
-        # of scanning every entity.
-        grid = np.zeros((n_classes, width, height), dtype=np.int32)
-        total = np.zeros(n_classes, dtype=np.int32)
-        occupied = np.zeros((width, height), dtype=np.int32)
-        prefix = np.zeros((n_classes, width + 1, height + 1), dtype=np.int32)
-        stale = np.ones(n_classes, dtype=np.bool_)
-        for j in range(slots[b]):
-            if alive[b, j]:
-                _count(grid, total, occupied, stale, cls[b, j], ex[b, j], ey[b, j], 1)
-        row = stream[b]
-        mine = np.empty(3, dtype=np.int64)
-        mine[USED], mine[UPDATES], mine[LAST_EVENT] = used[b], updates[b], last_event[b]
-        while cause[b] == RUNNING:
-            # The original checks these before each tick, in this order. Between ticks the slots hold only the
-            # living (the dead are dropped at the end of each tick, and placement makes no gaps).
-            live = slots[b]
-            if live == 0:
-                cause[b] = EXTINCT
-                break
-            if inactivity_limit > 0 and tick[b] - mine[LAST_EVENT] > inactivity_limit:
-                cause[b] = INACTIVE
-                break
-            if live > cap:
-                cause[b] = OVERPOPULATED
-                break
-            if tick[b] >= until:
-                break
-            tick[b] += 1
-            t = tick[b]
-            # Entities alive at the start of the tick act in creation order; newborns get later slots and wait.
-            n_start = slots[b]
-            for i in range(n_start):
-                if not alive[b, i]:
-                    continue
-                k = cls[b, i]
-                mine[UPDATES] += 1
-                age[b, i] += 1
-                here = node[b, i]
-                act = node_act[w, k, here]
-                arg = node_arg[w, k, here]
-                x, y = ex[b, i], ey[b, i]
-                if act == MOVE:
-                    d = _draw(draws, row, mine, 4)
-                    nx, ny = x + _DX[d], y + _DY[d]
-                    if _valid(nx, ny, width, height):
-                        _count(grid, total, occupied, stale, k, x, y, -1)
-                        _count(grid, total, occupied, stale, k, nx, ny, 1)
-                        ex[b, i], ey[b, i] = nx, ny
-                        mine[LAST_EVENT] = t
-                elif act == DIE:
-                    alive[b, i] = False
-                    _count(grid, total, occupied, stale, k, x, y, -1)
-                    mine[LAST_EVENT] = t
-                elif act == CLONE or act == ADD:
-                    d = _draw(draws, row, mine, 4)
-                    nx, ny = x + _DX[d], y + _DY[d]
-                    placed = _valid(nx, ny, width, height) and occupied[nx, ny] == 0
-                    if placed:
-                        born = k if act == CLONE else arg
-                        _spawn(b, born, nx, ny, cls, ex, ey, node, age, alive, slots)
-                        _count(grid, total, occupied, stale, born, nx, ny, 1)
-                    if placed or act == CLONE:  # the original logs a failed clone, not a failed add
-                        mine[LAST_EVENT] = t
-                elif act == TAKE:
-                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if _another_of(total, arg, k) else -1
-                    if j >= 0 and (take_reach < 0 or max(abs(ex[b, j] - x), abs(ey[b, j] - y)) <= take_reach):
-                        alive[b, j] = False
-                        _count(grid, total, occupied, stale, arg, ex[b, j], ey[b, j], -1)
-                        mine[LAST_EVENT] = t
-                elif act == CHASE:
-                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if _another_of(total, arg, k) else -1
-                    if j >= 0:
-                        tx, ty = ex[b, j], ey[b, j]
-                        sx = 1 if tx > x else (-1 if tx < x else 0)
-                        sy = 1 if ty > y else (-1 if ty < y else 0)
-                        if sx != 0 or sy != 0:
-                            # The original chooses among the needed directions, east/west first; a choice among
-                            # one draws nothing.
-                            if sx != 0 and sy != 0:
-                                if _draw(draws, row, mine, 2) == 0:
-                                    sy = 0
-                                else:
-                                    sx = 0
-                            if _valid(x + sx, y + sy, width, height):
-                                _count(grid, total, occupied, stale, k, x, y, -1)
-                                _count(grid, total, occupied, stale, k, x + sx, y + sy, 1)
-                                ex[b, i], ey[b, i] = x + sx, y + sy
-                                mine[LAST_EVENT] = t
-                elif act == PUSH:
-                    j = _closest(b, i, arg, cls, ex, ey, alive, slots[b]) if _another_of(total, arg, k) else -1
-                    if j >= 0:
-                        d = _draw(draws, row, mine, 4)
-                        nx, ny = x + _DX[d], y + _DY[d]
-                        if nx == ex[b, j] and ny == ey[b, j]:
-                            if _valid(nx + _DX[d], ny + _DY[d], width, height):
-                                _count(grid, total, occupied, stale, k, x, y, -1)
-                                _count(grid, total, occupied, stale, k, nx, ny, 1)
-                                _count(grid, total, occupied, stale, arg, nx, ny, -1)
-                                _count(grid, total, occupied, stale, arg, nx + _DX[d], ny + _DY[d], 1)
-                                ex[b, i], ey[b, i] = nx, ny
-                                ex[b, j], ey[b, j] = nx + _DX[d], ny + _DY[d]
-                                mine[LAST_EVENT] = t
-                        elif _valid(nx, ny, width, height):
-                            _count(grid, total, occupied, stale, k, x, y, -1)
-                            _count(grid, total, occupied, stale, k, nx, ny, 1)
-                            ex[b, i], ey[b, i] = nx, ny
-                            mine[LAST_EVENT] = t
-                elif act == TRANSFORM:
-                    _spawn(b, arg, x, y, cls, ex, ey, node, age, alive, slots)
-                    _count(grid, total, occupied, stale, arg, x, y, 1)
-                    alive[b, i] = False
-                    _count(grid, total, occupied, stale, k, x, y, -1)
-                    mine[LAST_EVENT] = t
-                elif act == MOVE_WALL:
-                    d = _draw(draws, row, mine, 4)
-                    nx, ny = x + _DX[d], y + _DY[d]
-                    if _valid(nx, ny, width, height):
-                        if arg < 0 or grid[arg, nx, ny] == 0:
-                            blocked = False
-                        elif wall_any:
-                            blocked = True
-                        else:
-                            j = _first_at(b, nx, ny, ex, ey, alive, slots[b])
-                            blocked = j >= 0 and cls[b, j] == arg
-                        if not blocked:
-                            _count(grid, total, occupied, stale, k, x, y, -1)
-                            _count(grid, total, occupied, stale, k, nx, ny, 1)
-                            ex[b, i], ey[b, i] = nx, ny
-                        mine[LAST_EVENT] = t  # moving and being blocked are both logged
-                # Then the first edge out of the node (priority, then file order) whose condition holds is taken;
-                # this runs even for an entity that has just died, with its last position.
-                moved = -1
-                for e in range(edge_start[w, k, here], edge_stop[w, k, here]):
-                    cond = edge_cond[e]
-                    if cond == NONE:
-                        ok = True
-                    elif cond == STEP:
-                        ok = age[b, i] % edge_int[e] == 0
-                    else:
-                        reach = 0 if cond == TOUCH else (1 if cond == NEXT_TO else edge_int[e])
-                        ok = _near_counted(
-                            b, i, edge_arg[e], ex[b, i], ey[b, i], reach, cond == NEXT_TO and orthogonal_next_to,
-                            cls, alive, grid, total, prefix, stale, width, height,
-                        )  # fmt: skip
-                    if ok:
-                        node[b, i] = edge_dst[e]
-                        moved = e
-                        break
-                visited[b, node_vid[w, k] + node[b, i]] = 1
-                if moved >= 0:
-                    visited[b, edge_vid[moved]] = 1
-            # Drop the dead, keeping creation order.
-            kept = 0
-            for j in range(slots[b]):
-                if alive[b, j]:
-                    if kept != j:
-                        cls[b, kept], ex[b, kept], ey[b, kept] = cls[b, j], ex[b, j], ey[b, j]
-                        node[b, kept], age[b, kept], alive[b, kept] = node[b, j], age[b, j], True
-                    kept += 1
-            for j in range(kept, slots[b]):
-                alive[b, j] = False
-            slots[b] = kept
+        # Each simulation runs on private copies of its rows: threads writing neighbouring entries of the shared
+        # arrays on every update would keep stealing each other's cache lines.
+        own_cls, own_ex, own_ey = cls[b].copy(), ex[b].copy(), ey[b].copy()
+        own_node, own_age, own_alive, own_visited = node[b].copy(), age[b].copy(), alive[b].copy(), visited[b].copy()
+        own_slots = np.array([slots[b]])
+        clock = np.array([tick[b], cause[b]])
+        mine = np.array([used[b], updates[b], last_event[b]])
+        _simulate(
+            until, world[b], node_act, node_arg, node_vid, edge_start, edge_stop, edge_cond, edge_arg, edge_int,
+            edge_dst, edge_vid, draws, stream[b], mine, own_cls, own_ex, own_ey, own_node, own_age, own_alive,
+            own_slots, clock, own_visited, width, height, cap, inactivity_limit, orthogonal_next_to, take_reach,
+            wall_any,
+        )  # fmt: skip
+        cls[b], ex[b], ey[b], node[b], age[b], alive[b] = own_cls, own_ex, own_ey, own_node, own_age, own_alive
+        visited[b] = own_visited
+        slots[b], tick[b], cause[b] = own_slots[0], clock[0], clock[1]
         used[b], updates[b], last_event[b] = mine[USED], mine[UPDATES], mine[LAST_EVENT]
