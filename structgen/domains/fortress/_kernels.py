@@ -359,3 +359,109 @@ def run(
         visited[b] = own_visited
         slots[b], tick[b], cause[b] = own_slots[0], clock[0], clock[1]
         used[b], updates[b], last_event[b] = mine[USED], mine[UPDATES], mine[LAST_EVENT]
+
+
+@nb.njit(cache=True)
+def lay_out(class_world, class_slot, class_nodes, class_edges, node_act, node_arg, edges, renumber, k_max, n_max):
+    """The kernel's padded tables (see :func:`run`) of many worlds at once.
+
+    Classes come grouped by world, in each world's order: ``class_world`` / ``class_slot`` (C,) say which world and
+    place; ``class_nodes`` / ``class_edges`` (C,) their node and edge counts. ``node_act`` / ``node_arg`` hold every
+    node's action code and class argument, ``edges`` every edge as ``(src, dst, condition, class argument,
+    number)`` in file order, both concatenated over the classes. ``renumber[w, a]`` is the world's class number of
+    argument ``a`` (-1: the world has no such class; an argument of -1 stays -1).
+
+    Out of each node the edges are tried highest priority first, file order within a priority (a counting sort on
+    (source, priority)); an edge from a node the class lacks never fires and is left out, but keeps its visit flag.
+    """
+    n_worlds = renumber.shape[0]
+    n_classes = class_world.shape[0]
+    n_nodes = np.zeros(n_worlds, dtype=np.int64)
+    n_edges = np.zeros(n_worlds, dtype=np.int64)
+    live = 0
+    at = 0
+    for c in range(n_classes):
+        n_nodes[class_world[c]] += class_nodes[c]
+        n_edges[class_world[c]] += class_edges[c]
+        for q in range(at, at + class_edges[c]):
+            if 0 <= edges[q, 0] < class_nodes[c]:
+                live += 1
+        at += class_edges[c]
+    out_act = np.zeros((n_worlds, k_max, n_max), dtype=np.int8)
+    out_arg = np.full((n_worlds, k_max, n_max), -1, dtype=np.int16)
+    node_vid = np.zeros((n_worlds, k_max), dtype=np.int32)
+    edge_start = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
+    edge_stop = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
+    size = max(live, 1)
+    edge_cond = np.zeros(size, dtype=np.int8)
+    edge_arg = np.full(size, -1, dtype=np.int16)
+    edge_int = np.zeros(size, dtype=np.int32)
+    edge_dst = np.zeros(size, dtype=np.int16)
+    edge_vid = np.zeros(size, dtype=np.int32)
+    nodes_seen = np.zeros(n_worlds, dtype=np.int64)
+    edges_seen = np.zeros(n_worlds, dtype=np.int64)
+    node_at, edge_at, placed = 0, 0, 0
+    for c in range(n_classes):
+        w, k, nn, ne = class_world[c], class_slot[c], class_nodes[c], class_edges[c]
+        node_vid[w, k] = nodes_seen[w]
+        for n in range(nn):
+            out_act[w, k, n] = node_act[node_at + n]
+            a = node_arg[node_at + n]
+            out_arg[w, k, n] = renumber[w, a] if a >= 0 else -1
+        # Bucket (src, 4 - condition): its first place among this class's tried edges.
+        first = np.zeros(nn * 5 + 1, dtype=np.int64)
+        for q in range(edge_at, edge_at + ne):
+            if 0 <= edges[q, 0] < nn:
+                first[edges[q, 0] * 5 + 4 - edges[q, 2] + 1] += 1
+        for j in range(nn * 5):
+            first[j + 1] += first[j]
+        for n in range(nn):
+            edge_start[w, k, n] = placed + first[n * 5]
+            edge_stop[w, k, n] = placed + first[n * 5 + 5]
+        for q in range(edge_at, edge_at + ne):
+            src = edges[q, 0]
+            if 0 <= src < nn:
+                bucket = src * 5 + 4 - edges[q, 2]
+                e = placed + first[bucket]
+                first[bucket] += 1
+                cond = edges[q, 2]
+                a = edges[q, 3]
+                edge_cond[e] = cond
+                edge_arg[e] = renumber[w, a] if a >= 0 else -1
+                edge_int[e] = 1 if cond == NEXT_TO else edges[q, 4]
+                edge_dst[e] = edges[q, 1]
+                edge_vid[e] = n_nodes[w] + edges_seen[w] + q - edge_at
+        placed += first[nn * 5]  # the total, never a bucket's start
+        nodes_seen[w] += nn
+        edges_seen[w] += ne
+        node_at += nn
+        edge_at += ne
+    return out_act, out_arg, node_vid, edge_start, edge_stop, edge_cond, edge_arg, edge_int, edge_dst, edge_vid, n_nodes, n_edges
+
+
+@nb.njit(cache=True)
+def place(initial, initial_start, world, node_vid, visit_start_nodes, width, height, cls, ex, ey, alive, slots, visited):
+    """Each simulation's initial entities: its world's ``initial[initial_start[w]:initial_start[w + 1]]`` rows
+    ``(class, x, y)`` in order, each unless its tile is already taken (the original places them with its clone,
+    which refuses an occupied tile)."""
+    n_worlds = initial_start.shape[0] - 1
+    kept = np.zeros(initial.shape[0], dtype=np.bool_)
+    taken = np.zeros((width, height), dtype=np.bool_)
+    for w in range(n_worlds):
+        taken[:, :] = False
+        for r in range(initial_start[w], initial_start[w + 1]):
+            x, y = initial[r, 1], initial[r, 2]
+            if not taken[x, y]:
+                taken[x, y] = True
+                kept[r] = True
+    for b in range(world.shape[0]):
+        w = world[b]
+        s = 0
+        for r in range(initial_start[w], initial_start[w + 1]):
+            if kept[r]:
+                c = initial[r, 0]
+                cls[b, s], ex[b, s], ey[b, s], alive[b, s] = c, initial[r, 1], initial[r, 2], True
+                if visit_start_nodes:
+                    visited[b, node_vid[w, c]] = 1
+                s += 1
+        slots[b] = s

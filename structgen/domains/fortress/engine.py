@@ -41,7 +41,7 @@ import numpy as np
 
 from structgen.budget import check_memory
 from structgen.domains.fortress.formats import ACTIONS, CONDITIONS, EntityClass, FortressFile
-from structgen.domains.fortress.genome import CHARACTERS, Compiled, Genome, tried_edges
+from structgen.domains.fortress.genome import CHARACTERS, TYPE_ACTION, TYPE_CHAR, Genome
 from structgen.errors import InputError
 
 __all__ = [
@@ -125,7 +125,8 @@ RULES = {
 @dataclass
 class Tables:
     """Worlds as the kernel's arrays (see :func:`._kernels.run`); ``chars[w]`` are world w's classes in order,
-    ``n_nodes[w]`` / ``n_edges[w]`` its totals (its visit flags: nodes first, then edges)."""
+    ``n_nodes[w]`` / ``n_edges[w]`` its totals (its visit flags: nodes first, then edges); its initial entities are
+    the rows ``initial[initial_start[w]:initial_start[w + 1]]`` of ``(class, x, y)`` in the order they are placed."""
 
     chars: list[list[str]]
     node_act: np.ndarray
@@ -140,7 +141,8 @@ class Tables:
     edge_vid: np.ndarray
     n_nodes: np.ndarray
     n_edges: np.ndarray
-    initial: list[list[tuple[int, int, int]]]
+    initial: np.ndarray
+    initial_start: np.ndarray
 
     @property
     def visit_width(self) -> int:
@@ -148,10 +150,47 @@ class Tables:
         return max(int((self.n_nodes + self.n_edges).max(initial=0)), 1)
 
 
-def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> Compiled:
-    """A class of a fortress file, its class arguments numbered in the world's class order (``index``)."""
+def _lay_out(
+    counts: Sequence[int],
+    class_nodes: np.ndarray,
+    class_edges: np.ndarray,
+    node_act: np.ndarray,
+    node_arg: np.ndarray,
+    edges: np.ndarray,
+    renumber: np.ndarray,
+    initial: Sequence[np.ndarray],
+    chars: list[list[str]],
+) -> Tables:
+    """The kernel's tables from every world's classes, concatenated in order (see :func:`._kernels.lay_out`):
+    ``counts[w]`` classes in world w, their node and edge counts, every node's action code and class argument,
+    every edge row (src, dst, condition, class argument, number) in file order; ``renumber[w, a]``: world w's class
+    number of argument a; ``initial[w]``: rows (class, x, y) in class numbers."""
+    from structgen.domains.fortress import _kernels
+
+    n_worlds = len(counts)
+    k_max = max(max(counts, default=1), 1)
+    n_max = max(int(class_nodes.max(initial=1)), 1)
+    check_memory(n_worlds * k_max * (n_max * 11 + 4) + int(class_edges.sum()) * 48, f"the tables of {n_worlds:,} worlds")
+    class_world = np.repeat(np.arange(n_worlds, dtype=np.int64), counts)
+    class_slot = np.arange(len(class_world), dtype=np.int64) - np.repeat(np.cumsum(counts) - counts, counts)
+    tables = _kernels.lay_out(
+        class_world, class_slot, class_nodes.astype(np.int64), class_edges.astype(np.int64), node_act.astype(np.int8),
+        node_arg.astype(np.int64), edges.astype(np.int64).reshape(-1, 5), renumber.astype(np.int64), k_max, n_max,
+    )  # fmt: skip
+    sizes = np.array([len(rows) for rows in initial], dtype=np.int64)
+    return Tables(
+        chars,
+        *tables,
+        initial=np.concatenate(initial).astype(np.int64).reshape(-1, 3) if initial else np.zeros((0, 3), dtype=np.int64),
+        initial_start=np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
+    )
+
+
+def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A class of a fortress file as (node action codes, node class arguments, edge rows), class arguments numbered
+    in the world's class order (``index``)."""
     act = np.zeros(len(entity.nodes), dtype=np.int8)
-    arg = np.full(len(entity.nodes), -1, dtype=np.int16)
+    arg = np.full(len(entity.nodes), -1, dtype=np.int64)
     for n, text in enumerate(entity.nodes):
         name, _, argument = text.partition(" ")
         target = index.get(argument, -1) if argument else -1
@@ -168,94 +207,25 @@ def _compile_class(entity: EntityClass, index: dict[str, int], where: str) -> Co
             else:
                 target = index.get(argument, -1)
         rows.append((src, dst, _CONDITION_CODES[name], target, number))
-    starts, edges = tried_edges(len(entity.nodes), np.array(rows, dtype=np.int64).reshape(-1, 5))
-    return Compiled(act, arg, starts, edges)
-
-
-def _lay_out(
-    classes_of: Sequence[Sequence[Any]],
-    counted: Sequence[Sequence[int]],
-    orders: np.ndarray | None,
-    initial: Sequence[Sequence[tuple]],
-    chars: list[list[str]],
-) -> Tables:
-    """The kernel's padded tables from compiled classes (``act``, ``arg``, ``starts``, ``edges`` as in
-    :class:`.genome.Compiled`), all worlds at once. ``counted[w][k]``: the edges class k of world w counts (never-taken
-    edges included); ``orders`` (worlds, characters + 1): renumbers class arguments from character numbers to the
-    world's class numbers (None: they are class numbers already); ``initial``: (class, x, y) in class numbers."""
-    n_worlds = len(classes_of)
-    k_max = max((len(classes) for classes in classes_of), default=1) or 1
-    compiled = [c for classes in classes_of for c in classes]
-    owner = np.repeat(np.arange(n_worlds), [len(classes) for classes in classes_of])  # the world of each class
-    slot = np.concatenate([np.arange(len(classes)) for classes in classes_of]) if compiled else np.zeros(0, dtype=np.int64)
-    sizes = np.array([len(c.act) for c in compiled], dtype=np.int64)
-    live = np.array([len(c.edges) for c in compiled], dtype=np.int64)
-    counted_flat = np.array([n for counts in counted for n in counts], dtype=np.int64)
-    n_max = max(int(sizes.max(initial=1)), 1)
-    e_total = int(live.sum())
-    check_memory(n_worlds * k_max * (n_max * 11 + 4) + e_total * 48, f"the tables of {n_worlds:,} worlds")
-
-    def renumbered(classes: np.ndarray, values: np.ndarray) -> np.ndarray:
-        return values if orders is None else orders[owner[classes], values]
-
-    def before(values: np.ndarray) -> np.ndarray:  # sum of the earlier classes' values in the same world
-        totals = np.bincount(owner, weights=values, minlength=n_worlds).astype(np.int64)
-        return np.cumsum(values) - values - (np.cumsum(totals) - totals)[owner]
-
-    n_nodes = np.bincount(owner, weights=sizes, minlength=n_worlds).astype(np.int64)
-    n_edges = np.bincount(owner, weights=counted_flat, minlength=n_worlds).astype(np.int64)
-    node_vid = np.zeros((n_worlds, k_max), dtype=np.int32)
-    node_vid[owner, slot] = before(sizes)
-    # Every node's place in the padded (world, class, node) tables.
-    node_owner = np.repeat(np.arange(len(compiled)), sizes)
-    first_node = np.repeat(np.cumsum(sizes) - sizes, sizes)
-    place = (owner * k_max + slot)[node_owner] * n_max + np.arange(len(node_owner)) - first_node
-    node_act = np.zeros((n_worlds, k_max, n_max), dtype=np.int8)
-    node_arg = np.full((n_worlds, k_max, n_max), -1, dtype=np.int16)
-    edge_start = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
-    edge_stop = np.zeros((n_worlds, k_max, n_max), dtype=np.int32)
-    if len(node_owner):
-        first_edge = np.repeat(np.cumsum(live) - live, sizes)
-        node_act.reshape(-1)[place] = np.concatenate([c.act for c in compiled])
-        node_arg.reshape(-1)[place] = renumbered(node_owner, np.concatenate([c.arg for c in compiled]))
-        edge_start.reshape(-1)[place] = first_edge + np.concatenate([c.starts[:-1] for c in compiled])
-        edge_stop.reshape(-1)[place] = first_edge + np.concatenate([c.starts[1:] for c in compiled])
-    if e_total:
-        edges = np.concatenate([c.edges for c in compiled])
-        edge_owner = np.repeat(np.arange(len(compiled)), live)
-        edge_vid = (n_nodes[owner] + before(counted_flat))[edge_owner] + edges[:, 4]
-        edge_arg = renumbered(edge_owner, edges[:, 1])
-    else:
-        edges, edge_vid, edge_arg = np.zeros((1, 5), dtype=np.int32), np.zeros(1, dtype=np.int64), np.full(1, -1)
-    return Tables(
-        chars=chars,
-        node_act=node_act,
-        node_arg=node_arg,
-        node_vid=node_vid,
-        edge_start=edge_start,
-        edge_stop=edge_stop,
-        edge_cond=edges[:, 0].astype(np.int8),
-        edge_arg=np.asarray(edge_arg).astype(np.int16),
-        edge_int=edges[:, 2].astype(np.int32),
-        edge_dst=edges[:, 3].astype(np.int16),
-        edge_vid=edge_vid.astype(np.int32),
-        n_nodes=n_nodes,
-        n_edges=n_edges,
-        initial=[list(entities) for entities in initial],
-    )
+    return act, arg, np.array(rows, dtype=np.int64).reshape(-1, 5)
 
 
 def _compile_genomes(worlds: Sequence[Genome]) -> Tables:
-    """Array worlds: each class compiles once in its life (:meth:`.ClassArrays.compiled`), so a mutant costs only
-    the classes it changed; class arguments are character numbers, renumbered in each world's class order."""
-    orders = np.full((len(worlds), len(CHARACTERS) + 1), -1, dtype=np.int32)  # the last column maps -1 to -1
+    """Array worlds: class arguments are character numbers, renumbered in each world's class order."""
+    orders = np.full((len(worlds), len(CHARACTERS)), -1, dtype=np.int64)
     for w, world in enumerate(worlds):
         orders[w, [c.char for c in world.classes]] = np.arange(len(world.classes))
+    classes = [c for world in worlds for c in world.classes]
+    nodes = np.concatenate([c.nodes for c in classes]) if classes else np.zeros(0, dtype=np.int8)
     return _lay_out(
-        [[c.compiled() for c in world.classes] for world in worlds],
-        [[len(c.edges) for c in world.classes] for world in worlds],
+        [len(world.classes) for world in worlds],
+        np.array([len(c.nodes) for c in classes], dtype=np.int64),
+        np.array([len(c.edges) for c in classes], dtype=np.int64),
+        TYPE_ACTION[nodes],
+        TYPE_CHAR[nodes],
+        np.concatenate([c.edges for c in classes]) if classes else np.zeros((0, 5), dtype=np.int16),
         orders,
-        [[(int(orders[w, c]), x, y) for c, x, y in world.initial.tolist()] for w, world in enumerate(worlds)],
+        [np.column_stack([orders[w, world.initial[:, 0]], world.initial[:, 1:]]) for w, world in enumerate(worlds)],
         [world.chars for world in worlds],
     )
 
@@ -271,10 +241,26 @@ def compile_worlds(worlds: Sequence[FortressFile | Genome], where: Sequence[str]
     for w, world in enumerate(worlds):
         index = {char: k for k, char in enumerate(world.classes)}
         label = where[w] if where is not None else f"world {w}"
-        compiled.append([_compile_class(entity, index, label) for entity in world.classes.values()])
-        initial.append([(index[c], x, y) for c, x, y in world.initial])
-    counted = [[len(entity.edges) for entity in world.classes.values()] for world in worlds]
-    return _lay_out(compiled, counted, None, initial, [list(world.classes) for world in worlds])
+        compiled += [_compile_class(entity, index, label) for entity in world.classes.values()]
+        initial.append(np.array([(index[c], x, y) for c, x, y in world.initial], dtype=np.int64).reshape(-1, 3))
+    counts = [len(world.classes) for world in worlds]
+    # Class arguments are class numbers already.
+    same = np.tile(np.arange(max(counts, default=0), dtype=np.int64), (len(worlds), 1))
+
+    def joined(column: int, shape: tuple[int, ...]) -> np.ndarray:
+        return np.concatenate([c[column] for c in compiled]) if compiled else np.zeros(shape, dtype=np.int64)
+
+    return _lay_out(
+        counts,
+        np.array([len(act) for act, _, _ in compiled], dtype=np.int64),
+        np.array([len(rows) for _, _, rows in compiled], dtype=np.int64),
+        joined(0, (0,)),
+        joined(1, (0,)),
+        joined(2, (0, 5)),
+        same,
+        initial,
+        [list(world.classes) for world in worlds],
+    )
 
 
 @dataclass
@@ -376,6 +362,8 @@ def placements(initial: Sequence[tuple]) -> list[tuple]:
 
 
 def _state(tables: Tables, worlds_of: np.ndarray, rules: Rules) -> dict[str, np.ndarray]:
+    from structgen.domains.fortress import _kernels
+
     count = len(worlds_of)
     state = {
         "cls": np.zeros((count, _SLOTS), dtype=np.int16),
@@ -392,17 +380,11 @@ def _state(tables: Tables, worlds_of: np.ndarray, rules: Rules) -> dict[str, np.
         "updates": np.zeros(count, dtype=np.int64),
         "visited": np.zeros((count, tables.visit_width), dtype=np.uint8),
     }
-    placed_in: dict[int, list[tuple]] = {}
-    for b, w in enumerate(worlds_of):
-        placed = placed_in.get(w)
-        if placed is None:
-            placed = placed_in[w] = placements(tables.initial[w])
-        for k, (c, x, y) in enumerate(placed):
-            state["cls"][b, k], state["ex"][b, k], state["ey"][b, k] = c, x, y
-            state["alive"][b, k] = True
-            if rules.visit_start_nodes:
-                state["visited"][b, tables.node_vid[w, c]] = 1
-        state["slots"][b] = len(placed)
+    _kernels.place(
+        tables.initial, tables.initial_start, np.asarray(worlds_of, dtype=np.int64), tables.node_vid,
+        rules.visit_start_nodes, WIDTH, HEIGHT, state["cls"], state["ex"], state["ey"], state["alive"], state["slots"],
+        state["visited"],
+    )  # fmt: skip
     return state
 
 

@@ -10,13 +10,13 @@ same world as small integer arrays over the 15 classes of the QD experiments (:d
   edges in file order as rows ``(src, dst, condition, class argument, number)``; the condition is its priority
   (0 none, 1 step, 2 within, 3 nextTo, 4 touch), absent arguments are -1 and 0;
 - classes are immutable and shared between a world and its mutants: a mutant replaces the classes it changes, so a
-  copy costs 15 references, and each class compiles for the engine once (:meth:`ClassArrays.compiled`);
+  copy costs 15 references; the engine lays the arrays of a generation's worlds out for its kernel in one compiled
+  pass (:func:`.engine.compile_worlds`);
 - :meth:`Genome.to_file` and :meth:`Genome.from_file` convert to and from the text form, edge order and all.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -24,7 +24,7 @@ import numpy as np
 from structgen.domains.fortress.formats import CONDITIONS, EntityClass, FortressFile
 from structgen.errors import InputError
 
-__all__ = ["CHARACTERS", "CONDITION_NAMES", "ClassArrays", "Compiled", "Genome", "edge_order_rank", "node_types", "tried_edges"]
+__all__ = ["CHARACTERS", "CONDITION_NAMES", "TYPE_ACTION", "TYPE_CHAR", "ClassArrays", "Genome", "edge_order_rank", "node_types"]
 
 #: The 15 classes of the QD experiments.
 CHARACTERS = tuple("@$&+;!><XO*^MDS")
@@ -65,36 +65,10 @@ def edge_order_rank() -> np.ndarray:
     return rank.reshape(_KEYS, _KEYS)
 
 
-def tried_edges(n_nodes: int, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A class's edges (rows ``(src, dst, condition, class argument, number)`` in file order) in the order the engine
-    tries them: out of each node (``starts[n]:starts[n + 1]``), highest priority first, file order within a
-    priority. Rows come back as ``(condition, class argument, number, destination, file position)``, ``nextTo``
-    with its reach of 1; an edge from a node the class lacks never fires and is left out."""
-    position = np.flatnonzero(edges[:, SRC] < n_nodes)
-    live = edges[position]
-    order = np.lexsort((position, -live[:, COND], live[:, SRC]))
-    live, position = live[order], position[order]
-    number = np.where(live[:, COND] == CONDITIONS["nextTo"][0], 1, live[:, NUMBER])
-    rows = np.stack([live[:, COND], live[:, CHAR], number, live[:, DST], position], axis=1).astype(np.int32)
-    return np.searchsorted(live[:, SRC], np.arange(n_nodes + 1)).astype(np.int32), rows.reshape(-1, 5)
-
-
-@dataclass(frozen=True)
-class Compiled:
-    """A class ready for the engine: node action codes, node class arguments (character numbers), and the live
-    edges out of each node in the order they are tried (``starts[n]:starts[n + 1]``) as rows ``(condition, class
-    argument, number, destination, file position)``."""
-
-    act: np.ndarray
-    arg: np.ndarray
-    starts: np.ndarray
-    edges: np.ndarray
-
-
 class ClassArrays:
     """One class's machine as arrays (see the module's description); never changed once made."""
 
-    __slots__ = ("char", "nodes", "edges", "_compiled", "__weakref__")
+    __slots__ = ("char", "nodes", "edges", "__weakref__")
 
     def __init__(self, char: int, nodes: np.ndarray, edges: np.ndarray) -> None:
         self.char = int(char)
@@ -102,7 +76,6 @@ class ClassArrays:
         self.edges = np.asarray(edges, dtype=np.int16).reshape(-1, 5)
         self.nodes.flags.writeable = False
         self.edges.flags.writeable = False
-        self._compiled: Compiled | None = None
 
     def __eq__(self, other: object) -> bool:
         return (
@@ -117,17 +90,6 @@ class ClassArrays:
 
     def __setstate__(self, state: dict) -> None:
         self.__init__(state["char"], state["nodes"], state["edges"])
-
-    def compiled(self) -> Compiled:
-        if self._compiled is None:
-            starts, rows = tried_edges(len(self.nodes), self.edges)
-            self._compiled = Compiled(
-                act=TYPE_ACTION[self.nodes.astype(np.int64)],
-                arg=TYPE_CHAR[self.nodes.astype(np.int64)],
-                starts=starts,
-                edges=rows,
-            )
-        return self._compiled
 
     # -- text ----------------------------------------------------------------------------------------------------------
     def to_entity(self) -> EntityClass:
