@@ -17,13 +17,10 @@ from functools import lru_cache
 
 import numpy as np
 
+from structgen.domains.fortress import _mutation
 from structgen.domains.fortress.engine import HEIGHT, WIDTH, placements
 from structgen.domains.fortress.genome import (
     CHARACTERS,
-    COND,
-    CONDITION_NAMES,
-    DST,
-    SRC,
     ClassArrays,
     Genome,
     edge_order_rank,
@@ -44,8 +41,6 @@ __all__ = [
     "world_size",
 ]
 
-_STEP, _WITHIN = CONDITION_NAMES.index("step"), CONDITION_NAMES.index("within")
-_TAKES_CLASS = np.isin(CONDITION_NAMES, ("touch", "nextTo", "within"))
 _KEYS = 128
 
 
@@ -82,75 +77,52 @@ class Variation:
                 raise ValueError(f"{name} must be in [0, 1), got {getattr(self, name)!r}")
 
 
+def _ranges(variation: Variation) -> tuple[int, int, int, int]:
+    return (*variation.step_range, *variation.prox_range)
+
+
+def _settings(variation: Variation) -> np.ndarray:
+    """The variation as :func:`._mutation.mutate` reads it."""
+    orphans_only = float(variation.orphan_edges == "orphans_only")
+    coins = (variation.edge_coin, variation.node_coin, variation.instance_coin)
+    return np.array([orphans_only, *coins, *_ranges(variation)], dtype=np.float64)
+
+
+@lru_cache(maxsize=1)
+def _harmonic_cdf() -> np.ndarray:
+    """``cdf[top, :top]``: the table ``rng.choice(top, p=weights)`` searches for weights proportional to 1/k, built
+    as numpy builds it (the original's node mutation counts)."""
+    n_types = len(node_types(CHARACTERS))
+    table = np.ones((n_types + 1, n_types), dtype=np.float64)
+    for top in range(1, n_types + 1):
+        weights = 1.0 / np.arange(1, top + 1)
+        cdf = (weights / weights.sum()).cumsum()
+        table[top, :top] = cdf / cdf[-1]
+    return table
+
+
 def new_conditions(rng: np.random.Generator, count: int, variation: Variation) -> np.ndarray:
     """``(count, 3)``: random conditions as (condition, class argument, number), each condition equally likely, its
     class uniform over the 15 and its number uniform over its range."""
-    cond = rng.integers(len(CONDITION_NAMES), size=count)
-    char = rng.integers(len(CHARACTERS), size=count)
-    step = rng.integers(variation.step_range[0], variation.step_range[1] + 1, size=count)
-    prox = rng.integers(variation.prox_range[0], variation.prox_range[1] + 1, size=count)
-    char = np.where(_TAKES_CLASS[cond], char, -1)
-    number = np.where(cond == _STEP, step, np.where(cond == _WITHIN, prox, 0))
-    return np.stack([cond, char, number], axis=1).astype(np.int16)
-
-
-def _assign(old_keys: np.ndarray, edges: np.ndarray, new_keys: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Dict assignment of ``rows`` (full edge rows) under distinct ``new_keys`` into ``edges`` keyed ``old_keys``: an
-    edge that exists keeps its place and takes the new condition, the others are appended in order. Also returns
-    which of the new keys were there already."""
-    sorter = np.argsort(old_keys, kind="stable")
-    at = np.searchsorted(old_keys[sorter], new_keys)
-    found = at < len(old_keys)
-    found[found] = old_keys[sorter[at[found]]] == new_keys[found]
-    result = edges.copy()
-    result[sorter[at[found]], COND:] = rows[found, COND:]
-    return np.concatenate([result, rows[~found]]).astype(np.int16), found
-
-
-def _edge_rows(src: np.ndarray, dst: np.ndarray, conditions: np.ndarray) -> np.ndarray:
-    return np.concatenate([np.stack([src, dst], axis=1), conditions], axis=1).astype(np.int16)
+    return _mutation.new_conditions(rng, count, *_ranges(variation)).astype(np.int16)
 
 
 def set_edges(edges: np.ndarray, src: np.ndarray, dst: np.ndarray, conditions: np.ndarray) -> np.ndarray:
     """The edges after ``edges["src-dst"] = condition`` for each new edge in order (their keys distinct)."""
-    old = edges[:, SRC].astype(np.int64) * _KEYS + edges[:, DST]
-    new = np.asarray(src, dtype=np.int64) * _KEYS + np.asarray(dst, dtype=np.int64)
-    return _assign(old, edges, new, _edge_rows(src, dst, conditions))[0]
-
-
-def _sorted_edges(edges: np.ndarray) -> np.ndarray:
-    # The original sorts keys as strings: "10-2" comes before "2-0".
-    return edges[np.argsort(edge_order_rank()[edges[:, SRC], edges[:, DST]], kind="stable")]
-
-
-def _repair(
-    owner: np.ndarray, edges: np.ndarray, n_nodes: np.ndarray, rng: np.random.Generator, variation: Variation
-) -> tuple[np.ndarray, np.ndarray]:
-    """connectOrphanNodes on several classes at once: ``edges[i]`` belongs to class ``owner[i]`` of ``n_nodes``
-    nodes; returns the repaired edges of every class, grouped by class and sorted as the original sorts them."""
-    classes = np.flatnonzero(n_nodes > 1)
-    target_owner = np.repeat(classes, n_nodes[classes])
-    targets = np.arange(len(target_owner)) - np.repeat(np.cumsum(n_nodes[classes]) - n_nodes[classes], n_nodes[classes])
-    if variation.orphan_edges == "orphans_only":
-        moving = edges[:, SRC] != edges[:, DST]
-        reached = owner[moving].astype(np.int64) * _KEYS + edges[moving, DST]
-        keep = ~np.isin(target_owner * _KEYS + targets, reached)
-        target_owner, targets = target_owner[keep], targets[keep]
-    # A source among the class's other nodes, uniformly.
-    sources = (rng.random(len(targets)) * (n_nodes[target_owner] - 1)).astype(np.int64)
-    sources += sources >= targets
-    span = _KEYS * _KEYS
-    old = owner.astype(np.int64) * span + edges[:, SRC].astype(np.int64) * _KEYS + edges[:, DST]
-    new = target_owner * span + sources * _KEYS + targets
-    edges, found = _assign(old, edges, new, _edge_rows(sources, targets, new_conditions(rng, len(targets), variation)))
-    owner = np.concatenate([owner, target_owner[~found]])
-    order = np.lexsort((edge_order_rank()[edges[:, SRC], edges[:, DST]], owner))
-    return owner[order], edges[order]
+    rows = np.column_stack([src, dst, conditions]).astype(np.int64).reshape(-1, 5)
+    owner = np.zeros(len(edges), dtype=np.int64)
+    return _mutation.assign(owner, edges.astype(np.int64), np.zeros(len(rows), dtype=np.int64), rows)[1].astype(np.int16)
 
 
 def connect_orphans(n_nodes: int, edges: np.ndarray, rng: np.random.Generator, variation: Variation) -> np.ndarray:
-    """The original's repair after building or deleting edges, then its sort of the edges."""
-    return _repair(np.zeros(len(edges), dtype=np.int64), edges, np.array([n_nodes]), rng, variation)[1]
+    """The original's repair after building or deleting edges, then its sort of the edges: every node (or, with
+    ``orphans_only``, every node nothing else leads to) gets an incoming edge from another node."""
+    owner = np.zeros(len(edges), dtype=np.int64)
+    repaired = _mutation.repair(
+        owner, edges.astype(np.int64).reshape(-1, 5), np.array([n_nodes], dtype=np.int64), rng,
+        variation.orphan_edges == "orphans_only", *_ranges(variation), edge_order_rank(),
+    )  # fmt: skip
+    return repaired[1].astype(np.int16)
 
 
 def random_classes(
@@ -165,11 +137,14 @@ def random_classes(
     shuffled = 1 + np.argsort(rng.random((len(extra), n_types - 1)), axis=1)
     owner = np.repeat(np.arange(len(extra)), 2 * extra)
     ends = (rng.random((len(owner), 2)) * (extra[owner] + 1)[:, None]).astype(np.int64)
-    conditions = new_conditions(rng, len(owner), variation)
+    conditions = _mutation.new_conditions(rng, len(owner), *_ranges(variation))
     keys = owner * _KEYS * _KEYS + ends[:, 0] * _KEYS + ends[:, 1]
     # The last edge written under each key wins (the repair's sort settles the order).
     last = len(keys) - 1 - np.unique(keys[::-1], return_index=True)[1]
-    owner, edges = _repair(owner[last], _edge_rows(ends[last, 0], ends[last, 1], conditions[last]), extra + 1, rng, variation)
+    owner, edges = _mutation.repair(
+        owner[last], np.column_stack([ends[last], conditions[last]]), extra + 1, rng,
+        variation.orphan_edges == "orphans_only", *_ranges(variation), edge_order_rank(),
+    )  # fmt: skip
     bounds = np.searchsorted(owner, np.arange(len(extra) + 1))
     return tuple(
         ClassArrays(int(c), np.concatenate([[0], shuffled[k, : extra[k]]]), edges[bounds[k] : bounds[k + 1]])
@@ -282,97 +257,43 @@ def random_world(
     return Genome(classes, np.array(placements(drawn.tolist()), dtype=np.int16).reshape(-1, 3))
 
 
-def _harmonic(rng, top: int) -> int:
-    """k in 1..top with probability proportional to 1/k (the original's node mutation counts)."""
-    weights = 1.0 / np.arange(1, top + 1)
-    return int(rng.choice(top, p=weights / weights.sum())) + 1
-
-
 def remove_node(nodes: np.ndarray, edges: np.ndarray, index: int) -> tuple[np.ndarray, np.ndarray]:
     """Delete a node, the edges touching it, and renumber the rest (the original's killOrphanEdges)."""
-    keep = (edges[:, SRC] != index) & (edges[:, DST] != index)
-    edges = edges[keep].copy()
-    edges[:, SRC] -= edges[:, SRC] > index
-    edges[:, DST] -= edges[:, DST] > index
-    return np.delete(nodes, index), edges
-
-
-def _mutate_edges(world: Genome, rng, variation: Variation) -> Genome:
-    kind = int(rng.integers(3))
-    position = int(rng.integers(len(world.classes)))
-    entity = world.classes[position]
-    nodes, edges = entity.nodes, entity.edges
-    if kind == 0 and len(edges) > 1:
-        edges = connect_orphans(len(nodes), np.delete(edges, int(rng.integers(len(edges))), axis=0), rng, variation)
-    elif kind == 1:
-        ends = rng.integers(len(nodes), size=2)
-        edges = set_edges(edges, ends[:1], ends[1:], new_conditions(rng, 1, variation))
-    elif kind == 2 and len(edges):
-        edges = edges.copy()
-        edges[int(rng.integers(len(edges))), COND:] = new_conditions(rng, 1, variation)[0]
-    else:
-        return world
-    return world.replace(position, ClassArrays(entity.char, nodes, edges))
-
-
-def _mutate_nodes(world: Genome, rng, variation: Variation) -> Genome:
-    kind = int(rng.integers(3))
-    position = int(rng.integers(len(world.classes)))
-    entity = world.classes[position]
-    nodes, edges = entity.nodes.copy(), entity.edges
-    available = np.setdiff1d(np.arange(len(node_types(CHARACTERS))), nodes).tolist()
-    if kind == 0 and len(nodes) > 1:
-        for _ in range(_harmonic(rng, len(nodes) - 1)):
-            nodes, edges = remove_node(nodes, edges, int(rng.integers(len(nodes))))
-    elif kind == 1 and available:
-        count = _harmonic(rng, len(available))
-        added = [available.pop(int(rng.integers(len(available)))) for _ in range(count)]
-        new = np.arange(len(nodes), len(nodes) + count)
-        # Each new node is wired in from a node before it (the nodes there already, or one added earlier).
-        sources = (rng.random(count) * new).astype(np.int64)
-        nodes = np.concatenate([nodes, np.array(added, dtype=np.int8)])
-        edges = _sorted_edges(set_edges(edges, sources, new, new_conditions(rng, count, variation)))
-    elif kind == 2:
-        for _ in range(_harmonic(rng, len(nodes))):
-            if available:
-                index = int(rng.integers(len(nodes)))
-                old = int(nodes[index])
-                nodes[index] = available.pop(int(rng.integers(len(available))))
-                available.append(old)
-            else:
-                i, j = rng.integers(len(nodes), size=2)
-                nodes[[i, j]] = nodes[[j, i]]
-    else:
-        return world
-    return world.replace(position, ClassArrays(entity.char, nodes, edges))
-
-
-def _mutate_entities(world: Genome, rng) -> Genome:
-    initial = world.initial
-    if int(rng.integers(2)) == 0:
-        if len(initial):
-            initial = np.delete(initial, int(rng.integers(len(initial))), axis=0)
-    else:
-        char = world.classes[int(rng.integers(len(world.classes)))].char
-        x, y = int(rng.integers(1, WIDTH - 1)), int(rng.integers(1, HEIGHT - 1))
-        initial = np.concatenate([initial, np.array([[char, x, y]], dtype=np.int16)])
-    return Genome(world.classes, initial)
+    kept_nodes, kept_edges = _mutation.remove_node(nodes.astype(np.int64), edges.astype(np.int64).reshape(-1, 5), index)
+    return kept_nodes.astype(nodes.dtype), kept_edges.astype(edges.dtype)
 
 
 def mutate_world(world: Genome, rng: np.random.Generator, variation: Variation = Variation()) -> Genome:
-    """A mutated world (the parent is left as it was; unchanged classes are shared): edge mutations while a coin
-    comes up, at most one node mutation, then initial-entity mutations while a coin comes up (an added entity on a
-    taken tile stays in the list and is dropped when placed, as in the original)."""
-    edge_coin, node_coin, instance_coin = rng.random(3)
-    while edge_coin < variation.edge_coin:
-        world = _mutate_edges(world, rng, variation)
-        edge_coin = rng.random()
-    if node_coin < variation.node_coin:
-        world = _mutate_nodes(world, rng, variation)
-    while instance_coin < variation.instance_coin:
-        world = _mutate_entities(world, rng)
-        instance_coin = rng.random()
-    return world
+    """A mutated world (the parent is left as it was; unchanged classes are shared), the original's operators:
+
+    - edge mutations while a coin comes up, each on a random class: delete a random edge (then the orphan repair),
+      set a random edge ``src-dst`` to a random condition, or give a random edge a new condition;
+    - at most one node mutation on a random class: delete k random nodes with their edges, add k new node types
+      each wired in from a node before it (then the edges are sorted), or replace k nodes by types the class lacks
+      (swap two of its nodes when it has them all), k drawn with weights 1/k;
+    - initial-entity mutations while a coin comes up: delete a random one, or add one of a random class on a random
+      floor tile (on a taken tile it stays in the list and is dropped when placed, as in the original).
+
+    Compiled (:func:`._mutation.mutate`): a mutant costs microseconds, with the same draws as numpy code."""
+    classes = world.classes
+    nodes = np.concatenate([c.nodes for c in classes]).astype(np.int64) if classes else np.zeros(0, dtype=np.int64)
+    edges = np.concatenate([c.edges for c in classes]).astype(np.int64) if classes else np.zeros((0, 5), dtype=np.int64)
+    node_off = np.concatenate([[0], np.cumsum([len(c.nodes) for c in classes], dtype=np.int64)])
+    edge_off = np.concatenate([[0], np.cumsum([len(c.edges) for c in classes], dtype=np.int64)])
+    chars = np.array([c.char for c in classes], dtype=np.int64)
+    out_nodes, out_node_off, out_edges, out_edge_off, changed, initial, entities_changed = _mutation.mutate(
+        rng, nodes, node_off, edges, edge_off, chars, world.initial.astype(np.int64), _settings(variation),
+        len(node_types(CHARACTERS)), edge_order_rank(), _harmonic_cdf(), WIDTH, HEIGHT,
+    )  # fmt: skip
+    if not changed.any() and not entities_changed:
+        return world
+    mutant = tuple(
+        ClassArrays(c.char, out_nodes[out_node_off[k] : out_node_off[k + 1]], out_edges[out_edge_off[k] : out_edge_off[k + 1]])
+        if changed[k]
+        else c
+        for k, c in enumerate(classes)
+    )
+    return Genome(mutant, initial if entities_changed else world.initial)
 
 
 def world_size(world: Genome) -> tuple[int, int]:
