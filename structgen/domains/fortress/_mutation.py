@@ -276,3 +276,42 @@ def mutate(rng, nodes, node_off, edges, edge_off, chars, initial, settings, n_ty
         out_nodes[out_node_off[k] : out_node_off[k + 1]] = class_nodes[k]
         out_edges[out_edge_off[k] : out_edge_off[k + 1]] = class_edges[k]
     return out_nodes, out_node_off, out_edges, out_edge_off, changed, initial, entities_changed
+
+
+@nb.njit(cache=True)
+def random_classes(rng, extra, n_types, orphans_only, step_low, step_high, prox_low, prox_high, rank):
+    """Classes as the original's makeTree builds them, all drawn at once: class k has ``idle`` and ``extra[k]``
+    distinct random node types (the first of a random order of the others), twice as many random edges (a later
+    one overwrites an earlier one with the same ends), then the orphan repair. Returns the node types and the edges
+    concatenated over the classes, with each class's offsets into them."""
+    n_classes = extra.shape[0]
+    draws = rng.random((n_classes, n_types - 1))
+    owner = np.repeat(np.arange(n_classes), 2 * extra)
+    ends = rng.random((owner.shape[0], 2))
+    conditions = new_conditions(rng, owner.shape[0], step_low, step_high, prox_low, prox_high)
+    # The last edge written under each key wins (the repair's sort settles the order).
+    written = np.zeros((n_classes, _KEYS * _KEYS), dtype=np.bool_)
+    keep = np.zeros(owner.shape[0], dtype=np.bool_)
+    rows = np.empty((owner.shape[0], 5), dtype=np.int64)
+    for q in range(owner.shape[0] - 1, -1, -1):
+        size = extra[owner[q]] + 1
+        src, dst = np.int64(ends[q, 0] * size), np.int64(ends[q, 1] * size)
+        rows[q, _SRC], rows[q, _DST] = src, dst
+        rows[q, _COND:] = conditions[q]
+        if not written[owner[q], src * _KEYS + dst]:
+            written[owner[q], src * _KEYS + dst] = True
+            keep[q] = True
+    owner, edges = repair(owner[keep], rows[keep], extra + 1, rng, orphans_only, step_low, step_high, prox_low, prox_high, rank)
+    node_off = np.zeros(n_classes + 1, dtype=np.int64)
+    edge_off = np.zeros(n_classes + 1, dtype=np.int64)
+    for k in range(n_classes):
+        node_off[k + 1] = node_off[k] + extra[k] + 1
+    for q in range(owner.shape[0]):
+        edge_off[owner[q] + 1] += 1
+    for k in range(n_classes):
+        edge_off[k + 1] += edge_off[k]
+    nodes = np.zeros(node_off[-1], dtype=np.int64)  # node 0 of every class is idle (type 0)
+    for k in range(n_classes):
+        order = np.argsort(draws[k])
+        nodes[node_off[k] + 1 : node_off[k + 1]] = 1 + order[: extra[k]]
+    return nodes, node_off, edges, edge_off

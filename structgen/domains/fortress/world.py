@@ -41,7 +41,6 @@ __all__ = [
     "world_size",
 ]
 
-_KEYS = 128
 
 
 @dataclass(frozen=True)
@@ -131,23 +130,12 @@ def random_classes(
     """Classes as the original's makeTree builds them (all drawn at once): ``idle`` and ``extra_nodes[k]`` distinct
     random node types, twice as many random edges (a later one overwrites an earlier one with the same ends), then
     the orphan repair."""
-    extra = np.asarray(extra_nodes, dtype=np.int64)
-    n_types = len(node_types(CHARACTERS))
-    # Distinct types for each class: the first ones of a random order of the 93 beyond idle.
-    shuffled = 1 + np.argsort(rng.random((len(extra), n_types - 1)), axis=1)
-    owner = np.repeat(np.arange(len(extra)), 2 * extra)
-    ends = (rng.random((len(owner), 2)) * (extra[owner] + 1)[:, None]).astype(np.int64)
-    conditions = _mutation.new_conditions(rng, len(owner), *_ranges(variation))
-    keys = owner * _KEYS * _KEYS + ends[:, 0] * _KEYS + ends[:, 1]
-    # The last edge written under each key wins (the repair's sort settles the order).
-    last = len(keys) - 1 - np.unique(keys[::-1], return_index=True)[1]
-    owner, edges = _mutation.repair(
-        owner[last], np.column_stack([ends[last], conditions[last]]), extra + 1, rng,
-        variation.orphan_edges == "orphans_only", *_ranges(variation), edge_order_rank(),
+    nodes, node_off, edges, edge_off = _mutation.random_classes(
+        rng, np.asarray(extra_nodes, dtype=np.int64), len(node_types(CHARACTERS)), variation.orphan_edges == "orphans_only",
+        *_ranges(variation), edge_order_rank(),
     )  # fmt: skip
-    bounds = np.searchsorted(owner, np.arange(len(extra) + 1))
     return tuple(
-        ClassArrays(int(c), np.concatenate([[0], shuffled[k, : extra[k]]]), edges[bounds[k] : bounds[k + 1]])
+        ClassArrays(int(c), nodes[node_off[k] : node_off[k + 1]], edges[edge_off[k] : edge_off[k + 1]])
         for k, c in enumerate(chars)
     )
 
