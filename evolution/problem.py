@@ -176,6 +176,11 @@ class Problem:
         """A mutated copy of ``genome`` (required for object genomes; never modify the argument)."""
         raise NotImplementedError(f"{self.name} does not define its own mutation")
 
+    def mutate_many(self, genomes: list[Any], rng: np.random.Generator) -> list[Any]:
+        """A mutated copy of each genome, drawn in turn; a problem whose mutation is compiled may do them in one call
+        (with the same draws as :meth:`mutate` on each)."""
+        return [self.mutate(genome, rng) for genome in genomes]
+
     def crossover(self, first: Any, second: Any, rng: np.random.Generator) -> Any:
         """A child combining two parents; optional. The default mixes flat vectors gene by gene."""
         if not self.flat:

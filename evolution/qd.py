@@ -119,8 +119,8 @@ class ProblemMutationEmitter(EmitterBase):
             genomes = []
             if immigrants < self.batch_size:
                 elites = self.archive.sample_elites(self.batch_size - immigrants)["solution"]
-                # Problem.mutate returns a copy and leaves its argument alone, so the elites are not copied here.
-                genomes = [self.problem.mutate(e, self.rng) for e in elites]
+                # Problem.mutate_many returns copies and leaves its arguments alone, so the elites are not copied here.
+                genomes = self.problem.mutate_many(list(elites), self.rng)
             if immigrants:
                 genomes += list(self.problem.immigrant_genomes(immigrants, self.rng))
         if self.problem.flat:

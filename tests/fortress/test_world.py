@@ -15,6 +15,7 @@ from structgen.domains.fortress.world import (
     connect_orphans,
     fsm_size_entropy,
     mutate_world,
+    mutate_worlds,
     node_types,
     random_class,
     random_world,
@@ -183,3 +184,14 @@ def test_mutation_and_random_worlds_draw_exactly_what_they_always_drew(name):
     for k in range(20):
         digest.update(format_fortress(random_world(rng, variation, start="entropy" if k % 2 else "n_nodes").to_file()).encode())
     assert digest.hexdigest() == _DRAWS[name]
+
+
+def test_mutating_worlds_together_draws_as_mutating_them_in_turn():
+    start = np.random.default_rng(5)
+    parents = [random_world(start) for _ in range(6)] + [random_world(start, start="entropy") for _ in range(3)]
+    variation = Variation(edge_coin=0.8, node_coin=0.8, instance_coin=0.8)
+    together, alone = np.random.default_rng(11), np.random.default_rng(11)
+    batch = mutate_worlds(parents, together, variation)
+    assert batch == [mutate_world(parent, alone, variation) for parent in parents]
+    assert together.random() == alone.random()
+    assert sum(a is b for mutant, parent in zip(batch, parents) for a, b in zip(mutant.classes, parent.classes)) >= 9 * 10

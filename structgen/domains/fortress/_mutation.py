@@ -315,3 +315,46 @@ def random_classes(rng, extra, n_types, orphans_only, step_low, step_high, prox_
         order = np.argsort(draws[k])
         nodes[node_off[k] + 1 : node_off[k + 1]] = 1 + order[: extra[k]]
     return nodes, node_off, edges, edge_off
+
+
+@nb.njit(cache=True)
+def mutate_many(rng, nodes, node_off, edges, edge_off, classes_of, chars, initial, initial_off, settings, n_types, rank,
+                harmonic_cdf, width, height):  # fmt: skip
+    """:func:`mutate` on several worlds in turn (the same draws as one call each): world w owns classes
+    ``classes_of[w]:classes_of[w + 1]`` (``node_off`` / ``edge_off`` / ``chars`` over all classes) and initial
+    entities ``initial[initial_off[w]:initial_off[w + 1]]``. Returns the mutants in the same form, which classes
+    were replaced, and which worlds' initial entities were touched."""
+    n_worlds = classes_of.shape[0] - 1
+    parts_nodes, parts_edges, parts_initial = [], [], []
+    n_classes = chars.shape[0]
+    out_node_off = np.zeros(n_classes + 1, dtype=np.int64)
+    out_edge_off = np.zeros(n_classes + 1, dtype=np.int64)
+    out_initial_off = np.zeros(n_worlds + 1, dtype=np.int64)
+    changed = np.zeros(n_classes, dtype=np.bool_)
+    touched = np.zeros(n_worlds, dtype=np.bool_)
+    for w in range(n_worlds):
+        first, last = classes_of[w], classes_of[w + 1]
+        n0, n1, e0, e1 = node_off[first], node_off[last], edge_off[first], edge_off[last]
+        got_nodes, got_node_off, got_edges, got_edge_off, got_changed, got_initial, got_touched = mutate(
+            rng, nodes[n0:n1], node_off[first : last + 1] - n0, edges[e0:e1], edge_off[first : last + 1] - e0,
+            chars[first:last], initial[initial_off[w] : initial_off[w + 1]], settings, n_types, rank, harmonic_cdf,
+            width, height,
+        )  # fmt: skip
+        parts_nodes.append(got_nodes)
+        parts_edges.append(got_edges)
+        parts_initial.append(got_initial)
+        for k in range(last - first):
+            out_node_off[first + k + 1] = out_node_off[first] + got_node_off[k + 1]
+            out_edge_off[first + k + 1] = out_edge_off[first] + got_edge_off[k + 1]
+        changed[first:last] = got_changed
+        touched[w] = got_touched
+        out_initial_off[w + 1] = out_initial_off[w] + got_initial.shape[0]
+    out_nodes = np.empty(out_node_off[-1], dtype=np.int64)
+    out_edges = np.empty((out_edge_off[-1], 5), dtype=np.int64)
+    out_initial = np.empty((out_initial_off[-1], 3), dtype=np.int64)
+    for w in range(n_worlds):
+        first, last = classes_of[w], classes_of[w + 1]
+        out_nodes[out_node_off[first] : out_node_off[last]] = parts_nodes[w]
+        out_edges[out_edge_off[first] : out_edge_off[last]] = parts_edges[w]
+        out_initial[out_initial_off[w] : out_initial_off[w + 1]] = parts_initial[w]
+    return out_nodes, out_node_off, out_edges, out_edge_off, changed, out_initial, out_initial_off, touched

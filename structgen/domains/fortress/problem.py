@@ -27,7 +27,7 @@ from structgen.budget import check_memory
 from structgen.domains.fortress.engine import POPULATION_CAP, Outcome, Rules, memory_needed, simulate
 from structgen.domains.fortress.formats import format_fortress, parse_fortress
 from structgen.domains.fortress.genome import CHARACTERS, Genome, node_types
-from structgen.domains.fortress.world import Variation, fsm_size_entropy, mutate_world, random_world
+from structgen.domains.fortress.world import Variation, fsm_size_entropy, mutate_world, mutate_worlds, random_world
 
 __all__ = ["FortressProblem", "FortressSettings", "MEASURES"]
 
@@ -139,6 +139,9 @@ class FortressProblem(Problem):
 
     def mutate(self, genome: Genome, rng: np.random.Generator) -> Genome:
         return mutate_world(genome, rng, self.variation)
+
+    def mutate_many(self, genomes: list[Genome], rng: np.random.Generator) -> list[Genome]:
+        return mutate_worlds(genomes, rng, self.variation)
 
     def seeds(self) -> list[int]:
         return list(range(self.settings.sim_seed, self.settings.sim_seed + self.settings.sims))

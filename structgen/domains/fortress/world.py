@@ -33,6 +33,7 @@ __all__ = [
     "connect_orphans",
     "fsm_size_entropy",
     "mutate_world",
+    "mutate_worlds",
     "node_types",
     "random_class",
     "random_classes",
@@ -40,7 +41,6 @@ __all__ = [
     "remove_node",
     "world_size",
 ]
-
 
 
 @dataclass(frozen=True)
@@ -262,26 +262,44 @@ def mutate_world(world: Genome, rng: np.random.Generator, variation: Variation =
     - initial-entity mutations while a coin comes up: delete a random one, or add one of a random class on a random
       floor tile (on a taken tile it stays in the list and is dropped when placed, as in the original).
 
-    Compiled (:func:`._mutation.mutate`): a mutant costs microseconds, with the same draws as numpy code."""
-    classes = world.classes
-    nodes = np.concatenate([c.nodes for c in classes]).astype(np.int64) if classes else np.zeros(0, dtype=np.int64)
-    edges = np.concatenate([c.edges for c in classes]).astype(np.int64) if classes else np.zeros((0, 5), dtype=np.int64)
-    node_off = np.concatenate([[0], np.cumsum([len(c.nodes) for c in classes], dtype=np.int64)])
-    edge_off = np.concatenate([[0], np.cumsum([len(c.edges) for c in classes], dtype=np.int64)])
-    chars = np.array([c.char for c in classes], dtype=np.int64)
-    out_nodes, out_node_off, out_edges, out_edge_off, changed, initial, entities_changed = _mutation.mutate(
-        rng, nodes, node_off, edges, edge_off, chars, world.initial.astype(np.int64), _settings(variation),
-        len(node_types(CHARACTERS)), edge_order_rank(), _harmonic_cdf(), WIDTH, HEIGHT,
+    Compiled (:func:`._mutation.mutate`), with the same draws as numpy code."""
+    return mutate_worlds([world], rng, variation)[0]
+
+
+def mutate_worlds(worlds: list[Genome], rng: np.random.Generator, variation: Variation = Variation()) -> list[Genome]:
+    """:func:`mutate_world` on each world in turn, in one compiled call (the same draws and mutants)."""
+    if not worlds:
+        return []
+    if any(not world.classes for world in worlds):
+        raise ValueError("a world needs at least one class to be mutated")
+    classes = [c for world in worlds for c in world.classes]
+    counts = [len(world.classes) for world in worlds]
+    initial = [world.initial for world in worlds]
+    nodes, node_off, edges, edge_off, changed, out_initial, initial_off, touched = _mutation.mutate_many(
+        rng,
+        np.concatenate([c.nodes for c in classes]).astype(np.int64),
+        np.concatenate([[0], np.cumsum([len(c.nodes) for c in classes], dtype=np.int64)]),
+        np.concatenate([c.edges for c in classes]).astype(np.int64),
+        np.concatenate([[0], np.cumsum([len(c.edges) for c in classes], dtype=np.int64)]),
+        np.concatenate([[0], np.cumsum(counts, dtype=np.int64)]),
+        np.array([c.char for c in classes], dtype=np.int64),
+        np.concatenate(initial).astype(np.int64).reshape(-1, 3),
+        np.concatenate([[0], np.cumsum([len(i) for i in initial], dtype=np.int64)]),
+        _settings(variation), len(node_types(CHARACTERS)), edge_order_rank(), _harmonic_cdf(), WIDTH, HEIGHT,
     )  # fmt: skip
-    if not changed.any() and not entities_changed:
-        return world
-    mutant = tuple(
-        ClassArrays(c.char, out_nodes[out_node_off[k] : out_node_off[k + 1]], out_edges[out_edge_off[k] : out_edge_off[k + 1]])
-        if changed[k]
-        else c
-        for k, c in enumerate(classes)
-    )
-    return Genome(mutant, initial if entities_changed else world.initial)
+    mutants, k = [], 0
+    for w, world in enumerate(worlds):
+        first = k
+        k += len(world.classes)
+        if not changed[first:k].any() and not touched[w]:
+            mutants.append(world)
+            continue
+        replaced = tuple(
+            ClassArrays(c.char, nodes[node_off[i] : node_off[i + 1]], edges[edge_off[i] : edge_off[i + 1]]) if changed[i] else c
+            for i, c in enumerate(world.classes, start=first)
+        )
+        mutants.append(Genome(replaced, out_initial[initial_off[w] : initial_off[w + 1]] if touched[w] else world.initial))
+    return mutants
 
 
 def world_size(world: Genome) -> tuple[int, int]:
