@@ -12,15 +12,24 @@ The original's code runs 78 fortress-steps/s on this machine when timed in alter
 (``benchmarks/anchors/fortress.py``, 2026-11-24); speed-ups are against that. Both sides are the median of
 ``--repeats`` runs.
 
-    python benchmarks/fortress.py [--worlds 30 200] [--threads 1 2] [--generations 200]
+    python benchmarks/fortress.py [--worlds 30 200] [--threads 1 2] [--generations 200] [--paper-run]
+
+``--paper-run`` also times the paper's full run (``structgen evolve configs/fortress_paper.toml --seed 20``, about
+3.5 minutes) in a temporary folder: run time, wall time, peak memory and the folder's size.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import platform
+import resource
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -38,6 +47,9 @@ ORIGINAL_HERE = {"steps_per_s": 78, "generation_s": 5000 / 78}
 # This engine before worlds became arrays (commit c79a476, the same machine, 2 threads, 2026-11-25, timed back to back
 # with this version): seconds per generation over generations 151-200 and 351-400 of this script's run.
 BEFORE = {"151-200": 0.137, "351-400": 0.138}
+# The paper's full run (seed 20) at commit 6dc049b, before the kernel's row bits and the compiled mutation and layout
+# (AMD EPYC 2 vCPU, 2026-11-25, nothing else running): run time, wall time, peak memory, folder.
+PAPER_RUN_BEFORE = {"run_s": 401.5, "wall_s": 453, "peak_gb": 0.84, "folder_mb": 46}
 
 
 def engine_rows(worlds_counts: list[int], threads: list[int], repeats: int) -> list[str]:
@@ -91,12 +103,41 @@ def generation_rows(generations: int, threads: int) -> list[str]:
     return rows
 
 
+def paper_run() -> str:
+    """Time the paper's full run in a temporary folder (a first run after installing compiles the kernels: about a
+    minute more, not counted here because a warm-up run of 20 generations compiles them first)."""
+    config = Path(__file__).resolve().parents[1] / "configs" / "fortress_paper.toml"
+    command = [sys.executable, "-m", "structgen", "evolve", str(config), "--seed", "20"]
+    with tempfile.TemporaryDirectory() as scratch:
+        subprocess.run([*command, "--run-dir", f"{scratch}/warm", "--set", "run.generations=20"], check=True, capture_output=True)
+        folder = Path(scratch) / "paper"
+        start = time.perf_counter()
+        subprocess.run([*command, "--run-dir", str(folder)], check=True, capture_output=True)
+        wall = time.perf_counter() - start
+        rows = [json.loads(line) for line in (folder / "metrics.jsonl").read_text().splitlines()]
+        size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file()) / 1e6
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1e6  # kilobytes on Linux
+    run = rows[-1]["wall_s"]
+    before = PAPER_RUN_BEFORE
+    return "\n".join(
+        [
+            "| paper run (10,000 generations, seed 20) | run time | s per generation | wall time | peak memory | folder | best |",
+            "|---|---:|---:|---:|---:|---:|---:|",
+            f"| 6dc049b | {before['run_s']:.1f} s | {before['run_s'] / 10_000:.4f} | {before['wall_s'] / 60:.1f} min | "
+            f"{before['peak_gb']} GB | {before['folder_mb']} MB | 0.913 |",
+            f"| this version | {run:.1f} s | {run / 10_000:.4f} | {wall / 60:.1f} min | {peak:.2f} GB | {size:.0f} MB | "
+            f"{max(r['best_objective'] for r in rows):.3f} |",
+        ]
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--worlds", type=int, nargs="+", default=[30, 200], help="worlds per batch (default 30 200)")
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="numba threads (default 1 2)")
     parser.add_argument("--repeats", type=int, default=3, help="runs of each engine row; the median is shown (default 3)")
     parser.add_argument("--generations", type=int, default=400, help="MAP-Elites generations to time (default 400)")
+    parser.add_argument("--paper-run", action="store_true", help="also time the paper's full run (about 3.5 minutes)")
     args = parser.parse_args()
     print(
         f"machine: {platform.processor() or platform.machine()}, numba {numba.__version__}, {numba.config.NUMBA_NUM_THREADS} threads"
@@ -131,6 +172,9 @@ def main() -> None:
         )
     for row in generation_rows(args.generations, max(args.threads)):
         print(row)
+    if args.paper_run:
+        print()
+        print(paper_run())
 
 
 if __name__ == "__main__":
