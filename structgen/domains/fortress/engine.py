@@ -472,9 +472,10 @@ def simulate(
         visits[rows] = state["visited"]
     n_nodes = np.repeat(tables.n_nodes, n_seeds)
     n_edges = np.repeat(tables.n_edges, n_seeds)
-    column = np.arange(visits.shape[1])
-    visited_nodes = (visits * (column[None, :] < n_nodes[:, None])).sum(axis=1)
-    visited_edges = visits.sum(axis=1) - visited_nodes
+    # Flags are 0 or 1, nodes first: a row's running count at its last node is its visited nodes.
+    counted = visits.cumsum(axis=1, dtype=np.int32)
+    visited_nodes = np.where(n_nodes > 0, counted[np.arange(count), np.maximum(n_nodes, 1) - 1], 0)
+    visited_edges = counted[:, -1] - visited_nodes
     size = n_nodes + n_edges
     fitness = (visited_nodes + visited_edges) / np.maximum(size, 1)
     shape = (n_worlds, n_seeds)

@@ -156,7 +156,7 @@ class FortressProblem(Problem):
         # Every world runs under the same simulation seeds (as the original); the engine's seeds are not needed.
         worlds = list(genomes)
         outcome, objective, entities = self.scores(worlds, self.seeds(), self.settings.steps)
-        sizes = np.array([w.size() for w in worlds], dtype=np.float64).reshape(-1, 2)
+        sizes = np.stack([outcome.tables.n_nodes, outcome.tables.n_edges], axis=1).astype(np.float64)
         if self.settings.measures == "entities_nodes":
             second = sizes[:, 0]
         else:
