@@ -318,3 +318,16 @@ def fsm_size_entropy(world: Genome) -> float:
     bins = np.trunc((sizes - 2) / (per_class - 1) * (n_classes - 1)).astype(np.int64)
     _, counts = np.unique(bins, return_counts=True)
     return _entropy(counts, n_classes)
+
+
+def compile_kernels() -> None:
+    """Compile every numba function of the domain (or load it from numba's cache in ``__pycache__``) by drawing,
+    mutating and simulating one small world: the first use after an install otherwise spends about a minute here.
+    ``make install`` calls it."""
+    from structgen.domains.fortress.engine import simulate
+
+    rng = np.random.default_rng(0)
+    world = random_world(rng, start="entropy")
+    mutants = mutate_worlds([world, world], rng)
+    connect_orphans(3, np.zeros((0, 5), dtype=np.int16), rng, Variation())
+    simulate([world, *mutants], [0], 2)
