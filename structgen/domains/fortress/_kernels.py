@@ -174,6 +174,7 @@ def _simulate(
         t = clock[0]
         # Entities alive at the start of the tick act in creation order; newborns get later slots and wait.
         n_start = slots[0]
+        died = False
         for i in range(n_start):
             if not alive[i]:
                 continue
@@ -194,6 +195,7 @@ def _simulate(
                     mine[LAST_EVENT] = t
             elif act == DIE:
                 alive[i] = False
+                died = True
                 _count(grid, rows, total, occupied, k, x, y, -1)
                 mine[LAST_EVENT] = t
             elif act == CLONE or act == ADD:
@@ -210,6 +212,7 @@ def _simulate(
                 j = _closest(i, arg, ex, ey, alive, members, n_members) if _another_of(total, arg, k) else -1
                 if j >= 0 and (take_reach < 0 or max(abs(ex[j] - x), abs(ey[j] - y)) <= take_reach):
                     alive[j] = False
+                    died = True
                     _count(grid, rows, total, occupied, arg, ex[j], ey[j], -1)
                     mine[LAST_EVENT] = t
             elif act == CHASE:
@@ -254,6 +257,7 @@ def _simulate(
                 _spawn(arg, x, y, cls, ex, ey, node, age, alive, slots, members, n_members)
                 _count(grid, rows, total, occupied, arg, x, y, 1)
                 alive[i] = False
+                died = True
                 _count(grid, rows, total, occupied, k, x, y, -1)
                 mine[LAST_EVENT] = t
             elif act == MOVE_WALL:
@@ -318,18 +322,20 @@ def _simulate(
             visited[node_vid[w, k] + node[i]] = 1
             if moved >= 0:
                 visited[edge_vid[moved]] = 1
-        # Drop the dead, keeping creation order.
-        kept = 0
-        for j in range(slots[0]):
-            if alive[j]:
-                if kept != j:
-                    cls[kept], ex[kept], ey[kept] = cls[j], ex[j], ey[j]
-                    node[kept], age[kept], alive[kept] = node[j], age[j], True
-                kept += 1
-        for j in range(kept, slots[0]):
-            alive[j] = False
-        slots[0] = kept
-        _list_members(cls, kept, members, n_members)
+        # Drop the dead, keeping creation order (a tick without deaths leaves the slots and class lists as they are:
+        # newborns were appended to both).
+        if died:
+            kept = 0
+            for j in range(slots[0]):
+                if alive[j]:
+                    if kept != j:
+                        cls[kept], ex[kept], ey[kept] = cls[j], ex[j], ey[j]
+                        node[kept], age[kept], alive[kept] = node[j], age[j], True
+                    kept += 1
+            for j in range(kept, slots[0]):
+                alive[j] = False
+            slots[0] = kept
+            _list_members(cls, kept, members, n_members)
 
 
 @nb.njit(parallel=True, cache=True)
