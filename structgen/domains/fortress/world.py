@@ -6,8 +6,8 @@ The operators follow the original's code (``entities.py`` makeTree/connectOrphan
 changes its condition in place, a new one goes to the end, and the repairs sort them as strings (``"10-2"`` before
 ``"2-0"``). The one quirk that changes results, ``connectOrphanNodes`` giving *every* node a new incoming edge each
 time it runs, is :attr:`Variation.orphan_edges`. The original mixes Python's ``random``, numpy's global generator
-and seeded generators; here one generator makes every choice (many at a time, as arrays), so a run is reproducible
-and resumes.
+and seeded generators; here one generator makes every choice, in compiled code (:mod:`._mutation`) that draws what
+numpy code would, so a run is reproducible and resumes.
 """
 
 from __future__ import annotations
@@ -98,12 +98,6 @@ def _harmonic_cdf() -> np.ndarray:
         cdf = (weights / weights.sum()).cumsum()
         table[top, :top] = cdf / cdf[-1]
     return table
-
-
-def new_conditions(rng: np.random.Generator, count: int, variation: Variation) -> np.ndarray:
-    """``(count, 3)``: random conditions as (condition, class argument, number), each condition equally likely, its
-    class uniform over the 15 and its number uniform over its range."""
-    return _mutation.new_conditions(rng, count, *_ranges(variation)).astype(np.int16)
 
 
 def set_edges(edges: np.ndarray, src: np.ndarray, dst: np.ndarray, conditions: np.ndarray) -> np.ndarray:
