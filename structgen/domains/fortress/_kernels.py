@@ -88,6 +88,14 @@ def _count(grid, rows, total, occupied, c, x, y, delta):
 
 
 @nb.njit(inline="always")
+def _move(grid, rows, total, occupied, c, j, x, y, nx, ny, ex, ey):
+    """Entity j of class c steps from (x, y) to (nx, ny)."""
+    _count(grid, rows, total, occupied, c, x, y, -1)
+    _count(grid, rows, total, occupied, c, nx, ny, 1)
+    ex[j], ey[j] = nx, ny
+
+
+@nb.njit(inline="always")
 def _spawn(c, x, y, cls, ex, ey, node, age, alive, slots, members, n_members):
     k = slots[0]
     cls[k], ex[k], ey[k], node[k], age[k], alive[k] = c, x, y, 0, 0, True
@@ -189,9 +197,7 @@ def _simulate(
                 d = _draw(draws, row, mine, 4)
                 nx, ny = x + _DX[d], y + _DY[d]
                 if _valid(nx, ny, width, height):
-                    _count(grid, rows, total, occupied, k, x, y, -1)
-                    _count(grid, rows, total, occupied, k, nx, ny, 1)
-                    ex[i], ey[i] = nx, ny
+                    _move(grid, rows, total, occupied, k, i, x, y, nx, ny, ex, ey)
                     mine[LAST_EVENT] = t
             elif act == DIE:
                 alive[i] = False
@@ -230,9 +236,7 @@ def _simulate(
                             else:
                                 sx = 0
                         if _valid(x + sx, y + sy, width, height):
-                            _count(grid, rows, total, occupied, k, x, y, -1)
-                            _count(grid, rows, total, occupied, k, x + sx, y + sy, 1)
-                            ex[i], ey[i] = x + sx, y + sy
+                            _move(grid, rows, total, occupied, k, i, x, y, x + sx, y + sy, ex, ey)
                             mine[LAST_EVENT] = t
             elif act == PUSH:
                 j = _closest(i, arg, ex, ey, alive, members, n_members) if _another_of(total, arg, k) else -1
@@ -241,17 +245,11 @@ def _simulate(
                     nx, ny = x + _DX[d], y + _DY[d]
                     if nx == ex[j] and ny == ey[j]:
                         if _valid(nx + _DX[d], ny + _DY[d], width, height):
-                            _count(grid, rows, total, occupied, k, x, y, -1)
-                            _count(grid, rows, total, occupied, k, nx, ny, 1)
-                            _count(grid, rows, total, occupied, arg, nx, ny, -1)
-                            _count(grid, rows, total, occupied, arg, nx + _DX[d], ny + _DY[d], 1)
-                            ex[i], ey[i] = nx, ny
-                            ex[j], ey[j] = nx + _DX[d], ny + _DY[d]
+                            _move(grid, rows, total, occupied, k, i, x, y, nx, ny, ex, ey)
+                            _move(grid, rows, total, occupied, arg, j, nx, ny, nx + _DX[d], ny + _DY[d], ex, ey)
                             mine[LAST_EVENT] = t
                     elif _valid(nx, ny, width, height):
-                        _count(grid, rows, total, occupied, k, x, y, -1)
-                        _count(grid, rows, total, occupied, k, nx, ny, 1)
-                        ex[i], ey[i] = nx, ny
+                        _move(grid, rows, total, occupied, k, i, x, y, nx, ny, ex, ey)
                         mine[LAST_EVENT] = t
             elif act == TRANSFORM:
                 _spawn(arg, x, y, cls, ex, ey, node, age, alive, slots, members, n_members)
