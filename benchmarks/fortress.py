@@ -13,7 +13,7 @@ The original's code runs 78 fortress-steps/s on this machine when timed in alter
 (``benchmarks/anchors/fortress.py``, 2026-11-24); speed-ups are against that. Both sides are the median of
 ``--repeats`` runs.
 
-    python benchmarks/fortress.py [--worlds 30 200] [--threads 1 2] [--generations 200] [--paper-run]
+    python benchmarks/fortress.py [--worlds 30 200] [--threads 1 2] [--generations 400] [--paper-run]
 
 ``--paper-run`` also times the paper's full run (``structgen evolve configs/fortress_paper.toml --seed 20``, about
 3 minutes) in a temporary folder: run time, wall time, peak memory and the folder's size.
