@@ -113,15 +113,26 @@ def _search(
     heap_keys,
     heap_states,
     path,
+    agent=-1,
+    owner=None,
+    leave=None,
+    relaxed=False,
 ):
-    """Space-time A* for one agent over ``window`` steps, avoiding the cells and swaps ``occupied`` reserves.
+    """Space-time A* for one agent over ``window`` steps, avoiding the cells and swaps ``occupied`` reserves
+    (``occupied[t, cell]``: the agent there at step ``t``, -1 for none, -2 for several).
 
     A state is (cell, time, goals reached). Its cost is the time of finishing the last goal: exact within the window,
     and the remaining distance and task waits (ignoring other agents) beyond it, as in rolling-horizon planning.
     A goal with ``waits[k] > 0`` (a manufacturing task) is finished by standing on it that many steps, one move in
     the search; ``pinned`` agents are in the middle of such a task and may only finish it. Writes the best path into
     ``path`` (``window + 1`` cells) and returns its cost (the estimated time at which the last goal is finished), or
-    -1 if no path exists."""
+    -1 if no path exists.
+
+    Start cells (the ``pbs`` planner's rules, :mod:`._pbs`): with ``owner`` given (``owner[cell]``: the agent whose
+    start cell it is, or -1), the cell of another agent ``o`` is closed at every step before ``leave[o]``, the step
+    at which ``o``'s own path first leaves it. ``relaxed`` lets ``agent`` stand on its start cell as long as it likes
+    whatever is reserved there (and never come back to it once it left, so that standing there always means waiting
+    there since step 0): such a search always finds a path."""
     n = neighbours.shape[0]
     levels = n_goals + 1
     # rest[k]: moves and waits from goal k-1 to the end of the last goal, along the goal sequence.
@@ -155,7 +166,7 @@ def _search(
             end = min(t + waits[k], window)
             free = True
             for u in range(t + 1, end + 1):
-                if occupied[u, cell] >= 0:
+                if occupied[u, cell] != -1 and not (relaxed and cell == start):
                     free = False
                     break
             child = end * slab + cell * levels + k + 1
@@ -169,12 +180,23 @@ def _search(
             continue
         for d in range(5):
             nxt = cell if d == 4 else neighbours[cell, d]
-            if nxt < 0 or occupied[t + 1, nxt] >= 0:
+            if nxt < 0:
                 continue
+            if relaxed and nxt == start:
+                if d != 4:
+                    continue  # back onto the start cell after leaving it: not waiting there any more
+            elif occupied[t + 1, nxt] != -1:
+                continue
+            elif owner is not None:
+                starter = owner[nxt]
+                if starter >= 0 and starter != agent and leave[starter] > t + 1:
+                    continue  # another agent still waits on its start cell
             if nxt != cell:
-                other = occupied[t, nxt]
-                if other >= 0 and occupied[t + 1, cell] == other:
-                    continue  # the two would swap cells
+                # A swap with whoever stands on nxt now and on this cell next; -2 marks a cell where several
+                # reserved paths meet (they may collide among themselves), and then any of them may swap.
+                before, after = occupied[t, nxt], occupied[t + 1, cell]
+                if before != -1 and after != -1 and (before == after or before == -2 or after == -2):
+                    continue
             nk = k + 1 if k < n_goals and nxt == goals[k] and waits[k] == 0 else k
             child = (t + 1) * slab + nxt * levels + nk
             if seen[child] == stamp:

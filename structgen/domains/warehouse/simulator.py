@@ -11,9 +11,9 @@ and the first ``replan`` steps are carried out. Throughput is the number of goal
 steps asked for. When more than half of the agents stood still over a whole replanning interval, the run is
 congested and stops there (throughput keeps the full horizon as its denominator, as in the original).
 
-Planner ``"pbs"``: windowed Priority-Based Search, the original's planner, written from its papers
-(:mod:`._pbs`); within 1.2 % of the original's throughput on its 33x36 warehouse layouts (benchmarks/layouts.md),
-about four times slower than ``"pp"``, and congesting from 1,500 robots at 101x102 where the original does not.
+Planner ``"pbs"``: windowed Priority-Based Search, the original's planner, written from its papers and from a
+plain-words account of RHCR's start-cell rules and failure repair (:mod:`._pbs`; each rule can be switched off with
+``pbs_off``).
 
 Planner ``"pp"`` (the default, for speed): windowed prioritized planning (space-time A* against a reservation
 table; agents that reached a goal longest ago plan first; an agent that finds no path moves to the front and
@@ -33,9 +33,14 @@ from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
 from structgen.errors import InputError
 
-__all__ = ["PLANNERS", "LayoutEvaluation", "SimulationResult", "evaluate_layout", "simulate"]
+__all__ = ["PBS_RULES", "PLANNERS", "LayoutEvaluation", "SimulationResult", "evaluate_layout", "simulate"]
 
 PLANNERS = ("pp", "pbs", "pibt")
+#: The ``pbs`` planner's rules that ``pbs_off`` can switch off, by name (module notes of :mod:`._pbs`): rule 1, own
+#: starts; rule 2, hold the start; rule 3, the waiting robot stays; rule 5, dead pairs first and ties to fewer
+#: collisions. Rule 4 is ``replan_cap`` and rule 6 ``fallback="repair"``.
+PBS_RULES = ("own_starts", "hold_start", "waiting_stays", "search_order")
+FALLBACKS = ("repair", "pp")
 #: Steps a manufacturing task takes at a station of each kind (the original's ``station_wait_times``).
 STATION_WAITS = (2, 5, 10)
 #: Goals queued ahead per agent at most (the queue is filled until its route is longer than the goal horizon).
@@ -64,6 +69,7 @@ class SimulationResult:
     finished: np.ndarray | None = None
     nodes: int = 0
     fallbacks: int = 0
+    failed_children: int = 0
 
 
 class _WarehouseTasks:
@@ -163,9 +169,11 @@ def simulate(
     priority: str = "waiting",
     trace: bool = False,
     node_budget: int | None = None,
-    dead_ends: int = 10,
-    fallback: str = "pp",
+    dead_ends: int | None = None,
+    fallback: str = "repair",
     goal_horizon: int | None = None,
+    pbs_off: tuple[str, ...] = (),
+    replan_cap: int = 5,
 ) -> SimulationResult:
     """Simulate ``agents`` robots on a whole warehouse map for ``steps`` steps and return the throughput.
 
@@ -182,15 +190,16 @@ def simulate(
             kind-0 stations; with five restarts the human layout jammed there in all runs, where RHCR scores 5.92.)
         priority: ``"waiting"`` (agents that reached a goal longest ago plan first; the calibrated default) or
             ``"random"`` (a fresh random order each round).
-        node_budget, dead_ends: the ``pbs`` planner gives up on a round after planning this many nodes (None: 10
-            per agent, at least 1,000) or after reaching this many nodes with no feasible child, whichever comes first.
-            Past the first dead end, depth-first backtracking mostly revisits the last few choices, which rarely
-            caused the collision it cannot resolve: at 101x102 with 1,400 robots, 200,000 nodes solved no round that
-            1,400 did not.
-        fallback: what ``pbs`` does with a round it gave up on: ``"pp"`` plans the round by prioritized planning
-            (as planner ``pp``), ``"wait"`` carries out the paths of the node it stopped at with waiting, as RHCR
-            repairs a failed plan locally. With ``"wait"`` the human 33x36 layout congested at 150 robots in 1 run of
-            5 and the 101x102 CMA-MAE layout at 1,400 robots, where RHCR does not (benchmarks/layouts.md).
+        node_budget: the ``pbs`` planner gives up on a round after planning this many nodes (children), in place of
+            RHCR's 60 s a call so that runs repeat exactly. None: 10 per agent, at least 1,000.
+        dead_ends: ``pbs`` also gives up after this many nodes with no feasible child (None: no such limit).
+        fallback: what ``pbs`` does with a round it gave up on: ``"repair"`` (RHCR's) carries out the node whose
+            paths stay collision-free longest, robots whose next cell is taken waiting, in a random order each step;
+            ``"pp"`` plans the round again by prioritized planning (as planner ``pp``).
+        pbs_off: names from :data:`PBS_RULES` to switch off (to measure what each rule does; all on is RHCR's
+            behaviour with the paper's ``prioritize_start``).
+        replan_cap: ``pbs`` fails a child after more than this many low-level searches per robot while making its
+            paths consistent (RHCR's five); 0: no cap (a last-resort cap of 50 still ends cycles).
         goal_horizon: goals are queued for each robot until the Manhattan route through them, task waits included,
             is longer than this. None: the planning window (10) for ``pbs``, which brought it within 1 % of RHCR on
             the 33x36 warehouses (against 1.3-2.5 % with 5), and the replanning period (5) for ``pp`` and ``pibt``,
@@ -228,10 +237,16 @@ def simulate(
         raise InputError(f"goal_horizon must be a non-negative integer, got {goal_horizon!r}")
     if not isinstance(node_budget, int) or node_budget < 1:
         raise InputError(f"node_budget must be a positive integer, got {node_budget!r}")
-    if not isinstance(dead_ends, int) or dead_ends < 0:
-        raise InputError(f"dead_ends must be a non-negative integer, got {dead_ends!r}")
-    if fallback not in ("pp", "wait"):
-        raise InputError(f"unknown fallback {fallback!r}; choose 'pp' or 'wait'")
+    if dead_ends is not None and (not isinstance(dead_ends, int) or dead_ends < 0):
+        raise InputError(f"dead_ends must be a non-negative integer or None, got {dead_ends!r}")
+    if fallback not in FALLBACKS:
+        raise InputError(f"unknown fallback {fallback!r}; choose from {', '.join(FALLBACKS)}")
+    unknown = [name for name in pbs_off if name not in PBS_RULES]
+    if unknown or isinstance(pbs_off, str):
+        raise InputError(f"pbs_off: unknown rule {unknown or pbs_off!r}; choose from {', '.join(PBS_RULES)}")
+    if not isinstance(replan_cap, int) or replan_cap < 0:
+        raise InputError(f"replan_cap must be a non-negative integer, got {replan_cap!r}")
+    rule_bits = sum(1 << i for i, name in enumerate(PBS_RULES) if name not in pbs_off)
     neighbours = _mapf.grid_neighbours(passable)
     targets = tasks_of.targets
     target_of = np.full(rows * cols, -1, dtype=np.int32)
@@ -248,7 +263,7 @@ def simulate(
     def manhattan(a: int, b: int) -> int:
         return abs(a // cols - b // cols) + abs(a % cols - b % cols)
 
-    tasks = restarts_used = held_total = nodes_total = fallbacks = 0
+    tasks = restarts_used = held_total = nodes_total = fallbacks = failed_total = 0
     trail = [positions.copy()] if trace else None
     finished: list[tuple[int, int, int]] = []
     last_done = np.zeros(agents, dtype=np.int64)
@@ -285,17 +300,19 @@ def simulate(
                     positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, restarts
                 )
             else:
-                paths, nodes, gave_up = _pbs.pbs_window(
+                paths, nodes, gave_up, failed = _pbs.pbs_window(
                     positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, node_budget,
-                    dead_ends,
+                    -1 if dead_ends is None else dead_ends, rule_bits, replan_cap,
                 )  # fmt: skip
                 if gave_up and fallback == "pp":
                     paths, used, held = _mapf.plan_window(
                         positions, goals, left, n_goals, pinned, target_of, dist, neighbours, window, order, restarts
                     )
                 elif gave_up:
-                    paths = _pbs.wait_out(paths, positions, window, order, rows * cols)
+                    orders = np.argsort(rng.random((window, agents)), axis=1)
+                    paths = _pbs.wait_out(paths, positions, window, orders, rows * cols)
                 nodes_total += nodes
+                failed_total += failed
                 fallbacks += int(gave_up)
         else:  # PIBT decides one step at a time: its "plan" is the interval itself
             waited = (t - last_done).astype(np.int64)
@@ -345,6 +362,7 @@ def simulate(
         finished=None if trail is None else np.array(finished, dtype=np.int64).reshape(-1, 3),
         nodes=nodes_total,
         fallbacks=fallbacks,
+        failed_children=failed_total,
     )
 
 
