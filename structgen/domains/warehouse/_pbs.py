@@ -158,6 +158,29 @@ def _pair_collision(paths, a, b):
 
 
 @nb.njit(cache=True)
+def _dead_pair_first(a, b, paths, dead_a, dead_b, n_dead):
+    """Rule 5: the pair whose collision is expanded. The earliest collision's pair ``(a, b)``, unless the paths of
+    a dead pair (``dead_a[i]``, ``dead_b[i]`` for ``i < n_dead``) collide: then the dead pair that collides first."""
+    first = paths.shape[1]
+    for i in range(n_dead):
+        t = _pair_collision(paths, dead_a[i], dead_b[i])
+        if 0 <= t < first:
+            a, b, first = dead_a[i], dead_b[i], t
+    return a, b
+
+
+@nb.njit(cache=True)
+def _second_first(feasible, costs, collisions, rules):
+    """Rule 5: whether the second of two children is explored first: it alone is feasible, or both are and it costs
+    less, or (with :data:`SEARCH_ORDER`) costs the same with fewer collisions."""
+    if not feasible[1]:
+        return False
+    if not feasible[0] or costs[1] < costs[0]:
+        return True
+    return bool(rules & SEARCH_ORDER) and costs[1] == costs[0] and collisions[1] < collisions[0]
+
+
+@nb.njit(cache=True)
 def _collect(start, heads, nexts, ends, mark, stamp, queue):
     """Every agent reachable from ``start`` along the edge lists ``heads``/``nexts``/``ends`` (``start`` included)
     into ``queue``; marks them with ``stamp``. Returns how many."""
@@ -530,12 +553,8 @@ def pbs_window(
         if nodes >= node_budget:
             break
         a, b = _collision_at(at, paths, index, n)
-        if rules & SEARCH_ORDER:  # a collision of a dead pair goes first, the earliest of them
-            dead_at = width
-            for i in range(n_dead):
-                t = _pair_collision(paths, dead_a[i], dead_b[i])
-                if 0 <= t < dead_at:
-                    a, b, dead_at = dead_a[i], dead_b[i], t
+        if rules & SEARCH_ORDER:
+            a, b = _dead_pair_first(a, b, paths, dead_a, dead_b, n_dead)
         # Agents already ordered can still collide (an agent above moved onto a waiting agent's start cell, or rule 3
         # moved an upper agent): then only the existing order is a child (adding the other would make a cycle).
         a_above_b = b_above_a = False
@@ -583,12 +602,7 @@ def pbs_window(
                     x = log[0][base_undo + i]
                     kept_agent[i], kept_cost[i] = x, costs[x]
                     kept_path[i] = paths[x]
-        second_wins = False
-        if not only_one and results[1]:
-            if not results[0] or child_cost[1] < child_cost[0]:
-                second_wins = True
-            elif child_cost[1] == child_cost[0] and rules & SEARCH_ORDER:
-                second_wins = child_collisions[1] < child_collisions[0]
+        second_wins = not only_one and _second_first(results, child_cost, child_collisions, rules)
         if second_wins:  # the state holds the second child already
             if results[0]:
                 alt_undo[n_alt], alt_edges[n_alt], alt_hi[n_alt], alt_lo[n_alt] = base_undo, base_edges, first_hi, first_lo
