@@ -1,14 +1,19 @@
 """RHCR, the warehouse paper's simulator, built from the authors' repository in a scratch folder and run beside `pbs`.
 
     python benchmarks/anchors/rhcr.py speed  [--original PATH] [--repeats 3]
-    python benchmarks/anchors/rhcr.py rounds [--original PATH] [--agents 1500] [--steps 300] [--map NAME]
+    python benchmarks/anchors/rhcr.py rounds [--original PATH] [--agents 1500] [--steps 300] [--map NAME] [--uneven]
+    python benchmarks/anchors/rhcr.py sweep  [--original PATH] [--robots 500,1000,...] [--steps 300] [--map NAME]
+                                              [--uneven] [--output FILE.json]
 
 ``speed``: 200 robots x 1,000 steps on the paper's CMA-MAE 33x36 layout, seed 0, RHCR and ``pbs`` timed in
 alternation (one process each, median of the repeats). ``rounds``: one run of RHCR with its per-round report on (the
 outcome of each PBS call, its high-level nodes expanded and generated), printed as a table with the throughput, then
-the same run with ``pbs`` (rounds it gave up on, nodes). Both use the paper's settings (PBS with SIPP, window 10,
-replanning every 5 steps, ``prioritize_start`` on unless ``--no-prioritize-start``, 60 s per PBS call, stop at a
-traffic jam).
+the same run with ``pbs`` (rounds it gave up on, nodes, children that could not be made consistent). ``sweep``: RHCR's
+throughput at several robot counts on one map, written as JSON for ``benchmarks/throughput_vs_agents.py --rhcr``.
+All use the paper's settings (PBS with SIPP, window 10, replanning every 5 steps, ``prioritize_start`` on unless
+``--no-prioritize-start``, 60 s per PBS call, stop at a traffic jam); a map under ``manufacture/`` runs RHCR's
+manufacturing scenario (three station kinds, tasks of 2, 5 and 10 steps), ``--uneven`` weighs the left
+workstations five times.
 
 The original is ``lunjohnzhang/warehouse_env_gen_nca_public`` (its ``RHCR/`` folder is the authors' fork of RHCR,
 under a research-only licence): pass a checkout with ``--original`` or the script clones it. Nothing of it enters
@@ -102,17 +107,27 @@ def build(checkout: Path, build_dir: Path) -> Path:
     return module_dir
 
 
-def run_rhcr(module_dir: Path, map_file: Path, agents: int, steps: int, seed: int, screen: int, prioritize_start: bool):
+def is_factory(map_file: Path) -> bool:
+    return "manufacture" in map_file.parts
+
+
+def run_rhcr(
+    module_dir: Path, map_file: Path, agents: int, steps: int, seed: int, screen: int, prioritize_start: bool,
+    uneven: bool = False,
+):  # fmt: skip
     """One RHCR simulation in a fresh process (it prints to the C++ stdout); returns (result dict, stdout)."""
+    scenario = "MANUFACTURE" if is_factory(map_file) else "KIVA"
     settings = dict(
-        map=map_file.read_text(), output=str(module_dir.parent / "output"), scenario="KIVA", task="", agentNum=agents,
+        map=map_file.read_text(), output=str(module_dir.parent / "output"), scenario=scenario, task="", agentNum=agents,
         cutoffTime=60, screen=screen, solver="PBS", id=False, single_agent_solver="SIPP", lazyP=False,
         simulation_time=steps, simulation_window=5, travel_time_window=0, potential_function="NONE",
         potential_threshold=0, rotation=False, robust=0, CAT=False, hold_endpoints=False, dummy_paths=False,
         prioritize_start=prioritize_start, suboptimal_bound=1, log=False, test=False, force_new_logdir=False,
         save_result=False, save_solver=False, save_heuristics_table=False, stop_at_traffic_jam=True,
-        left_w_weight=1.0, right_w_weight=1.0, planning_window=10, seed=seed,
+        left_w_weight=5.0 if uneven else 1.0, right_w_weight=1.0, planning_window=10, seed=seed,
     )  # fmt: skip
+    if scenario == "MANUFACTURE":  # the paper's manufacturing configuration (config/manufacture/*.gin)
+        settings.update(n_station_types=3, station_wait_times=[2, 5, 10])
     program = (
         "import json, sys; sys.path.insert(0, sys.argv[1]); import warehouse_sim; "
         "result = warehouse_sim.run(**json.loads(sys.stdin.read())); sys.stdout.flush(); "
@@ -128,12 +143,14 @@ def run_rhcr(module_dir: Path, map_file: Path, agents: int, steps: int, seed: in
     return json.loads(result_file.read_text()), done.stdout
 
 
-def run_ours(map_file: Path, agents: int, steps: int, seed: int):
-    from structgen.domains.warehouse.layouts import WAREHOUSE
+def run_ours(map_file: Path, agents: int, steps: int, seed: int, uneven: bool = False):
+    from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE
     from structgen.domains.warehouse.simulator import simulate
     from structgen.grid import Grid
 
-    return simulate(Grid.load(map_file, WAREHOUSE.vocabulary).tiles, agents, steps, seed=seed, planner="pbs")
+    kind = MANUFACTURING if is_factory(map_file) else WAREHOUSE
+    tiles = Grid.load(map_file, kind.vocabulary).tiles
+    return simulate(tiles, agents, steps, kind=kind, seed=seed, planner="pbs", uneven=uneven)
 
 
 def speed(module_dir: Path, maps: Path, repeats: int) -> None:
@@ -152,9 +169,9 @@ def speed(module_dir: Path, maps: Path, repeats: int) -> None:
     print(f"| structgen `pbs` | {statistics.median(t for t, _ in ours):.2f} | {ours[0][1]:.3f} |")
 
 
-def rounds(module_dir: Path, maps: Path, name: str, agents: int, steps: int, prioritize_start: bool) -> None:
+def rounds(module_dir: Path, maps: Path, name: str, agents: int, steps: int, prioritize_start: bool, uneven: bool) -> None:
     map_file = maps / name
-    result, output = run_rhcr(module_dir, map_file, agents, steps, 0, 1, prioritize_start)
+    result, output = run_rhcr(module_dir, map_file, agents, steps, 0, 1, prioritize_start, uneven)
     calls = [ROUND.match(line) for line in output.splitlines()]
     calls = [match for match in calls if match]
     expanded = [int(m.group(3)) for m in calls]
@@ -162,7 +179,7 @@ def rounds(module_dir: Path, maps: Path, name: str, agents: int, steps: int, pri
     # A node expanded makes two children; fewer generated means children whose agent found no path.
     dropped = [2 * e + 1 - g for e, g in zip(expanded, generated)]
     failed = sum(m.group(1) != "Succeed" for m in calls)
-    print(f"\n{name}, {agents} robots, {steps} steps, seed 0, prioritize_start={prioritize_start}:\n")
+    print(f"\n{name}, {agents} robots, {steps} steps, seed 0, prioritize_start={prioritize_start}, uneven={uneven}:\n")
     print(
         "| simulator | throughput | congested | rounds given up | nodes a round (min-max) | children without a path | seconds |"
     )
@@ -171,17 +188,34 @@ def rounds(module_dir: Path, maps: Path, name: str, agents: int, steps: int, pri
         f"| RHCR | {result['throughput']:.3f} | {result['congested']} | {failed} of {len(calls)} | "
         f"{min(expanded)}-{max(expanded)} expanded | {sum(dropped)} | {result['cpu_runtime']:.0f} |"
     )
-    mine = run_ours(map_file, agents, steps, 0)
-    planned = mine.stopped_at // 5
+    mine = run_ours(map_file, agents, steps, 0, uneven)
+    planned = -(-mine.stopped_at // 5)
     print(
         f"| structgen `pbs` | {mine.throughput:.3f} | {mine.congested} | {mine.fallbacks} of {planned} | "
-        f"{mine.nodes} children in all | | {mine.seconds:.0f} |"
+        f"{mine.nodes} children in all | {mine.failed_children} | {mine.seconds:.0f} |"
     )
+
+
+def sweep(module_dir: Path, maps: Path, name: str, robots: list[int], steps: int, uneven: bool, output: Path) -> None:
+    """RHCR's throughput at each robot count (seed 0), printed and written to ``output`` as JSON."""
+    points = []
+    for agents in robots:
+        began = time.perf_counter()
+        result, _ = run_rhcr(module_dir, maps / name, agents, steps, 0, 0, True, uneven)
+        points.append({"robots": agents, "throughput": result["throughput"], "congested": bool(result["congested"])})
+        print(
+            f"| {agents} | {result['throughput']:.3f} | {result['congested']} | {time.perf_counter() - began:.0f} |", flush=True
+        )
+    output.write_text(json.dumps({"map": name, "steps": steps, "uneven": uneven, "points": points}, indent=1) + "\n")
+    print(f"wrote {output}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("speed", "rounds"), help="time both (speed) or compare one run round by round")
+    parser.add_argument(
+        "what", choices=("speed", "rounds", "sweep"),
+        help="time both (speed), compare one run round by round (rounds), or RHCR at several robot counts (sweep)",
+    )  # fmt: skip
     parser.add_argument("--original", type=Path, default=None, help="a checkout of the original (default: clone it)")
     parser.add_argument(
         "--build-dir", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "structgen-rhcr",
@@ -193,6 +227,9 @@ def main() -> None:
     parser.add_argument("--map", default=LARGE, help="rounds: a reference map under the data folder (default: the paper's "
                         "CMA-MAE a=5 layout grown to 101x102)")  # fmt: skip
     parser.add_argument("--no-prioritize-start", action="store_true", help="rounds: run RHCR with prioritize_start off")
+    parser.add_argument("--uneven", action="store_true", help="rounds, sweep: left workstations five times likelier")
+    parser.add_argument("--robots", default="500,1000,1500,2000", help="sweep: robot counts (default 500,1000,1500,2000)")
+    parser.add_argument("--output", type=Path, default=Path("rhcr_sweep.json"), help="sweep: JSON file to write")
     args = parser.parse_args()
     from structgen.domains.warehouse.layouts import reference_maps
 
@@ -204,8 +241,11 @@ def main() -> None:
     module_dir = build(checkout, args.build_dir)
     if args.what == "speed":
         speed(module_dir, maps, args.repeats)
+    elif args.what == "rounds":
+        rounds(module_dir, maps, args.map, args.agents, args.steps, not args.no_prioritize_start, args.uneven)
     else:
-        rounds(module_dir, maps, args.map, args.agents, args.steps, not args.no_prioritize_start)
+        robots = [int(n) for n in args.robots.split(",")]
+        sweep(module_dir, maps, args.map, robots, args.steps, args.uneven, args.output)
 
 
 if __name__ == "__main__":

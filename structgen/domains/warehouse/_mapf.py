@@ -96,6 +96,40 @@ def _heap_pop(keys, states, size):
 
 
 @nb.njit(cache=True)
+def _taken(occupied, lookup, t, cell, agent):
+    """Whether a reserved path stands on ``cell`` at step ``t``: in ``occupied``, or with ``lookup`` (module notes of
+    :func:`_search`) whether a marked agent other than ``agent`` does."""
+    if lookup is None:
+        return occupied[t, cell] != -1
+    head, after, agent_of, mark, stamp, paths, cells = lookup
+    node = head[t * cells + cell]
+    while node >= 0:
+        y = agent_of[node]
+        if mark[y] == stamp and y != agent:
+            return True
+        node = after[node]
+    return False
+
+
+@nb.njit(cache=True)
+def _swaps(occupied, lookup, t, nxt, cell, agent):
+    """Whether a reserved path goes from ``nxt`` at step ``t`` to ``cell`` at ``t + 1`` (a move from ``cell`` to
+    ``nxt`` would swap with it). In ``occupied``, -2 marks a cell where several reserved paths meet (they may collide
+    among themselves), and then any of them may swap."""
+    if lookup is None:
+        before, after = occupied[t, nxt], occupied[t + 1, cell]
+        return before != -1 and after != -1 and (before == after or before == -2 or after == -2)
+    head, nexts, agent_of, mark, stamp, paths, cells = lookup
+    node = head[t * cells + nxt]
+    while node >= 0:
+        y = agent_of[node]
+        if mark[y] == stamp and y != agent and paths[y, t + 1] == cell:
+            return True
+        node = nexts[node]
+    return False
+
+
+@nb.njit(cache=True)
 def _search(
     start,
     goals,
@@ -112,14 +146,21 @@ def _search(
     stamp,
     heap_keys,
     heap_states,
+    cell_ids,
     path,
     agent=-1,
     owner=None,
     leave=None,
     relaxed=False,
+    lookup=None,
 ):
     """Space-time A* for one agent over ``window`` steps, avoiding the cells and swaps ``occupied`` reserves
-    (``occupied[t, cell]``: the agent there at step ``t``, -1 for none, -2 for several).
+    (``occupied[t, cell]``: the agent there at step ``t``, -1 for none, -2 for several). With ``lookup`` =
+    ``(head, after, agent_of, mark, stamp, paths, cells)`` the reserved paths are instead those of the agents whose
+    ``mark`` is ``stamp``, found through an index of every path by step and cell (``head[t * cells + cell]`` starts a
+    list of nodes ``agent * (window + 1) + t`` linked by ``after``, ``agent_of[node]`` its agent): the ``pbs``
+    planner reserves the paths of the agents above the one planned, often hundreds, and copying them into a table for
+    every search cost more than the search.
 
     A state is (cell, time, goals reached). Its cost is the time of finishing the last goal: exact within the window,
     and the remaining distance and task waits (ignoring other agents) beyond it, as in rolling-horizon planning.
@@ -132,31 +173,40 @@ def _search(
     start cell it is, or -1), the cell of another agent ``o`` is closed at every step before ``leave[o]``, the step
     at which ``o``'s own path first leaves it. ``relaxed`` lets ``agent`` stand on its start cell as long as it likes
     whatever is reserved there (and never come back to it once it left, so that standing there always means waiting
-    there since step 0): such a search always finds a path."""
-    n = neighbours.shape[0]
+    there since step 0): such a search always finds a path.
+
+    States are numbered by the cells the search meets, in the order it meets them (``cell_ids``, from
+    :func:`search_scratch`), not by their place on the map: no more than ``2w² + 2w + 1`` cells lie within ``w``
+    moves, so the arrays one search touches stay small and in cache whatever the map's size."""
     levels = n_goals + 1
+    met, local_of, cell_of = cell_ids[0], cell_ids[1], cell_ids[2]
     # rest[k]: moves and waits from goal k-1 to the end of the last goal, along the goal sequence.
     rest = np.zeros(levels + 1, dtype=np.int64)
     for k in range(n_goals - 1, 0, -1):
         rest[k] = rest[k + 1] + dist[target_of[goals[k]], goals[k - 1]] + waits[k]
     size = 0
-    first = start * levels
+    met[start] = stamp
+    local_of[start] = 0
+    cell_of[0] = start
+    count = 1
+    first = 0
     seen[first] = stamp
     parent[first] = -1
     h0 = 0 if n_goals == 0 else dist[target_of[goals[0]], start] + waits[0] + rest[1]
     size = _heap_push(heap_keys, heap_states, size, h0 * (window + 2) + window, first)
-    slab = n * levels  # states per time step
+    slab = reachable_cells(window) * levels  # states per time step
     while size > 0:
         key = heap_keys[0]
         state, size = _heap_pop(heap_keys, heap_states, size)
         t = state // slab
-        cell = (state % slab) // levels
+        here_id = (state % slab) // levels
+        cell = cell_of[here_id]
         k = state % levels
         if t == window:
             # Walk back; a task move spans several steps on one cell.
             s, high = state, window
             while s >= 0:
-                here = (s % slab) // levels
+                here = cell_of[(s % slab) // levels]
                 for back in range(s // slab, high + 1):
                     path[back] = here
                 high = s // slab - 1
@@ -166,10 +216,10 @@ def _search(
             end = min(t + waits[k], window)
             free = True
             for u in range(t + 1, end + 1):
-                if occupied[u, cell] != -1 and not (relaxed and cell == start):
+                if not (relaxed and cell == start) and _taken(occupied, lookup, u, cell, agent):
                     free = False
                     break
-            child = end * slab + cell * levels + k + 1
+            child = end * slab + here_id * levels + k + 1
             if free and seen[child] != stamp:
                 seen[child] = stamp
                 parent[child] = state
@@ -185,20 +235,21 @@ def _search(
             if relaxed and nxt == start:
                 if d != 4:
                     continue  # back onto the start cell after leaving it: not waiting there any more
-            elif occupied[t + 1, nxt] != -1:
+            elif _taken(occupied, lookup, t + 1, nxt, agent):
                 continue
             elif owner is not None:
                 starter = owner[nxt]
                 if starter >= 0 and starter != agent and leave[starter] > t + 1:
                     continue  # another agent still waits on its start cell
-            if nxt != cell:
-                # A swap with whoever stands on nxt now and on this cell next; -2 marks a cell where several
-                # reserved paths meet (they may collide among themselves), and then any of them may swap.
-                before, after = occupied[t, nxt], occupied[t + 1, cell]
-                if before != -1 and after != -1 and (before == after or before == -2 or after == -2):
-                    continue
+            if nxt != cell and _swaps(occupied, lookup, t, nxt, cell, agent):
+                continue
             nk = k + 1 if k < n_goals and nxt == goals[k] and waits[k] == 0 else k
-            child = (t + 1) * slab + nxt * levels + nk
+            if met[nxt] != stamp:
+                met[nxt] = stamp
+                local_of[nxt] = count
+                cell_of[count] = nxt
+                count += 1
+            child = (t + 1) * slab + local_of[nxt] * levels + nk
             if seen[child] == stamp:
                 continue
             seen[child] = stamp
@@ -209,15 +260,23 @@ def _search(
 
 
 @nb.njit(cache=True)
+def reachable_cells(window):
+    """How many cells lie within ``window`` moves of a cell (a diamond), the most one search can meet."""
+    return 2 * window * window + 2 * window + 1
+
+
+@nb.njit(cache=True)
 def search_scratch(cells, window, max_goals):
-    """The working arrays :func:`_search` needs for a map of ``cells`` cells: one entry per (step, cell, goals
-    reached) state. ``seen`` is stamped, so that one set serves every search of a round."""
-    states = (window + 1) * cells * (max_goals + 1)
+    """The working arrays :func:`_search` needs on a map of ``cells`` cells: one entry per (step, cell met, goals
+    reached) state, and ``cell_ids`` (which cells a search met, under which number). ``seen`` and ``cell_ids[0]``
+    are stamped, so that one set serves every search of a round."""
+    states = (window + 1) * reachable_cells(window) * (max_goals + 1)
     return (
         np.zeros(states, dtype=np.int32),
         np.empty(states, dtype=np.int64),
         np.empty(states, dtype=np.int64),
         np.empty(states, dtype=np.int64),
+        np.zeros((3, max(cells, reachable_cells(window))), dtype=np.int64),
     )
 
 
@@ -232,7 +291,7 @@ def plan_window(positions, goals, waits, n_goals, pinned, target_of, dist, neigh
     Returns ``(paths, restarts used, agents held in place)``."""
     n_agents = len(positions)
     n = neighbours.shape[0]
-    seen, parent, heap_keys, heap_states = search_scratch(n, window, goals.shape[1])
+    seen, parent, heap_keys, heap_states, cell_ids = search_scratch(n, window, goals.shape[1])
     occupied = np.empty((window + 1, n), dtype=np.int32)
     paths = np.empty((n_agents, window + 1), dtype=np.int32)
     path = np.empty(window + 1, dtype=np.int32)
@@ -268,6 +327,7 @@ def plan_window(positions, goals, waits, n_goals, pinned, target_of, dist, neigh
                 stamp,
                 heap_keys,
                 heap_states,
+                cell_ids,
                 path,
             )
             if cost < 0:

@@ -56,8 +56,9 @@ ALL_RULES = OWN_STARTS | HOLD_START | WAITING_STAYS | SEARCH_ORDER
 #: agents moving each other out of the way ends.
 _LAST_RESORT_CAP = 50
 
-# Slots of the counters array that the helpers share.
-_UNDO, _TOTAL, _STAMP, _MARK = 0, 1, 2, 3
+# Slots of the counters array that the helpers share: the undo log's length, the sum of costs, the search stamp, the
+# walk stamp, and the marks of the agents above and below the agent planned last.
+_UNDO, _TOTAL, _STAMP, _MARK, _ABOVE, _BELOW = 0, 1, 2, 3, 4, 5
 
 
 @nb.njit(cache=True)
@@ -71,7 +72,7 @@ def _leave(path, start):
 
 @nb.njit(cache=True)
 def _index_add(x, path, index, cells):
-    head, after, before = index
+    head, after, before, _ = index
     width = len(path)
     for t in range(width):
         node = x * width + t
@@ -86,7 +87,7 @@ def _index_add(x, path, index, cells):
 
 @nb.njit(cache=True)
 def _index_remove(x, path, index, cells):
-    head, after, before = index
+    head, after, before, _ = index
     width = len(path)
     for t in range(width):
         node = x * width + t
@@ -100,17 +101,22 @@ def _index_remove(x, path, index, cells):
 
 
 @nb.njit(cache=True)
-def _tally(x, path, paths, index, cells, collisions_at, sign):
-    """Add ``sign`` to ``collisions_at[t]`` for every collision of agent ``x`` on ``path`` with another agent in the
-    index at step ``t`` (each counted once per pair and step, whichever of the two is tallied)."""
-    head, after, _ = index
+def _tally(x, path, paths, index, cells, tallies, sign):
+    """Add ``sign`` to the tallies (``collisions_at[t]``, and ``of_agent[a]`` for both agents) for every collision
+    of agent ``x`` on ``path`` with another agent in the index at step ``t`` (each counted once per pair and step,
+    whichever of the two is tallied)."""
+    head, after, _, _ = index
+    collisions_at, of_agent = tallies
     width = len(path)
     for t in range(1, width):
         v = path[t]
         node = head[t * cells + v]
         while node >= 0:
-            if node // width != x:
+            y = node // width
+            if y != x:
                 collisions_at[t] += sign
+                of_agent[x] += sign
+                of_agent[y] += sign
             node = after[node]
         u = path[t - 1]
         if u != v:
@@ -119,15 +125,20 @@ def _tally(x, path, paths, index, cells, collisions_at, sign):
                 y = node // width
                 if y != x and paths[y, t] == u:
                     collisions_at[t] += sign
+                    of_agent[x] += sign
+                    of_agent[y] += sign
                 node = after[node]
 
 
 @nb.njit(cache=True)
-def _collision_at(t, paths, index, cells):
-    """A pair of agents that collide at step ``t`` (one is known to exist)."""
-    head, after, _ = index
+def _collision_at(t, paths, index, cells, of_agent):
+    """A pair of agents that collide at step ``t`` (one is known to exist); only agents with collisions are looked
+    at."""
+    head, after, _, _ = index
     n_agents, width = paths.shape
     for a in range(n_agents):
+        if of_agent[a] == 0:
+            continue
         v = paths[a, t]
         node = head[t * cells + v]
         while node >= 0:
@@ -225,7 +236,7 @@ def _reaches(x, y, heads, nexts, ends, mark, stamp, queue, level):
 
 
 @nb.njit(cache=True)
-def _set_path(x, path, cost, paths, costs, leave, positions, index, collisions_at, counters, log):
+def _set_path(x, path, cost, paths, costs, leave, positions, index, tallies, counters, log):
     """Give agent ``x`` a new path of ``cost``, its old one logged for :func:`_undo_to`; returns the log (it grows
     when full)."""
     undo_agent, undo_cost, undo_path = log
@@ -236,7 +247,7 @@ def _set_path(x, path, cost, paths, costs, leave, positions, index, collisions_a
     cells = index[0].shape[0] // paths.shape[1]
     undo_agent[n_undo], undo_cost[n_undo] = x, costs[x]
     undo_path[n_undo] = paths[x]
-    _replace(x, path, paths, index, cells, collisions_at)
+    _replace(x, path, paths, index, cells, tallies)
     counters[_TOTAL] += cost - costs[x]
     costs[x] = cost
     leave[x] = _leave(paths[x], positions[x])
@@ -245,13 +256,13 @@ def _set_path(x, path, cost, paths, costs, leave, positions, index, collisions_a
 
 
 @nb.njit(cache=True)
-def _undo_to(keep, paths, costs, leave, positions, index, collisions_at, counters, log):
+def _undo_to(keep, paths, costs, leave, positions, index, tallies, counters, log):
     undo_agent, undo_cost, undo_path = log
     cells = index[0].shape[0] // paths.shape[1]
     while counters[_UNDO] > keep:
         n_undo = counters[_UNDO] - 1
         x = undo_agent[n_undo]
-        _replace(x, undo_path[n_undo], paths, index, cells, collisions_at)
+        _replace(x, undo_path[n_undo], paths, index, cells, tallies)
         counters[_TOTAL] += undo_cost[n_undo] - costs[x]
         costs[x] = undo_cost[n_undo]
         leave[x] = _leave(paths[x], positions[x])
@@ -259,13 +270,13 @@ def _undo_to(keep, paths, costs, leave, positions, index, collisions_at, counter
 
 
 @nb.njit(cache=True)
-def _replace(x, path, paths, index, cells, collisions_at):
+def _replace(x, path, paths, index, cells, tallies):
     """Agent ``x``'s path becomes ``path``, in the index and the collision tallies too."""
-    _tally(x, paths[x], paths, index, cells, collisions_at, -1)
+    _tally(x, paths[x], paths, index, cells, tallies, -1)
     _index_remove(x, paths[x], index, cells)
     paths[x] = path
     _index_add(x, paths[x], index, cells)
-    _tally(x, paths[x], paths, index, cells, collisions_at, 1)
+    _tally(x, paths[x], paths, index, cells, tallies, 1)
 
 
 @nb.njit(cache=True)
@@ -322,70 +333,68 @@ def _pop_edges_to(keep, n_edges, graph):
 
 
 @nb.njit(cache=True)
-def _plan(x, problem, scratch, paths, leave, graph, walk, counters, window, rules):
+def _plan(x, problem, scratch, paths, leave, index, graph, walk, counters, window, rules):
     """Agent ``x`` planned against every agent above it (and, rule 1, the start cells others own), into the
     scratch path. Returns ``(cost, low-level searches made)``; cost -1 when there is no path."""
     positions, goals, waits, n_goals, pinned, target_of, dist, neighbours, owner, no_leave = problem
-    seen, parent, heap_keys, heap_states, path, occupied = scratch
+    seen, parent, heap_keys, heap_states, cell_ids, path, occupied = scratch
     edge_hi, _, next_up, _, head_up, _ = graph
-    mark, queue, above = walk
+    mark, queue, above, _ = walk
     counters[_MARK] += 1
-    n_above = _collect(x, head_up, next_up, edge_hi, mark, counters[_MARK], above)
-    for i in range(1, n_above):
-        y = above[i]
-        for t in range(window + 1):
-            cell = paths[y, t]
-            occupied[t, cell] = y if occupied[t, cell] == -1 else -2  # agents above may collide among themselves
+    counters[_ABOVE] = counters[_MARK]
+    counters[_BELOW] = 0
+    _collect(x, head_up, next_up, edge_hi, mark, counters[_MARK], above)
+    lookup = (index[0], index[1], index[3], mark, counters[_ABOVE], paths, len(owner))
     owned = leave if rules & OWN_STARTS else no_leave
     counters[_STAMP] += 1
     cost = _search(positions[x], goals[x], waits[x], n_goals[x], pinned[x], target_of, dist, neighbours, occupied,
-                   window, seen, parent, counters[_STAMP], heap_keys, heap_states, path, x, owner, owned, False)  # fmt: skip
+                   window, seen, parent, counters[_STAMP], heap_keys, heap_states, cell_ids, path, x, owner, owned, False,
+                   lookup)  # fmt: skip
     searches = 1
     if cost < 0 and rules & HOLD_START:
         counters[_STAMP] += 1
         cost = _search(positions[x], goals[x], waits[x], n_goals[x], pinned[x], target_of, dist, neighbours, occupied,
-                       window, seen, parent, counters[_STAMP], heap_keys, heap_states, path, x, owner, owned, True)  # fmt: skip
+                       window, seen, parent, counters[_STAMP], heap_keys, heap_states, cell_ids, path, x, owner, owned, True,
+                       lookup)  # fmt: skip
         searches = 2
-    for i in range(1, n_above):
-        y = above[i]
-        for t in range(window + 1):
-            occupied[t, paths[y, t]] = -1
     return cost, searches
 
 
 @nb.njit(cache=True)
 def _mover(x, y, t, cell, positions, leave, level, graph, walk, counters, rules):
     """Which of two colliding agents must be planned again (rule 3, then the partial order), or -1 for neither.
-    ``cell`` is where they collide at step ``t`` (-1 for a swap, where neither waits)."""
+    ``x`` was planned just now, so the agents above it carry the mark of that planning (``counters[_ABOVE]``);
+    the agents below it are marked once, when first asked for (``counters[_BELOW]``, 0 until then). ``cell`` is
+    where they collide at step ``t`` (-1 for a swap, where neither waits)."""
     if rules & WAITING_STAYS and cell >= 0:
         if cell == positions[y] and leave[y] > t:
             return x
         if cell == positions[x] and leave[x] > t:
             return y
-    _, edge_lo, _, next_down, _, head_down = graph
-    mark, queue, _ = walk
+    mark, queue, _, below = walk
     # Every edge goes to a higher level, so only the agent on the lower level can be above the other.
+    if level[y] < level[x]:
+        return x if mark[y] == counters[_ABOVE] else -1
     if level[x] < level[y]:
-        counters[_MARK] += 1
-        if _reaches(x, y, head_down, next_down, edge_lo, mark, counters[_MARK], queue, level):
-            return y
-    elif level[y] < level[x]:
-        counters[_MARK] += 1
-        if _reaches(y, x, head_down, next_down, edge_lo, mark, counters[_MARK], queue, level):
-            return x
+        if counters[_BELOW] == 0:
+            _, edge_lo, _, next_down, _, head_down = graph
+            counters[_MARK] += 1
+            counters[_BELOW] = counters[_MARK]
+            _collect(x, head_down, next_down, edge_lo, below, counters[_BELOW], queue)
+        return y if below[y] == counters[_BELOW] else -1
     return -1
 
 
 @nb.njit(cache=True)
-def _settle(lo, limit, problem, scratch, paths, costs, leave, index, collisions_at, graph, walk, heap, queued, level,
+def _settle(lo, limit, problem, scratch, paths, costs, leave, index, tallies, graph, walk, heap, queued, level,
             counters, log, window, rules):  # fmt: skip
     """Make a child consistent: plan ``lo``, then every agent that one of the new paths' collisions makes the one to
     move (:func:`_mover`), highest in the order first (so that an agent is planned after the agents above it that
     move too). Returns ``(ok, log)``; not ok once an agent has no path or more than ``limit`` low-level searches
     were made."""
     positions = problem[0]
-    path = scratch[4]
-    head, after, _ = index
+    path = scratch[5]
+    head, after, _, _ = index
     heap_keys, heap_agents = heap
     n_agents, width = paths.shape
     cells = head.shape[0] // width
@@ -396,12 +405,12 @@ def _settle(lo, limit, problem, scratch, paths, costs, leave, index, collisions_
     while size > 0:
         x, size = _heap_pop(heap_keys, heap_agents, size)
         queued[x] = False
-        cost, made = _plan(x, problem, scratch, paths, leave, graph, walk, counters, window, rules)
+        cost, made = _plan(x, problem, scratch, paths, leave, index, graph, walk, counters, window, rules)
         searches += made
         if cost < 0 or searches > limit:
             ok = False
             break
-        log = _set_path(x, path, cost, paths, costs, leave, positions, index, collisions_at, counters, log)
+        log = _set_path(x, path, cost, paths, costs, leave, positions, index, tallies, counters, log)
         for t in range(1, width):
             v = paths[x, t]
             u = paths[x, t - 1]
@@ -458,7 +467,7 @@ def pbs_window(
     n_agents = len(positions)
     n = neighbours.shape[0]
     width = window + 1
-    seen, parent, heap_keys, heap_states = search_scratch(n, window, goals.shape[1])
+    seen, parent, heap_keys, heap_states, cell_ids = search_scratch(n, window, goals.shape[1])
     occupied = -np.ones((width, n), dtype=np.int32)
     path = np.empty(width, dtype=np.int32)
     owner = -np.ones(n, dtype=np.int64)
@@ -466,11 +475,14 @@ def pbs_window(
         owner[positions[a]] = a
     leave = np.zeros(n_agents, dtype=np.int64)  # nobody owns a start cell before its path is planned
     problem = (positions, goals, waits, n_goals, pinned, target_of, dist, neighbours, owner, np.zeros(n_agents, dtype=np.int64))
-    scratch = (seen, parent, heap_keys, heap_states, path, occupied)
+    scratch = (seen, parent, heap_keys, heap_states, cell_ids, path, occupied)
+    # Every path by step and cell: lists of nodes (agent * width + step), and each node's agent.
     index = (-np.ones(width * n, dtype=np.int64), np.empty(n_agents * width, dtype=np.int64),
-             np.empty(n_agents * width, dtype=np.int64))  # fmt: skip
-    counters = np.zeros(4, dtype=np.int64)
-    collisions_at = np.zeros(width, dtype=np.int64)  # collisions at each step, kept up to date by _replace
+             np.empty(n_agents * width, dtype=np.int64), np.repeat(np.arange(n_agents), width))  # fmt: skip
+    counters = np.zeros(6, dtype=np.int64)
+    # Collisions at each step and of each agent, kept up to date by _replace.
+    tallies = (np.zeros(width, dtype=np.int64), np.zeros(n_agents, dtype=np.int64))
+    collisions_at, of_agent = tallies
     rank = np.empty(n_agents, dtype=np.int64)
     for i in range(n_agents):
         rank[order[i]] = i
@@ -483,11 +495,12 @@ def pbs_window(
     for a in range(n_agents):
         counters[_STAMP] += 1
         cost = _search(positions[a], goals[a], waits[a], n_goals[a], pinned[a], target_of, dist, neighbours, occupied,
-                       window, seen, parent, counters[_STAMP], heap_keys, heap_states, path, a, owner, owned, False)  # fmt: skip
+                       window, seen, parent, counters[_STAMP], heap_keys, heap_states, cell_ids, path, a, owner, owned,
+                       False)  # fmt: skip
         if cost < 0 and rules & HOLD_START:
             counters[_STAMP] += 1
             cost = _search(positions[a], goals[a], waits[a], n_goals[a], pinned[a], target_of, dist, neighbours,
-                           occupied, window, seen, parent, counters[_STAMP], heap_keys, heap_states, path, a, owner,
+                           occupied, window, seen, parent, counters[_STAMP], heap_keys, heap_states, cell_ids, path, a, owner,
                            owned, True)  # fmt: skip
         if cost < 0:  # cannot even move alone (a task it cannot finish in place): stay
             path[:] = positions[a]
@@ -497,7 +510,7 @@ def pbs_window(
         counters[_TOTAL] += cost
         leave[a] = _leave(path, positions[a])
         _index_add(a, paths[a], index, n)
-        _tally(a, paths[a], paths, index, n, collisions_at, 1)
+        _tally(a, paths[a], paths, index, n, tallies, 1)
 
     # The partial order: edge e says edge_hi[e] goes before edge_lo[e]. Edges are added and removed last in, first
     # out (depth-first search), so each agent's lists are stacks with their newest edge at the head.
@@ -523,7 +536,8 @@ def pbs_window(
     dead_a = np.empty(capacity, dtype=np.int64)
     dead_b = np.empty(capacity, dtype=np.int64)
     n_dead = 0
-    walk = (np.zeros(n_agents, dtype=np.int64), np.empty(n_agents, dtype=np.int64), np.empty(n_agents, dtype=np.int64))
+    walk = (np.zeros(n_agents, dtype=np.int64), np.empty(n_agents, dtype=np.int64), np.empty(n_agents, dtype=np.int64),
+            np.zeros(n_agents, dtype=np.int64))  # fmt: skip
     heap = (np.empty(n_agents, dtype=np.int64), np.empty(n_agents, dtype=np.int64))
     queued = np.zeros(n_agents, dtype=np.bool_)
     level = np.zeros(n_agents, dtype=np.int64)
@@ -538,7 +552,7 @@ def pbs_window(
     n_kept = 0
     best = paths.copy()
     best_time, best_cost = -1, 0
-    mark, queue, _ = walk
+    mark, queue, _, _ = walk
     _, edge_lo, _, next_down, _, head_down = graph
 
     while True:
@@ -552,7 +566,7 @@ def pbs_window(
             best_time, best_cost = at, counters[_TOTAL]
         if nodes >= node_budget:
             break
-        a, b = _collision_at(at, paths, index, n)
+        a, b = _collision_at(at, paths, index, n, of_agent)
         if rules & SEARCH_ORDER:
             a, b = _dead_pair_first(a, b, paths, dead_a, dead_b, n_dead)
         # Agents already ordered can still collide (an agent above moved onto a waiting agent's start cell, or rule 3
@@ -579,12 +593,12 @@ def pbs_window(
         for child in range(1 if only_one else 2):
             hi, lo = (first_hi, first_lo) if child == 0 else (first_lo, first_hi)
             if child == 1:  # back to the parent
-                _undo_to(base_undo, paths, costs, leave, positions, index, collisions_at, counters, log)
+                _undo_to(base_undo, paths, costs, leave, positions, index, tallies, counters, log)
                 n_edges = _pop_edges_to(base_edges, n_edges, graph)
             nodes += 1
             if not only_one:
                 n_edges = _push_edge(hi, lo, n_edges, graph, level, stack, stacked)
-            ok, log = _settle(lo, limit, problem, scratch, paths, costs, leave, index, collisions_at, graph, walk,
+            ok, log = _settle(lo, limit, problem, scratch, paths, costs, leave, index, tallies, graph, walk,
                               heap, queued, level, counters, log, window, rules)  # fmt: skip
             results[child] = ok
             failed += not ok
@@ -615,12 +629,12 @@ def pbs_window(
                         base_undo, base_edges, first_lo, first_hi
                     )  # fmt: skip
                     n_alt += 1
-                _undo_to(base_undo, paths, costs, leave, positions, index, collisions_at, counters, log)
+                _undo_to(base_undo, paths, costs, leave, positions, index, tallies, counters, log)
                 n_edges = _pop_edges_to(base_edges, n_edges, graph)
                 n_edges = _push_edge(first_hi, first_lo, n_edges, graph, level, stack, stacked)
                 for i in range(n_kept):
                     log = _set_path(kept_agent[i], kept_path[i], kept_cost[i], paths, costs, leave, positions, index,
-                                    collisions_at, counters, log)  # fmt: skip
+                                    tallies, counters, log)  # fmt: skip
             continue
         # Neither child works: remember the pair (rule 5) and return to the newest child left on the stack.
         if rules & SEARCH_ORDER:
@@ -630,11 +644,11 @@ def pbs_window(
         resumed = False
         while n_alt > 0 and nodes < node_budget and (dead_end_budget < 0 or dead_ends <= dead_end_budget):
             n_alt -= 1
-            _undo_to(alt_undo[n_alt], paths, costs, leave, positions, index, collisions_at, counters, log)
+            _undo_to(alt_undo[n_alt], paths, costs, leave, positions, index, tallies, counters, log)
             n_edges = _pop_edges_to(alt_edges[n_alt], n_edges, graph)
             n_edges = _push_edge(alt_hi[n_alt], alt_lo[n_alt], n_edges, graph, level, stack, stacked)
             nodes += 1
-            ok, log = _settle(alt_lo[n_alt], limit, problem, scratch, paths, costs, leave, index, collisions_at, graph,
+            ok, log = _settle(alt_lo[n_alt], limit, problem, scratch, paths, costs, leave, index, tallies, graph,
                               walk, heap, queued, level, counters, log, window, rules)  # fmt: skip
             failed += not ok
             if ok:
