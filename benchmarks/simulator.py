@@ -1,6 +1,6 @@
 """The lifelong warehouse and manufacturing simulator against the paper's (RHCR with PBS), and its speed.
 
-    python benchmarks/simulator.py [--seeds 5] [--skip-large]
+    python benchmarks/simulator.py [--seeds 5] [--skip-large] [--skip-speed] [--skip-fidelity] [--planners pp,pbs]
 
 Prints two tables. Speed: wall time and agent-steps per second of 1,000 steps at 200 agents (33x36) and at the
 paper's robot counts and 2,000 agents (101x102), with the process's peak memory and RHCR's recorded time where there
@@ -128,6 +128,7 @@ def main() -> None:
         help=f"comma-separated planners for both tables (default {','.join(PLANNERS)})",
     )
     parser.add_argument("--skip-speed", action="store_true", help="leave out the speed table")
+    parser.add_argument("--skip-fidelity", action="store_true", help="leave out the fidelity table")
     args = parser.parse_args()
     if not MAPS.is_dir():
         parser.error("needs the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
@@ -140,7 +141,8 @@ def main() -> None:
     if not args.skip_speed:
         speed(args.skip_large, planners)
         print()
-    fidelity(FIDELITY + ([] if args.skip_large else LARGE_FIDELITY), args.seeds, planners)
+    if not args.skip_fidelity:
+        fidelity(FIDELITY + ([] if args.skip_large else LARGE_FIDELITY), args.seeds, planners)
 
 
 if __name__ == "__main__":

@@ -169,9 +169,11 @@ def speed(module_dir: Path, maps: Path, repeats: int) -> None:
     print(f"| structgen `pbs` | {statistics.median(t for t, _ in ours):.2f} | {ours[0][1]:.3f} |")
 
 
-def rounds(module_dir: Path, maps: Path, name: str, agents: int, steps: int, prioritize_start: bool, uneven: bool) -> None:
+def rounds(
+    module_dir: Path, maps: Path, name: str, agents: int, steps: int, prioritize_start: bool, uneven: bool, seed: int = 0
+) -> None:
     map_file = maps / name
-    result, output = run_rhcr(module_dir, map_file, agents, steps, 0, 1, prioritize_start, uneven)
+    result, output = run_rhcr(module_dir, map_file, agents, steps, seed, 1, prioritize_start, uneven)
     calls = [ROUND.match(line) for line in output.splitlines()]
     calls = [match for match in calls if match]
     expanded = [int(m.group(3)) for m in calls]
@@ -179,7 +181,7 @@ def rounds(module_dir: Path, maps: Path, name: str, agents: int, steps: int, pri
     # A node expanded makes two children; fewer generated means children whose agent found no path.
     dropped = [2 * e + 1 - g for e, g in zip(expanded, generated)]
     failed = sum(m.group(1) != "Succeed" for m in calls)
-    print(f"\n{name}, {agents} robots, {steps} steps, seed 0, prioritize_start={prioritize_start}, uneven={uneven}:\n")
+    print(f"\n{name}, {agents} robots, {steps} steps, seed {seed}, prioritize_start={prioritize_start}, uneven={uneven}:\n")
     print(
         "| simulator | throughput | congested | rounds given up | nodes a round (min-max) | children without a path | seconds |"
     )
@@ -188,7 +190,7 @@ def rounds(module_dir: Path, maps: Path, name: str, agents: int, steps: int, pri
         f"| RHCR | {result['throughput']:.3f} | {result['congested']} | {failed} of {len(calls)} | "
         f"{min(expanded)}-{max(expanded)} expanded | {sum(dropped)} | {result['cpu_runtime']:.0f} |"
     )
-    mine = run_ours(map_file, agents, steps, 0, uneven)
+    mine = run_ours(map_file, agents, steps, seed, uneven)
     planned = -(-mine.stopped_at // 5)
     print(
         f"| structgen `pbs` | {mine.throughput:.3f} | {mine.congested} | {mine.fallbacks} of {planned} | "
@@ -228,6 +230,7 @@ def main() -> None:
                         "CMA-MAE a=5 layout grown to 101x102)")  # fmt: skip
     parser.add_argument("--no-prioritize-start", action="store_true", help="rounds: run RHCR with prioritize_start off")
     parser.add_argument("--uneven", action="store_true", help="rounds, sweep: left workstations five times likelier")
+    parser.add_argument("--seed", type=int, default=0, help="rounds: the simulation seed of both (default 0)")
     parser.add_argument("--robots", default="500,1000,1500,2000", help="sweep: robot counts (default 500,1000,1500,2000)")
     parser.add_argument("--output", type=Path, default=Path("rhcr_sweep.json"), help="sweep: JSON file to write")
     args = parser.parse_args()
@@ -242,7 +245,7 @@ def main() -> None:
     if args.what == "speed":
         speed(module_dir, maps, args.repeats)
     elif args.what == "rounds":
-        rounds(module_dir, maps, args.map, args.agents, args.steps, not args.no_prioritize_start, args.uneven)
+        rounds(module_dir, maps, args.map, args.agents, args.steps, not args.no_prioritize_start, args.uneven, args.seed)
     else:
         robots = [int(n) for n in args.robots.split(",")]
         sweep(module_dir, maps, args.map, robots, args.steps, args.uneven, args.output)
