@@ -53,7 +53,8 @@ class SimulationResult:
     ``stopped_at``) because more than half of the agents stood still over a replanning interval; ``restarts``
     and ``held`` count planning rounds started again and agents made to wait because they found no path;
     ``positions`` (every agent's cell at every step) and ``finished`` (one row ``step, agent, cell`` per task
-    finished) are the trace when asked for."""
+    finished) are the trace when asked for. Planner ``pbs`` also counts its search: ``nodes`` planned, rounds it
+    gave up on (``fallbacks``) and ``failed_children``, the children it could not make consistent."""
 
     throughput: float
     tasks: int
