@@ -214,6 +214,13 @@ def test_each_rule_can_be_switched_off_and_moves_stay_legal(off):
     assert result.tasks > 0
 
 
+def test_each_rule_name_switches_off_its_own_bit():
+    from structgen.domains.warehouse.simulator import PBS_RULES
+
+    bits = [getattr(_pbs, name.upper()) for name in PBS_RULES]
+    assert sorted(bits) == [1, 2, 4, 8] and sum(bits) == _pbs.ALL_RULES
+
+
 def test_unknown_rules_and_fallbacks_are_clear_errors():
     from structgen.errors import InputError
 

@@ -247,7 +247,8 @@ def simulate(
         raise InputError(f"pbs_off: unknown rule {unknown or pbs_off!r}; choose from {', '.join(PBS_RULES)}")
     if not isinstance(replan_cap, int) or replan_cap < 0:
         raise InputError(f"replan_cap must be a non-negative integer, got {replan_cap!r}")
-    rule_bits = sum(1 << i for i, name in enumerate(PBS_RULES) if name not in pbs_off)
+    # Each name in PBS_RULES is that of the rule's bit in _pbs, lower case (tests/layouts/test_pbs.py holds them).
+    rule_bits = _pbs.ALL_RULES & ~sum(getattr(_pbs, name.upper()) for name in set(pbs_off))
     neighbours = _mapf.grid_neighbours(passable)
     targets = tasks_of.targets
     target_of = np.full(rows * cols, -1, dtype=np.int32)
