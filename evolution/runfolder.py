@@ -224,20 +224,55 @@ class RunFolder:
 
     # -- life cycle -----------------------------------------------------------------------------------------------------
     @classmethod
-    def create(cls, path: str | os.PathLike, config_text: str, manifest: dict[str, Any], *, overwrite: bool = False) -> RunFolder:
+    def create(
+        cls,
+        path: str | os.PathLike,
+        config_text: str,
+        manifest: dict[str, Any],
+        *,
+        overwrite: bool = False,
+        keep: Collection[str | os.PathLike] = (),
+    ) -> RunFolder:
         """Make a new run folder, marked as one in its manifest.
 
         An existing folder is an error, unless it is empty, or ``overwrite`` is given and it is a run folder (its
-        manifest carries the mark) that no process is writing. Anything else is never deleted.
+        manifest carries the mark) of the same kind as the new one (the manifests' ``run_kind``: an evolution run
+        replaces only an evolution run, a training only a training of its kind) that no process is writing and that
+        neither is nor holds a path in ``keep`` (what the command reads from). Anything else is never deleted.
         """
         folder = cls(path)
         try:
-            folder._make(config_text, manifest, overwrite)
+            folder._make(config_text, manifest, overwrite, keep)
         except OSError as err:  # the path itself is at fault: a file on the way, a name too long, no permission
             raise RunFolderError(str(path_error(folder.path, err, writing=True))) from None
         return folder
 
-    def _make(self, config_text: str, manifest: dict[str, Any], overwrite: bool) -> None:
+    def _refuse_to_replace(self, manifest: dict[str, Any], keep: Collection[str | os.PathLike]) -> None:
+        """Why ``--overwrite`` may not delete this (existing, non-empty) folder for a run described by ``manifest``."""
+        if not self.is_marked():
+            raise RunFolderError(
+                f"{self.path}: exists and is not a run folder (its manifest.json lacks the run-folder mark); "
+                "refusing to overwrite it"
+            )
+        here = self.path.resolve()
+        for kept in keep:
+            kept_path = Path(kept).resolve()
+            if kept_path == here or here in kept_path.parents:
+                raise RunFolderError(
+                    f"{self.path}: holds {kept}, which this command reads from; refusing to overwrite it (choose "
+                    "another output folder)"
+                )
+        old_kind, new_kind = self.manifest().get("run_kind"), manifest.get("run_kind")
+        if old_kind != new_kind:
+            def name(kind: Any) -> str:
+                return "an evolution run" if kind is None else f"a {kind} run"
+
+            raise RunFolderError(
+                f"{self / self.MANIFEST}: run_kind {old_kind!r}: this folder holds {name(old_kind)}, and --overwrite "
+                f"replaces only {name(new_kind)}, the kind this command writes; refusing to delete it"
+            )
+
+    def _make(self, config_text: str, manifest: dict[str, Any], overwrite: bool, keep: Collection[str | os.PathLike]) -> None:
         if self.path.is_symlink():
             raise RunFolderError(f"{self.path}: is a symbolic link; give the run folder's own path")
         if self.path.exists():
@@ -246,11 +281,7 @@ class RunFolder:
             if any(self.path.iterdir()):
                 if not overwrite:
                     raise RunFolderError(f"{self.path}: already exists; choose another --run-dir or pass --overwrite")
-                if not self.is_marked():
-                    raise RunFolderError(
-                        f"{self.path}: exists and is not a run folder (its manifest.json lacks the run-folder mark); "
-                        "refusing to overwrite it"
-                    )
+                self._refuse_to_replace(manifest, keep)
                 with self.locked():  # refuses if a run is writing it
                     shutil.rmtree(self.path)
         self.path.mkdir(parents=True, exist_ok=True)

@@ -240,19 +240,22 @@ def resume(
                 )
                 state = _fresh_state(experiment, experiment.make_optimizer(problem))
             _warn_on_new_versions(folder)
-            experiment = _reconcile(folder, experiment, state)
+            experiment, edited = _reconcile(folder, experiment, state)
             if generations is not None:
                 if generations < state.generation:
                     raise ConfigError(f"--generations {generations} is fewer than the {state.generation} already run")
                 if generations != experiment.run.generations:
                     experiment = experiment.with_run(generations=generations)
-                    folder.write_config(experiment.to_toml())
                     state.extra["config"] = experiment.to_mapping()
+                    edited = True
+            recorded = experiment
             runtime = {k: v for k, v in (("workers", workers), ("cluster", cluster)) if v is not None}
             if runtime:
                 experiment = experiment.with_run(**runtime)
             check_workers(experiment.run.workers, experiment.run.cluster)
-            folder.truncate_metrics(state.generation)
+            folder.truncate_metrics(state.generation)  # reads every row first: a damaged file refuses here
+            if edited:  # only once nothing can refuse: a refused resume leaves config.toml as it was
+                folder.write_config(recorded.to_toml())
             if state.generation >= experiment.run.generations:
                 log.info("%s: already at generation %d of %d", folder.path, state.generation, experiment.run.generations)
                 return folder, state
@@ -275,14 +278,15 @@ EDITABLE = (
 )
 
 
-def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> Experiment:
+def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> tuple[Experiment, bool]:
     """The configuration to resume with: config.toml, if it differs from what the run recorded only in settings
-    that cannot change results (applied, and recorded); otherwise an error naming each changed setting."""
+    that cannot change results (applied, and recorded in the state), and whether it was edited (the caller writes it
+    back normalised once nothing can refuse); otherwise an error naming each changed setting."""
     current = experiment.to_mapping()
     recorded = state.extra.get("config")
     if recorded is None:  # a checkpoint from before runs recorded their configuration: the file is all there is
         state.extra["config"] = current
-        return experiment
+        return experiment, False
     before, after = flatten(recorded), flatten(current)
     # Settings only one side knows were added or removed by another version of structgen, not by an edit.
     changed = sorted(key for key in before.keys() & after.keys() if before[key] != after[key])
@@ -306,8 +310,7 @@ def _reconcile(folder: RunFolder, experiment: Experiment, state: RunState) -> Ex
             ", ".join(f"{key} {before[key]!r} -> {after[key]!r}" for key in changed),
         )
         state.extra["config"] = current
-        folder.write_config(experiment.to_toml())
-    return experiment
+    return experiment, bool(changed)
 
 
 def _warn_on_new_versions(folder: RunFolder) -> None:

@@ -132,7 +132,7 @@ def test_a_damaged_agent_or_checkpoint_is_refused_naming_the_file(tmp_path):
         load_agent(bad)
     train_agent(tmp_path / "run", dataclasses.replace(TINY, updates=2), progress=False)
     (tmp_path / "run" / "checkpoint.pt").write_bytes(b"broken")
-    with pytest.raises(InputError, match="checkpoint.pt: cannot resume"):
+    with pytest.raises(InputError, match="checkpoint.pt: not a maze-agent training checkpoint"):
         train_agent(tmp_path / "run", TINY, progress=False)
 
 

@@ -260,6 +260,6 @@ def test_a_checkpoint_holding_a_design_no_search_writes_is_refused_before_it_is_
     state["designs"]["300"] = {"rules": ["VSC"] * 299, "tied": 0, "static_load": 1.0, "peak": 1.0}
     (folder / "checkpoint.json").write_text(json.dumps(state))
     assert main(["info", str(folder)]) == 2
-    assert "a design of 300 levels" in capsys.readouterr().err
+    assert "designs['300']'s height is 300" in capsys.readouterr().err
     with pytest.raises(InputError, match="levels must be a whole number from 2 to 50"):
         TallSettings(levels=300)

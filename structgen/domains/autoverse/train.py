@@ -49,7 +49,19 @@ from structgen.domains.autoverse.ppo import GamePool
 from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.errors import InputError
 from structgen.ppo import PPO, EpisodeReturns
-from structgen.training_folder import open_training_folder, read_history, read_training_settings, save_torch, write_history
+from structgen.training_folder import (
+    checked_like,
+    checked_optimiser,
+    checked_weights,
+    checked_whole,
+    load_torch,
+    open_training_folder,
+    read_history,
+    read_training_settings,
+    save_torch,
+    write_history,
+    write_training_settings,
+)
 
 __all__ = ["RUN_KIND", "TrainSettings", "evolve_pool", "regret_scores", "train"]
 
@@ -172,11 +184,38 @@ def _pictures(rows: list[dict[str, Any]], settings: TrainSettings) -> dict[str, 
     return pictures
 
 
-def _load(path: Path) -> dict[str, Any]:
-    try:
-        return torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as err:  # a damaged file: say which, change nothing
-        raise InputError(f"{path}: cannot resume from this file ({type(err).__name__}: {err})") from None
+def _checked_policy(path: Path, policy: Policy) -> dict[str, Any]:
+    """``cloned.pt``'s weights, checked against the network they are for."""
+    saved = load_torch(path, "a player's cloned weights")
+    weights = checked_weights(saved, "policy", path)
+    checked_like(policy.state_dict(), weights, path, "policy")
+    return weights
+
+
+def _checked_checkpoint(
+    path: Path, settings: TrainSettings, policy: Policy, env: GamePool, pool: list[dict[str, Any]]
+) -> dict[str, Any]:
+    """The training checkpoint at ``path`` with every part checked against what this training holds before any of
+    it is restored (a damaged, foreign or tampered checkpoint is refused naming the field, and nothing changes)."""
+    saved = load_torch(path, "an Autoverse player's training checkpoint")
+    if not isinstance(saved, dict):
+        raise InputError(f"{path}: not an Autoverse player's training checkpoint (a {type(saved).__name__})")
+    checked_whole(saved, "update", path, 0, settings.updates)
+    checked_like(policy.state_dict(), checked_weights(saved, "policy", path), path, "policy")
+    checked_optimiser(saved, "optimiser", path, list(policy.parameters()))
+    games = checked_like(_pool_arrays(pool), saved.get("pool"), path, "pool", varying=tuple(stack_games(pool)))
+    count = len(games["rewards"])
+    if count == 0 or any(len(value) != count for value in games.values()):
+        raise InputError(f"{path}: pool holds {count} games (its arrays must be non-empty and of one length)")
+    state = checked_like(env.state_dict(), saved.get("env"), path, "env")
+    if int(state["game"].min()) < 0 or int(state["game"].max()) >= count:
+        raise InputError(f"{path}: env.game names games the pool does not hold")
+    checked_like(torch.Generator().get_state(), saved.get("generator"), path, "generator")
+    checked_like(torch.get_rng_state(), saved.get("torch_rng"), path, "torch_rng")
+    checked_like(EpisodeReturns(settings.envs, "cpu").running, saved.get("running"), path, "running")
+    if not isinstance(saved.get("rng"), str):
+        raise InputError(f"{path}: field 'rng' is {type(saved.get('rng')).__name__}; expected the generator's state as JSON")
+    return saved
 
 
 def _pool_arrays(pool: list[dict[str, Any]]) -> dict[str, torch.Tensor]:
@@ -240,15 +279,29 @@ def train(
         header=_HEADER,
         overwrite=overwrite,
         about={"source_run": str(Path(run_dir).resolve())},
+        reads=(run_dir,),
     )
     torch.manual_seed(settings.seed)
     observation = settings.observation()
     splits = _evaluation_splits(parts, settings)
     policy = Policy(FLAT_SIZE, settings.hidden, VIEW).to(settings.device)
     with folder.locked():
-        if (folder / CLONED_FILE).is_file():
-            policy.load_state_dict(_load(folder / CLONED_FILE)["policy"])
-        else:
+        checkpoint = folder / CHECKPOINT_FILE
+        cloned = folder / CLONED_FILE
+        # Everything read back is checked before anything is trained or written; a path that is there but is not a
+        # regular file (a link to a device, a FIFO) is refused, not taken for "no checkpoint yet".
+        saved = None
+        if checkpoint.exists() or checkpoint.is_symlink():
+            pool_now = list(parts["train"])
+            probe = GamePool(pool_now, settings.envs, observation, "cpu", torch.Generator().manual_seed(0))
+            saved = _checked_checkpoint(checkpoint, settings, policy, probe, pool_now)
+        first_rows = read_history(folder, int(saved["update"]) if saved is not None else 0)
+        if cloned.exists() or cloned.is_symlink():
+            policy.load_state_dict(_checked_policy(cloned, policy))
+        elif saved is not None:
+            raise InputError(f"{cloned}: missing while {checkpoint} is there; this folder was tampered with")
+        write_training_settings(folder, settings, _TABLE, _HEADER)
+        if not (cloned.exists() or cloned.is_symlink()):
             if settings.clone_steps:
                 views, flats, actions = transitions(parts["train"], observation, device=settings.device)
                 fit_policy(
@@ -266,8 +319,6 @@ def train(
         size = settings.pool or len(pool)
         done = 0
         returns = EpisodeReturns(settings.envs, settings.device)
-        checkpoint = folder / CHECKPOINT_FILE
-        saved = _load(checkpoint) if checkpoint.is_file() else None
         if saved is not None:
             pool = _pool_from(saved["pool"])
         env = GamePool(pool, settings.envs, observation, settings.device, generator)
@@ -283,7 +334,7 @@ def train(
             except (KeyError, RuntimeError, ValueError, TypeError) as err:
                 raise InputError(f"{checkpoint}: cannot resume from this checkpoint ({type(err).__name__}: {err})") from None
             done = int(saved["update"])
-        rows = read_history(folder, done)
+        rows = first_rows if saved is not None else read_history(folder, done)
         bar = tqdm(total=settings.updates, initial=done, desc="autoverse PPO", unit="update", disable=not progress)
         while done < settings.updates:
             started = time.perf_counter()

@@ -290,15 +290,21 @@ def is_search_folder(path: str | os.PathLike) -> bool:
     return (folder / RunFolder.CONFIG).is_file() and folder.manifest().get("run_kind") == RUN_KIND
 
 
-def _convert_old_folder(folder: RunFolder) -> None:
-    """Turn a search folder of structgen 0.2 (settings.json, search.json) into a run folder, keeping its progress."""
+def _old_settings(folder: RunFolder) -> TallSettings:
+    """The settings of a search folder of structgen 0.2 (``settings.json``), read and checked, nothing changed."""
     saved = read_json(folder / _OLD_SETTINGS, 16 * MiB)
     if not isinstance(saved, dict):
-        raise InputError(f"{folder / _OLD_SETTINGS}: expected an object of settings")
+        raise InputError(f"{folder / _OLD_SETTINGS}: expected an object of settings, got {type(saved).__name__}")
     try:
-        settings = build(TallSettings, saved, "settings")
+        return build(TallSettings, saved, "settings")
     except ConfigError as err:
         raise InputError(f"{folder / _OLD_SETTINGS}: {err}") from None
+
+
+def _convert_old_folder(folder: RunFolder) -> None:
+    """Turn a search folder of structgen 0.2 (settings.json, search.json) into a run folder, keeping its progress;
+    with the folder's lock held, once the command is known to go ahead."""
+    settings = _old_settings(folder)
     folder.write_config(_config_text(settings, 2))
     atomic_write(folder / RunFolder.MANIFEST, json.dumps(_marked(_manifest(settings)), indent=2) + "\n")
     if (folder / _OLD_CHECKPOINT).is_file():
@@ -313,30 +319,30 @@ def _marked(manifest: dict[str, Any]) -> dict[str, Any]:
     return {**manifest, MARK: MARK_VALUE}
 
 
-def _open_folder(path: Path, settings: TallSettings, workers: int, overwrite: bool) -> RunFolder:
+def _open_folder(path: Path, settings: TallSettings, workers: int, overwrite: bool) -> tuple[RunFolder, bool]:
     """A new run folder for the search, or the one a search with the same settings started (it resumes; with more
-    ``levels`` it goes on). A folder that holds anything else, or a search with other settings, is refused, and
-    nothing in it is changed."""
+    ``levels`` it goes on), and whether it is a folder of structgen 0.2 to convert. A folder that holds anything
+    else, or a search with other settings, is refused, and nothing in it is changed: an existing folder is only
+    read here (the caller converts it and records the settings with its lock held)."""
     folder = RunFolder(path)
     if path.exists() and not path.is_dir():
         raise InputError(f"{path}: is a file, expected a run folder")
-    if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
-        _convert_old_folder(folder)
-    if not is_search_folder(path) or overwrite:
+    old = (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists()
+    if not old and (not is_search_folder(path) or overwrite):
         if (folder / RunFolder.CONFIG).is_file() and not overwrite:
             raise InputError(f"{path}: holds a run that is not a tall search; choose another folder")
-        return RunFolder.create(path, _config_text(settings, workers), _manifest(settings), overwrite=overwrite)
-    saved, _ = _read_config(folder)
+        return RunFolder.create(path, _config_text(settings, workers), _manifest(settings), overwrite=overwrite), False
+    saved = _old_settings(folder) if old else _read_config(folder)[0]
+    where = folder / (_OLD_SETTINGS if old else RunFolder.CONFIG)
     before, now = flatten(to_table(saved)), flatten(to_table(settings))
     for key in sorted(before.keys() | now.keys()):
         taller = key == "levels" and now.get(key, 0) > before.get(key, 0)
         if before.get(key) != now.get(key) and not taller:
             raise InputError(
-                f"{folder / RunFolder.CONFIG}: this folder holds a search with search.{key} = {before.get(key)!r}, not "
+                f"{where}: this folder holds a search with search.{key} = {before.get(key)!r}, not "
                 f"{now.get(key)!r}; give the same settings to resume it (or more levels to go on), or another folder"
             )
-    folder.write_config(_config_text(settings, workers))
-    return folder
+    return folder, old
 
 
 def _checkpoint(
@@ -360,32 +366,72 @@ def _checkpoint(
         atomic_write(folder / CHECKPOINT_FILE, json.dumps(state, indent=2) + "\n")
 
 
-def _saved_state(folder: RunFolder) -> Any:
-    path = folder / CHECKPOINT_FILE
-    return read_json(path, 16 * MiB) if path.exists() else {}
+def _saved_state(folder: RunFolder, old: bool = False) -> Any:
+    """The checkpoint's content ({} before the first); ``old``: of a folder of structgen 0.2 not yet converted."""
+    path = folder / (_OLD_CHECKPOINT if old else CHECKPOINT_FILE)
+    return read_json(path, 16 * MiB) if path.exists() or path.is_symlink() else {}
 
 
-def _restore(state: Any, where: Path) -> tuple[int, list, dict[int, TallDesign], list[int]]:
-    """From a checkpoint: the levels searched, the beam, each height's design and the heights refined."""
+def _whole(value: Any, low: int, high: int, field: str, where: Path) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise InputError(f"{where}: {field} is {value!r}; expected a whole number from {low} to {high}")
+    return value
+
+
+def _rules(value: Any, field: str, where: Path) -> tuple[str, ...]:
+    if not isinstance(value, list) or len(value) >= MAX_LEVELS or not all(rule in LEVEL_RULES for rule in value):
+        raise InputError(
+            f"{where}: {field} is not a design's rules (a list of at most {MAX_LEVELS - 1} of {', '.join(LEVEL_RULES)})"
+        )
+    return tuple(value)
+
+
+def _load(value: Any, field: str, where: Path) -> float:
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf):
+        raise InputError(f"{where}: {field} is {value!r}; expected a load in newtons, 0 or more (null: none)")
+    return _number(value)
+
+
+def _restore(state: Any, where: Path, settings: TallSettings | None = None) -> tuple[int, list, dict[int, TallDesign], list[int]]:
+    """From a checkpoint: the levels searched, the beam, each height's design and the heights refined. Every field
+    is checked for what a search writes (whole numbers, rules it knows, a height per design no taller than the
+    levels searched, and with ``settings`` no more levels than they search); anything else is an error naming the
+    field."""
+    path = where / CHECKPOINT_FILE
     if not isinstance(state, dict):
-        raise InputError(f"{where / CHECKPOINT_FILE}: not a tall search checkpoint (expected an object)")
-    try:
-        done = int(state.get("levels_done", 1))
-        kept = [(tuple(rules), int(tied)) for rules, tied in state.get("kept", [[[], 0]])]
-        designs = {int(levels): TallDesign.from_json(row) for levels, row in state.get("designs", {}).items()}
-        refined = [int(levels) for levels in state.get("refined", [])]
-    except (TypeError, ValueError, KeyError, AttributeError) as err:
-        raise InputError(f"{where / CHECKPOINT_FILE}: not a tall search checkpoint ({err})") from None
-    # Each design is rebuilt from its rules: only what a search can have written is taken.
-    for rules, tied in [*kept, *((d.rules, d.tied) for d in designs.values())]:
-        if len(rules) >= MAX_LEVELS or not set(rules) <= set(LEVEL_RULES) or not 0 <= tied <= 2:
-            raise InputError(
-                f"{where / CHECKPOINT_FILE}: a design of {len(rules) + 1} levels, rules {list(rules)[:5]}..., tied {tied}: "
-                f"not one a search writes (at most {MAX_LEVELS} levels of {', '.join(LEVEL_RULES)}, 0 to 2 tied)"
-            )
-    if any(levels != design.levels for levels, design in designs.items()) or not 1 <= done <= MAX_LEVELS:
-        raise InputError(f"{where / CHECKPOINT_FILE}: its heights do not match its designs' levels")
-    return done, kept, designs, refined
+        raise InputError(f"{path}: not a tall search checkpoint (expected an object)")
+    high = MAX_LEVELS if settings is None else settings.levels
+    done = _whole(state.get("levels_done", 1), 1, high, "levels_done", path)
+    kept_rows = state.get("kept", [[[], 0]])
+    if not isinstance(kept_rows, list):
+        raise InputError(f"{path}: kept is {type(kept_rows).__name__}; expected a list of [rules, tied] pairs")
+    kept = []
+    for number, row in enumerate(kept_rows):
+        if not isinstance(row, list) or len(row) != 2:
+            raise InputError(f"{path}: kept[{number}] is not a [rules, tied] pair")
+        kept.append((_rules(row[0], f"kept[{number}] rules", path), _whole(row[1], 0, 2, f"kept[{number}] tied", path)))
+    rows = state.get("designs", {})
+    if not isinstance(rows, dict):
+        raise InputError(f"{path}: designs is {type(rows).__name__}; expected an object of designs by height")
+    designs = {}
+    for key, row in rows.items():
+        if not key.isdigit() or not isinstance(row, dict):
+            raise InputError(f"{path}: designs[{key!r}] is not a design under its height")
+        levels = _whole(int(key), 2, done, f"designs[{key!r}]'s height", path)
+        rules = _rules(row.get("rules"), f"designs[{key!r}].rules", path)
+        if len(rules) + 1 != levels:
+            raise InputError(f"{path}: designs[{key!r}] has {len(rules) + 1} levels of rules, not {levels}")
+        tied = _whole(row.get("tied"), 0, 2, f"designs[{key!r}].tied", path)
+        designs[levels] = TallDesign(
+            rules, tied, _load(row.get("static_load"), f"designs[{key!r}].static_load", path),
+            _load(row.get("peak"), f"designs[{key!r}].peak", path),
+        )  # fmt: skip
+    refined_rows = state.get("refined", [])
+    if not isinstance(refined_rows, list) or not all(isinstance(r, int) and r in designs for r in refined_rows):
+        raise InputError(f"{path}: refined is {refined_rows!r}; expected heights of its designs")
+    if not isinstance(state.get("complete", False), bool):
+        raise InputError(f"{path}: complete is {state.get('complete')!r}; expected true or false")
+    return done, kept, designs, list(refined_rows)
 
 
 def _table_text(result: TallResult) -> str:
@@ -448,18 +494,15 @@ def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
     if not is_search_folder(folder.path):
         raise RunFolderError(f"{folder.path}: not a tall search folder")
     if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
-        saved = read_json(folder / _OLD_SETTINGS, 16 * MiB)
-        if not isinstance(saved, dict):
-            raise InputError(f"{folder / _OLD_SETTINGS}: expected an object of settings, got {type(saved).__name__}")
-        settings = build(TallSettings, saved, "settings")
-        state: Any = read_json(folder / _OLD_CHECKPOINT, 16 * MiB) if (folder / _OLD_CHECKPOINT).exists() else {}
+        settings = _old_settings(folder)
+        state: Any = _saved_state(folder, old=True)
         checkpoint = folder.path / _OLD_CHECKPOINT
     else:
         settings, _ = _read_config(folder)
         state, checkpoint = _saved_state(folder), folder / CHECKPOINT_FILE
     if not isinstance(state, dict):
         raise InputError(f"{checkpoint}: not a tall search checkpoint (expected an object)")
-    done, _, designs, refined = _restore(state, folder.path)
+    done, _, designs, refined = _restore(state, folder.path, settings)
     rows = [
         {
             **design.to_json(),
@@ -558,8 +601,14 @@ def find_tallest(
         raise InputError(f"workers must be a whole number, 0 or more, got {workers!r}")
     if run_dir is None:
         return _search(settings, None, workers, progress, log or (lambda line: None))
-    folder = _open_folder(Path(run_dir), settings, workers, overwrite)
+    folder, old = _open_folder(Path(run_dir), settings, workers, overwrite)
     with folder.locked():
+        # The checkpoint is read back before anything is written: a damaged one refuses with the folder unchanged.
+        _restore(_saved_state(folder, old), folder.path, settings)
+        if old:
+            _convert_old_folder(folder)
+        if folder.config_text() != _config_text(settings, workers):
+            folder.write_config(_config_text(settings, workers))
         folder.remove_temporary_files()
         return _search(settings, folder, workers, progress, log or (lambda line: None))
 
@@ -584,7 +633,7 @@ def _search(
     settings: TallSettings, folder: RunFolder | None, workers: int, progress: bool, say: Callable[[str], None]
 ) -> TallResult:
     state = _saved_state(folder) if folder is not None else {}
-    done, kept, designs, refined = _restore(state, folder.path if folder is not None else Path("."))
+    done, kept, designs, refined = _restore(state, folder.path if folder is not None else Path("."), settings)
     _checkpoint(folder, done, kept, designs, refined)  # not complete until this call's outputs are written
     physics = settings.physics
     if done > 1:

@@ -17,7 +17,6 @@ them). The same command on the same folder resumes it.
 
 from __future__ import annotations
 
-import io
 import json
 import time
 from dataclasses import asdict
@@ -28,19 +27,26 @@ import numpy as np
 import torch
 
 from evolution import RunFolder
-from evolution.files import MiB, read_bytes
+from evolution.files import MiB
 from structgen.domains.warehouse.agent_settings import AgentSettings
 from structgen.domains.warehouse.maze_agent import MazePolicy, RememberingMazes, run_agent
 from structgen.domains.warehouse.maze_env import TorchMazes, _has_two_connected_floor_cells, random_maze
 from structgen.errors import InputError
 from structgen.ppo import PPO
 from structgen.training_folder import (
+    checked_like,
+    checked_optimiser,
+    checked_weights,
+    checked_whole,
     is_training_folder,
+    load_torch,
+    one_line,
     open_training_folder,
     read_history,
     read_training_settings,
     save_torch,
     write_history,
+    write_training_settings,
 )
 
 __all__ = ["AgentSettings", "Curriculum", "RUN_KIND", "agent_policy", "load_agent", "save_agent", "train_agent"]
@@ -53,6 +59,8 @@ TRAINING_KINDS = ("scattered", "carved")
 #: Held-out mazes of the learning curve: ``rooms`` mazes from this seed.
 HELD_OUT_SEED, HELD_OUT_COUNT = 12345, 100
 _MAX_AGENT_BYTES = 64 * MiB
+#: The widest network an agent file may ask for (the command line's --hidden allows as much).
+MAX_HIDDEN = 4096
 
 
 class Curriculum:
@@ -188,19 +196,17 @@ def save_agent(path: str | Path, policy: MazePolicy, **about: Any) -> Path:
 
 def load_agent(path: str | Path) -> tuple[MazePolicy, dict[str, Any]]:
     """The agent :func:`save_agent` wrote (a run folder's ``agent.pt``, or the shipped ``docs/maze_agent.pt``) and
-    what it records about its training; a file that is not one is refused naming it."""
-    data = read_bytes(path, _MAX_AGENT_BYTES)
-    try:
-        saved = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
-    except Exception as err:  # torch raises many kinds for a damaged or foreign file
-        raise InputError(f"{path}: not a maze agent file ({type(err).__name__}: {err})") from None
+    what it records about its training; a file that is not one is refused naming it and the field at fault."""
+    saved = load_torch(path, "a maze agent file", _MAX_AGENT_BYTES)
     if not isinstance(saved, dict) or saved.get("format") != "structgen maze agent 1":
         raise InputError(f"{path}: not a maze agent file (no 'format': 'structgen maze agent 1')")
-    policy = MazePolicy(int(saved["hidden"]))
+    hidden = checked_whole(saved, "hidden", path, 1, MAX_HIDDEN)
+    weights = checked_weights(saved, "policy", path)
+    policy = MazePolicy(hidden)
     try:
-        policy.load_state_dict(saved["policy"])
+        policy.load_state_dict(weights)
     except (RuntimeError, KeyError) as err:
-        raise InputError(f"{path}: the weights do not fit the maze agent's network: {err}") from None
+        raise InputError(f"{path}: the weights do not fit the maze agent's network ({one_line(err)})") from None
     return policy.eval(), {k: v for k, v in saved.items() if k not in ("policy", "format")}
 
 
@@ -289,20 +295,36 @@ def _save_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes, done: in
     save_torch(folder / CHECKPOINT_FILE, state)
 
 
-def _load_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes) -> int:
+def _load_checkpoint(folder: RunFolder, ppo: PPO, env: CurriculumMazes, settings: AgentSettings) -> int:
+    """The update the checkpoint was written after, with the training's state restored from it. Every part is
+    checked against what a fresh training of the same settings holds before anything is restored, so that a
+    damaged or foreign checkpoint is refused naming the field and changes nothing."""
     path = folder / CHECKPOINT_FILE
+    state = load_torch(path, "a maze-agent training checkpoint")
+    if not isinstance(state, dict):
+        raise InputError(f"{path}: not a maze-agent training checkpoint (a {type(state).__name__})")
+    done = checked_whole(state, "update", path, 0, settings.updates)
+    checked_weights(state, "policy", path)
+    checked_optimiser(state, "optimiser", path, list(ppo.policy.parameters()))
+    checked_like(env.env.mazes.state_dict(), state.get("mazes"), path, "mazes", varying=("generator",))
+    checked_like(env.env.memory.state_dict(), state.get("memory"), path, "memory")
+    curriculum = checked_like(env.curriculum.state_dict(), state.get("curriculum"), path, "curriculum", varying=("ids", "levels"))
+    known = set(curriculum["ids"].tolist())
+    in_play = checked_like(torch.as_tensor(env.in_play), state.get("in_play"), path, "in_play")
+    if not set(in_play.tolist()) <= known:
+        raise InputError(f"{path}: in_play names levels the curriculum does not hold")
+    checked_like(torch.get_rng_state(), state.get("torch_rng"), path, "torch_rng")
     try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
         ppo.policy.load_state_dict(state["policy"])
         ppo.optimiser.load_state_dict(state["optimiser"])
         env.env.mazes.load_state_dict(state["mazes"])
         env.env.memory.load_state_dict(state["memory"])
-        env.in_play = [int(i) for i in state["in_play"]]
-        env.curriculum.load_state_dict(state["curriculum"])
+        env.in_play = [int(i) for i in in_play]
+        env.curriculum.load_state_dict(curriculum)
         torch.set_rng_state(state["torch_rng"])
-    except Exception as err:  # a damaged checkpoint: say which file, change nothing
-        raise InputError(f"{path}: cannot resume from this checkpoint ({type(err).__name__}: {err})") from None
-    return int(state["update"])
+    except Exception as err:  # what the checks above cannot see (a random state torch refuses): name the file
+        raise InputError(f"{path}: cannot resume from this checkpoint ({one_line(err)})") from None
+    return done
 
 
 def train_agent(
@@ -311,6 +333,9 @@ def train_agent(
     """Train (or resume training) the maze agent in ``run_dir``; returns the policy and the history rows."""
     from tqdm import tqdm
 
+    from structgen.devices import resolve_device
+
+    resolve_device(settings.device, "agent device")  # before the folder is made: a refused command leaves nothing
     folder = _open_folder(Path(run_dir), settings, overwrite)
     torch.manual_seed(settings.seed)
     curriculum = Curriculum(settings)
@@ -318,12 +343,14 @@ def train_agent(
     ppo = PPO(MazePolicy(settings.hidden), settings)
     done = 0
     with folder.locked():
-        if (folder / CHECKPOINT_FILE).is_file():
-            done = _load_checkpoint(folder, ppo, env)
+        checkpoint = folder / CHECKPOINT_FILE
+        if checkpoint.exists() or checkpoint.is_symlink():  # a link to a device is refused, not taken for "none"
+            done = _load_checkpoint(folder, ppo, env, settings)
             observation = env.env.current()
         else:
             observation = env.env.reset()
         rows = read_history(folder, done)
+        write_training_settings(folder, settings, _TABLE, _HEADER)
         held_out = held_out_mazes(settings.size)
         bar = tqdm(total=settings.updates, initial=done, desc="maze agent", unit="update", disable=not progress)
         while done < settings.updates:
