@@ -264,12 +264,10 @@ class RunFolder:
                 )
         old_kind, new_kind = self.manifest().get("run_kind"), manifest.get("run_kind")
         if old_kind != new_kind:
-            def name(kind: Any) -> str:
-                return "an evolution run" if kind is None else f"a {kind} run"
-
+            old_name, new_name = (("an evolution run" if k is None else f"a {k} run") for k in (old_kind, new_kind))
             raise RunFolderError(
-                f"{self / self.MANIFEST}: run_kind {old_kind!r}: this folder holds {name(old_kind)}, and --overwrite "
-                f"replaces only {name(new_kind)}, the kind this command writes; refusing to delete it"
+                f"{self / self.MANIFEST}: run_kind {old_kind!r}: this folder holds {old_name}, and --overwrite "
+                f"replaces only {new_name}, the kind this command writes; refusing to delete it"
             )
 
     def _make(self, config_text: str, manifest: dict[str, Any], overwrite: bool, keep: Collection[str | os.PathLike]) -> None:

@@ -107,6 +107,15 @@ def output_path(text: str) -> Path:
         raise argparse.ArgumentTypeError(str(err)) from None
 
 
+def png_output_path(text: str) -> Path:
+    """:func:`output_path` for a picture written as PNG: a name not ending in ``.png`` is refused before any work
+    (PNG data under another suffix would mislead whatever opens it)."""
+    path = output_path(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"{text}: this option writes a PNG picture; give a name ending in .png")
+    return path
+
+
 def add_set_option(parser: argparse.ArgumentParser | Any, tables: str, example: str) -> None:
     """The ``--set KEY=VALUE`` option, the same in every subcommand (see :mod:`structgen.config` for the grammar)."""
     parser.add_argument(

@@ -23,9 +23,18 @@ from typing import Any, Protocol
 import torch
 from torch import nn
 
+from structgen.budget import check_memory
 from structgen.ppo_settings import PPOSettings
 
-__all__ = ["PPO", "PPOSettings", "Rollout", "BatchedEnv", "EpisodeReturns"]
+__all__ = ["PPO", "PPOSettings", "Rollout", "BatchedEnv", "EpisodeReturns", "check_rollout_memory"]
+
+
+def check_rollout_memory(probe: Any, envs: int, steps: int, *, what: str) -> None:
+    """Refuse ``envs`` environments played ``steps`` steps an update before any is made, when one environment's
+    observation (``probe``: a tuple of tensors for a batch of one) times the rollout's transitions would take more
+    than the memory budget (:mod:`structgen.budget`); ``what`` names the options in the message."""
+    per_step = sum(t.element_size() * t.numel() for t in probe) + 64  # the action, value, reward... of a transition
+    check_memory(per_step * envs * (steps + 1), f"{what}: {envs:,} environments x {steps:,} steps", "use fewer")
 
 
 class BatchedEnv(Protocol):

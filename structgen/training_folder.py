@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import io
 import json
+import pickle
 import re
 import zipfile
 from pathlib import Path
@@ -213,7 +214,7 @@ def load_torch(path: str | Path, what: str, limit: int = TORCH_FILE_LIMIT) -> An
         return torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except Exception as err:  # torch raises many kinds; a pickle of other objects says so at length, in colour
         message = one_line(err)
-        if "weights_only" in message or "Unsupported global" in message or "GLOBAL" in message:
+        if isinstance(err, pickle.UnpicklingError) or "weights_only" in message.lower() or "Weights only" in message:
             message = "it holds Python objects other than tensors, numbers and strings, and is not unpickled"
         raise InputError(f"{path}: not {what} ({message})") from None
 

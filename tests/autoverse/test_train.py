@@ -154,3 +154,41 @@ def test_the_original_preset_is_the_original_trainers_settings():
     assert (original.clone_steps, original.clone_batch, original.clone_learning_rate) == (100_000, 4096, 1e-4)
     with pytest.raises(ValueError, match="train observation padding must be 'wrap' or 'zeros', got 'mirror'"):
         TrainSettings(padding="mirror")
+
+
+def _tampered_cases(folder: Path) -> dict:
+    saved = torch.load(folder / "checkpoint.pt", weights_only=True)
+    nan = {k: torch.full_like(v, float("nan")) if v.is_floating_point() else v for k, v in saved["policy"].items()}
+    empty_pool = {k: v[:0] for k, v in saved["pool"].items()}
+    return {
+        "no_update": ("checkpoint.pt", {k: v for k, v in saved.items() if k != "update"}, "'update'"),
+        "no_pool": ("checkpoint.pt", {k: v for k, v in saved.items() if k != "pool"}, "pool"),
+        "empty_pool": ("checkpoint.pt", {**saved, "pool": empty_pool}, "pool"),
+        "nan_policy": ("checkpoint.pt", {**saved, "policy": nan}, "NaN"),
+        "a_maze_checkpoint": ("checkpoint.pt", {"update": 1, "policy": saved["policy"], "mazes": {}}, "optimiser"),
+        "cloned_without_policy": ("cloned.pt", {"evaluation": {}}, "'policy'"),
+        "cloned_of_another_shape": ("cloned.pt", {"policy": {k: v[:1] for k, v in saved["policy"].items()}}, "shape"),
+    }
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["no_update", "no_pool", "empty_pool", "nan_policy", "a_maze_checkpoint", "cloned_without_policy", "cloned_of_another_shape"],
+)
+def test_a_tampered_training_folder_is_refused_naming_the_field_and_left_as_it_was(evolved, tmp_path_factory, tmp_path, case):
+    import shutil
+
+    from structgen.errors import InputError
+
+    made = tmp_path_factory.getbasetemp() / "player-two-updates"
+    if not made.exists():
+        train(evolved, made, replace(SMALL, updates=2, evolve_every=0), progress=False)
+    folder = tmp_path / "copy"
+    shutil.copytree(made, folder, ignore=shutil.ignore_patterns(".lock"))
+    name, state, fragment = _tampered_cases(made)[case]
+    torch.save(state, folder / name)
+    before = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    with pytest.raises(InputError, match=fragment) as refused:
+        train(evolved, folder, replace(SMALL, updates=3, evolve_every=0), progress=False)
+    assert name in str(refused.value) and "\n" not in str(refused.value)
+    assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before

@@ -258,5 +258,6 @@ def test_distance_tables_beyond_the_memory_budget_are_refused_before_allocating(
 
     monkeypatch.setenv("STRUCTGEN_MEMORY_MB", "1")
     open_floor = np.ones((300, 300), dtype=bool)
-    with pytest.raises(InputError, match=r"distance tables \(1,000 goals x 90,000 cells\) needs about 343 MiB"):
+    expected = r"distance tables \(1,000 goals x 90,000 cells\) and planning tables needs about 343 MiB"
+    with pytest.raises(InputError, match=expected):
         distance_tables(_mapf.grid_neighbours(open_floor), np.arange(1000, dtype=np.int32))

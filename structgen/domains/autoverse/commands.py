@@ -73,13 +73,11 @@ def load_game(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _parse_actions(text: str) -> np.ndarray:
-    try:
-        actions = np.array([int(a) for a in text.replace(",", " ").split()], dtype=np.int64)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected actions 0-4 separated by commas, got {text!r}") from None
-    if len(actions) == 0 or actions.min() < 0 or actions.max() > 4:
-        raise argparse.ArgumentTypeError(f"expected actions 0-4 separated by commas, got {text!r}")
-    return actions
+    # Each action is one digit between commas (spaces around them allowed): "2,,2" has an empty action, not two.
+    items = [item.strip() for item in text.split(",")]
+    if len(text) > 10**6 or not items or any(item not in ("0", "1", "2", "3", "4") for item in items):
+        raise argparse.ArgumentTypeError(f"expected actions 0-4 separated by commas, got {text[:60]!r}")
+    return np.array([int(item) for item in items], dtype=np.int64)
 
 
 def _save(game: dict[str, Any], path: Path | None) -> None:

@@ -48,7 +48,7 @@ from structgen.domains.autoverse.game import mutate_game
 from structgen.domains.autoverse.ppo import GamePool
 from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.errors import InputError
-from structgen.ppo import PPO, EpisodeReturns
+from structgen.ppo import PPO, EpisodeReturns, check_rollout_memory
 from structgen.training_folder import (
     checked_like,
     checked_optimiser,
@@ -234,8 +234,11 @@ def read_settings(folder: RunFolder) -> TrainSettings:
 def source_run(output: str | Path) -> Path:
     """The evolution run whose games the training in ``output`` learns from."""
     source = RunFolder(output).manifest().get("source_run")
-    if not source:
-        raise InputError(f"{output}: its manifest.json does not name the run it trains on (source_run)")
+    if not isinstance(source, str) or not source or "\0" in source:
+        raise InputError(
+            f"{Path(output) / RunFolder.MANIFEST}: field 'source_run' is {source!r}; expected the path of the run this "
+            "training learns from"
+        )
     return Path(source)
 
 
@@ -270,6 +273,8 @@ def train(
     parts = split(collect_playtraces(Path(run_dir), settings.min_fitness))
     if not parts["train"]:
         raise InputError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
+    one = GamePool(list(parts["train"][:1]), 1, settings.observation(), "cpu", torch.Generator().manual_seed(0))
+    check_rollout_memory(one.observe(), settings.envs, settings.steps, what="--envs and --steps")
     folder = open_training_folder(
         Path(output),
         settings,

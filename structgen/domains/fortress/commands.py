@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, whole_number
+from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, png_output_path, whole_number
 
 EXIT_OK = 0
 
@@ -152,10 +152,6 @@ def cmd_show(args: argparse.Namespace) -> int:
     from evolution.plots import figure_png
     from structgen.domains.fortress.show import draw_world, population_figure
 
-    if args.output.suffix.lower() != ".png":
-        raise InputError(f"{args.output}: show writes a .png")
-    if args.populations is not None and args.populations.suffix.lower() != ".png":
-        raise InputError(f"{args.populations}: --populations writes a .png")
     world, label = load_world(args)
     trace = _simulate(args, world, label).traces[0][0] if args.populations is not None else None
     draw_world(world, args.output)
@@ -219,7 +215,7 @@ def _add_replay(subparsers: Any) -> None:
         "[class, x, y, node] in creation order, and 'visits', per class the nodes and edges visited",
     )
     p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animated GIF")
-    p.add_argument("--strip", type=output_path, metavar="OUT.png", help="write a PNG strip of frames")
+    p.add_argument("--strip", type=png_output_path, metavar="OUT.png", help="write a PNG strip of frames")
     p.add_argument("--frames", type=whole_number(2, 50), default=6, metavar="N", help="frames in the strip (default 6)")
     p.set_defaults(handler=cmd_replay)
 
@@ -232,8 +228,8 @@ def _add_show(subparsers: Any) -> None:
         "also simulates it and plots how many entities of each class there are after each tick.",
     )
     _world_source(p)
-    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png", help="picture to write")
-    p.add_argument("--populations", type=output_path, metavar="OUT.png", help="also plot populations over time")
+    p.add_argument("-o", "--output", required=True, type=png_output_path, metavar="OUT.png", help="picture to write")
+    p.add_argument("--populations", type=png_output_path, metavar="OUT.png", help="also plot populations over time")
     p.set_defaults(handler=cmd_show)
 
 
@@ -326,7 +322,7 @@ def _add_figure(subparsers: Any) -> None:
     )
     p.add_argument("kind", choices=["archive", "robustness", "populations"], help="which figure")
     p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="fortress MAP-Elites run folders (same settings)")
-    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png", help="picture to write")
+    p.add_argument("-o", "--output", required=True, type=png_output_path, metavar="OUT.png", help="picture to write")
     p.add_argument(
         "--colour", choices=["fitness", "entropy", "nodes"], default="fitness",
         help="archive: colour cells by fitness (default), by the entropy of the class sizes or by total nodes",

@@ -63,7 +63,8 @@ CONDITIONS = {
     "step": (1, ("int",)),
     "none": (0, ()),
 }
-_POSITION = re.compile(r"^(.)-\[(-?[0-9]+), (-?[0-9]+)\]$")
+# At most 9 digits: longer numbers are off the map anyway, and Python refuses to read one of over 4,300 digits.
+_POSITION = re.compile(r"^(.)-\[(-?[0-9]{1,9}), (-?[0-9]{1,9})\]$")
 #: The largest number a condition may hold (``within c r``, ``step k``): the engine stores them in 32 bits.
 MAX_NUMBER = 10**9
 #: The most classes a world may define (class numbers are stored in 16 bits).
@@ -137,8 +138,9 @@ def _check_entity(entity: EntityClass, where: str) -> None:
             if (kind == "char" and len(argument) != 1) or (kind == "int" and not _whole(argument)):
                 wanted = "a class character" if kind == "char" else "a whole number"
                 raise InputError(f"{where}: edge {key}: {condition!r}: expected {wanted}, got {argument!r}")
-            if kind == "int" and int(argument) > MAX_NUMBER:
-                raise InputError(f"{where}: edge {key}: {condition!r}: {argument} is more than {MAX_NUMBER:,}")
+            # Compared by length first: Python will not turn 4,300 digits or more into a number.
+            if kind == "int" and (len(argument) > len(str(MAX_NUMBER)) or int(argument) > MAX_NUMBER):
+                raise InputError(f"{where}: edge {key}: {condition!r}: {argument[:20]} is more than {MAX_NUMBER:,}")
         if name == "step" and int(arguments[0]) < 1:
             raise InputError(f"{where}: edge {key}: {condition!r}: step needs a count of at least 1")
 

@@ -22,6 +22,7 @@ from structgen.commands import (
     finite_number,
     given_settings,
     output_path,
+    png_output_path,
     resumed_training_settings,
     verbs_wanted,
     whole_number,
@@ -498,7 +499,7 @@ def _add_show(subparsers: Any, kind: LayoutKind) -> None:
         "kind in the legend.",
     )
     p.add_argument("files", nargs="+", metavar="FILE", help="one or two map JSON files (unrepaired, then repaired)")
-    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png", help="image to write")
+    p.add_argument("-o", "--output", required=True, type=png_output_path, metavar="OUT.png", help="image to write")
     p.add_argument("--dpi", type=whole_number(10, 1200), default=110, help="image resolution, 10..1200 (default 110)")
     p.set_defaults(handler=cmd_show, kind=kind.name)
 
@@ -574,7 +575,7 @@ def _add_simulate(subparsers: Any, kind: LayoutKind) -> None:
     _add_robot_arguments(
         p, kind, steps=1000, planner="pp", seed_help="seed of the start cells, the goals and the planners' tie-breaks"
     )
-    p.add_argument("--frames", type=output_path, default=None, metavar="OUT.png", help="also draw six snapshots")
+    p.add_argument("--frames", type=png_output_path, default=None, metavar="OUT.png", help="also draw six snapshots")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(handler=cmd_simulate, kind=kind.name)
 
@@ -743,6 +744,19 @@ def _add_test_agent(subparsers: Any, kind: LayoutKind) -> None:
     p.set_defaults(handler=cmd_test_agent, kind=kind.name)
 
 
+def _size_option(kind: LayoutKind) -> Any:
+    """An argparse ``type`` for a size of ``kind`` (``33x36`` or any ``RxC`` it can grow), checked before any work."""
+
+    def parse(text: str) -> str:
+        try:
+            kind.size(text)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        return text
+
+    return parse
+
+
 def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray, np.ndarray, str]:
     """The small and large mazes (without their outer walls) the experiment plays, and where they came from."""
     if args.run_dir is not None:
@@ -860,7 +874,10 @@ def _add_experiment(subparsers: Any, kind: LayoutKind) -> None:
         help="the generator: longest (default: the elite with the longest agent path among those the agent solves in "
         "90 %% of episodes), best, or index:I (the archive cell)",
     )
-    p.add_argument("--large-size", default="64x64", metavar="RxC", help="size to grow the large maze at (default 64x64)")
+    p.add_argument(
+        "--large-size", type=_size_option(kind), default="64x64", metavar="RxC",
+        help="size to grow the large maze at: ROWSxCOLUMNS, each at least 4, at most 4096 x 4096 cells (default 64x64)",
+    )  # fmt: skip
     p.add_argument("--small", default=None, metavar="FILE", help="small maze JSON file, instead of a run")
     p.add_argument("--large", default=None, metavar="FILE", help="large maze JSON file, instead of a run")
     p.add_argument("--weights", default=None, metavar="FILE", help="agent weights (default the shipped agent)")

@@ -32,7 +32,7 @@ from structgen.domains.warehouse.agent_settings import AgentSettings
 from structgen.domains.warehouse.maze_agent import MazePolicy, RememberingMazes, run_agent
 from structgen.domains.warehouse.maze_env import TorchMazes, _has_two_connected_floor_cells, random_maze
 from structgen.errors import InputError
-from structgen.ppo import PPO
+from structgen.ppo import PPO, check_rollout_memory
 from structgen.training_folder import (
     checked_like,
     checked_optimiser,
@@ -336,6 +336,8 @@ def train_agent(
     from structgen.devices import resolve_device
 
     resolve_device(settings.device, "agent device")  # before the folder is made: a refused command leaves nothing
+    one = RememberingMazes(TorchMazes([random_maze(np.random.default_rng(0), settings.size, "carved")], device="cpu"))
+    check_rollout_memory(one.reset(), settings.envs, settings.steps, what="--envs, --steps and --size")
     folder = _open_folder(Path(run_dir), settings, overwrite)
     torch.manual_seed(settings.seed)
     curriculum = Curriculum(settings)

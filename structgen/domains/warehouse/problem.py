@@ -192,6 +192,12 @@ class LayoutProblem(Problem):
                 self.measure_ranges = ((0.0, 1.0), (0.0, horizon))
             self.field_names = ("success_rate", "shortest_path", "walls", "entropy")
             self._agent = None  # the learned agent, loaded on first use (in each worker)
+            if settings.agent == "learned" and settings.agent_weights:
+                # Read now, so that a file that is not an agent stops the run before its first generation instead of
+                # going unread while no grown maze is solvable (a run of zeros).
+                from structgen.domains.warehouse.maze_training import agent_policy
+
+                self._agent = agent_policy(settings.agent_weights)
         self.plot_fields = self.field_names[:2]
 
     def initial_genomes(self, count: int, rng: np.random.Generator) -> np.ndarray:

@@ -142,18 +142,26 @@ class _ManufacturingTasks:
         return int(beside[self.rng.integers(0, len(beside))]), STATION_WAITS[station]  # as choice() draws, faster
 
 
-def distance_tables(neighbours: np.ndarray, targets: np.ndarray) -> np.ndarray:
+#: Bytes a simulation holds per map cell besides the distance tables, with the paper's window of 10 (``pbs``: the
+#: occupancy table, its index by step and cell, the search's cell numbering; ``pp``: the occupancy table and the
+#: search's; ``pibt``: one step's; all: the neighbour table and the free cells). Measured on a 4096 x 4096 map with
+#: one robot: ``pbs`` 250, ``pp`` 64 (peak memory above what loading the map took, over its cells).
+PLANNER_BYTES_PER_CELL = {"pbs": 260, "pp": 90, "pibt": 60}
+
+
+def distance_tables(neighbours: np.ndarray, targets: np.ndarray, other_bytes: int = 0) -> np.ndarray:
     """``table[i, cell]``: moves from ``cell`` to ``targets[i]``. Distances fit 16 bits on any map with fewer free
     cells than :data:`._mapf.UNREACHABLE` (no path is longer than the free cells); larger maps take 32 bits. Refused
-    beyond the memory budget, before anything is allocated."""
+    beyond the memory budget (with ``other_bytes``, what the planner will hold beside them) before anything is
+    allocated."""
     from structgen.domains.warehouse import _mapf
 
     cells = neighbours.shape[0]
     free = int((neighbours >= 0).any(axis=1).sum()) + 1
     kind, unreachable = (np.int16, _mapf.UNREACHABLE) if free < _mapf.UNREACHABLE else (np.int32, np.iinfo(np.int32).max)
     check_memory(
-        len(targets) * cells * np.dtype(kind).itemsize,
-        f"the simulator's distance tables ({len(targets):,} goals x {cells:,} cells)",
+        len(targets) * cells * np.dtype(kind).itemsize + other_bytes,
+        f"the simulator's distance tables ({len(targets):,} goals x {cells:,} cells) and planning tables",
         "use a smaller map or one with fewer goals",
     )
     table = np.full((len(targets), cells), unreachable, dtype=kind)
@@ -254,11 +262,13 @@ def simulate(
         raise InputError(f"replan_cap must be a non-negative integer, got {replan_cap!r}")
     # Each name in PBS_RULES is that of the rule's bit in _pbs, lower case (tests/layouts/test_pbs.py holds them).
     rule_bits = _pbs.ALL_RULES & ~sum(getattr(_pbs, name.upper()) for name in set(pbs_off))
+    planning = int(PLANNER_BYTES_PER_CELL[planner] * rows * cols * max(1.0, (window + 1) / 11))
+    check_memory(planning, f"the {planner} planner's tables on a {rows} x {cols} map", "use a smaller map")
     neighbours = _mapf.grid_neighbours(passable)
     targets = tasks_of.targets
     target_of = np.full(rows * cols, -1, dtype=np.int32)
     target_of[targets] = np.arange(len(targets), dtype=np.int32)
-    dist = distance_tables(neighbours, targets)
+    dist = distance_tables(neighbours, targets, planning)
 
     positions = rng.permutation(free)[:agents].astype(np.int32)
     goals = np.zeros((agents, MAX_GOALS), dtype=np.int32)
