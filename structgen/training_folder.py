@@ -12,11 +12,13 @@ The rules every such training follows, kept here once:
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import pickle
 import re
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +39,7 @@ __all__ = [
     "checked_whole",
     "checked_weights",
     "load_torch",
+    "new_folder_removed_on_failure",
     "one_line",
     "save_torch",
     "write_history",
@@ -317,3 +320,19 @@ def checked_optimiser(saved: Any, key: str, path: str | Path, parameters: list[A
                     f"{tuple(parameters[index].shape)}"
                 )
     return state
+
+
+@contextlib.contextmanager
+def new_folder_removed_on_failure(path: Path, *progress_files: str) -> Iterator[None]:
+    """Around a training that may make the folder ``path``: if it was not there (or was empty) and the training
+    fails before it has written any of ``progress_files`` (a checkpoint), what it wrote is removed again, so that a
+    refused or failed command leaves nothing behind (a folder the user made stays, empty), as an evolution run does."""
+    made_here = not path.exists()
+    fresh = made_here or (path.is_dir() and not any(path.iterdir()))
+    try:
+        yield
+    except BaseException:
+        folder = RunFolder(path)
+        if fresh and path.is_dir() and not any((path / name).exists() for name in progress_files) and folder.is_marked():
+            folder.remove(keep_folder=not made_here)
+        raise

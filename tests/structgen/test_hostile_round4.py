@@ -305,3 +305,19 @@ def test_a_fortress_number_of_5000_digits_is_refused_as_input(where):
 
         with pytest.raises(InputError, match="position line"):
             parse_fortress(GARDEN.replace("s-[2, 2]", f"s-[{digits}, 2]"))
+
+
+def test_a_training_that_fails_before_its_first_checkpoint_leaves_nothing_behind(tmp_path, monkeypatch):
+    import structgen.domains.warehouse.maze_training as maze_training
+
+    def broken(settings):
+        raise RuntimeError("the curriculum broke")
+
+    monkeypatch.setattr(maze_training, "Curriculum", broken)
+    with pytest.raises(RuntimeError, match="curriculum"):
+        train_agent(tmp_path / "new", TINY, progress=False)
+    assert not (tmp_path / "new").exists()
+    (tmp_path / "mine").mkdir()
+    with pytest.raises(RuntimeError, match="curriculum"):
+        train_agent(tmp_path / "mine", TINY, progress=False)
+    assert (tmp_path / "mine").is_dir() and not any((tmp_path / "mine").iterdir())

@@ -55,6 +55,7 @@ from structgen.training_folder import (
     checked_weights,
     checked_whole,
     load_torch,
+    new_folder_removed_on_failure,
     open_training_folder,
     read_history,
     read_training_settings,
@@ -265,7 +266,6 @@ def train(
 ) -> list[dict[str, Any]]:
     """Train (or resume training) a player for the games of the Autoverse run ``run_dir`` in the folder ``output``;
     returns the history rows."""
-    from tqdm import tqdm
 
     from structgen.devices import resolve_device
 
@@ -275,6 +275,15 @@ def train(
         raise InputError(f"{run_dir}: no game with fitness >= {settings.min_fitness} to learn from")
     one = GamePool(list(parts["train"][:1]), 1, settings.observation(), "cpu", torch.Generator().manual_seed(0))
     check_rollout_memory(one.observe(), settings.envs, settings.steps, what="--envs and --steps")
+    with new_folder_removed_on_failure(Path(output), CHECKPOINT_FILE, CLONED_FILE):
+        return _train(run_dir, output, settings, parts, overwrite, progress)
+
+
+def _train(
+    run_dir: str | Path, output: str | Path, settings: TrainSettings, parts: dict[str, Any], overwrite: bool, progress: bool
+) -> list[dict[str, Any]]:
+    from tqdm import tqdm
+
     folder = open_training_folder(
         Path(output),
         settings,

@@ -40,6 +40,7 @@ from structgen.training_folder import (
     checked_whole,
     is_training_folder,
     load_torch,
+    new_folder_removed_on_failure,
     one_line,
     open_training_folder,
     read_history,
@@ -331,14 +332,18 @@ def train_agent(
     run_dir: str | Path, settings: AgentSettings, *, overwrite: bool = False, progress: bool = True
 ) -> tuple[MazePolicy, list[dict[str, Any]]]:
     """Train (or resume training) the maze agent in ``run_dir``; returns the policy and the history rows."""
-    from tqdm import tqdm
-
     from structgen.devices import resolve_device
 
     resolve_device(settings.device, "agent device")  # before the folder is made: a refused command leaves nothing
     one = RememberingMazes(TorchMazes([random_maze(np.random.default_rng(0), settings.size, "carved")], device="cpu"))
     check_rollout_memory(one.reset(), settings.envs, settings.steps, what="--envs, --steps and --size")
-    folder = _open_folder(Path(run_dir), settings, overwrite)
+    with new_folder_removed_on_failure(Path(run_dir), CHECKPOINT_FILE):
+        return _train_agent(_open_folder(Path(run_dir), settings, overwrite), settings, progress)
+
+
+def _train_agent(folder: RunFolder, settings: AgentSettings, progress: bool) -> tuple[MazePolicy, list[dict[str, Any]]]:
+    from tqdm import tqdm
+
     torch.manual_seed(settings.seed)
     curriculum = Curriculum(settings)
     env = CurriculumMazes(curriculum, settings)
