@@ -53,12 +53,12 @@ def _torch_bytes(state) -> bytes:
 
 
 def _bomb() -> bytes:
-    """A zip archive that names itself a torch file and unpacks 600 MiB of zeros from well under 1 MiB."""
+    """A zip archive that names itself a torch file and unpacks 300 MiB of zeros (past the 256 MiB limit) from under 1 MiB."""
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as archive:
         with archive.open("archive/data/0", "w") as member:
             block = bytes(1 << 20)
-            for _ in range(600):
+            for _ in range(300):
                 member.write(block)
     return buffer.getvalue()
 
