@@ -326,12 +326,13 @@ def checked_optimiser(saved: Any, key: str, path: str | Path, parameters: list[A
 def new_folder_removed_on_failure(path: Path, *progress_files: str) -> Iterator[None]:
     """Around a training that may make the folder ``path``: if it was not there (or was empty) and the training
     fails before it has written any of ``progress_files`` (a checkpoint), what it wrote is removed again, so that a
-    refused or failed command leaves nothing behind (a folder the user made stays, empty), as an evolution run does."""
+    refused or failed command leaves nothing behind (a folder the user made stays, empty). An interrupted training
+    (Ctrl-C) keeps its folder: ``resume`` starts it again from the beginning, to the same result."""
     made_here = not path.exists()
     fresh = made_here or (path.is_dir() and not any(path.iterdir()))
     try:
         yield
-    except BaseException:
+    except Exception:
         folder = RunFolder(path)
         if fresh and path.is_dir() and not any((path / name).exists() for name in progress_files) and folder.is_marked():
             folder.remove(keep_folder=not made_here)

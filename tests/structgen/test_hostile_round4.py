@@ -321,3 +321,18 @@ def test_a_training_that_fails_before_its_first_checkpoint_leaves_nothing_behind
     with pytest.raises(RuntimeError, match="curriculum"):
         train_agent(tmp_path / "mine", TINY, progress=False)
     assert (tmp_path / "mine").is_dir() and not any((tmp_path / "mine").iterdir())
+
+
+def test_an_interrupted_training_keeps_its_folder_for_resume(tmp_path, monkeypatch):
+    import structgen.domains.warehouse.maze_training as maze_training
+
+    def interrupted(settings):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(maze_training, "Curriculum", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        train_agent(tmp_path / "new", TINY, progress=False)
+    assert (tmp_path / "new" / "config.toml").is_file()
+    monkeypatch.undo()
+    train_agent(tmp_path / "new", TINY, progress=False)  # the same command goes on: from the beginning
+    assert (tmp_path / "new" / "agent.pt").is_file()
