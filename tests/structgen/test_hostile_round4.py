@@ -270,6 +270,8 @@ def test_a_tall_checkpoint_with_a_fractional_height_is_refused_by_info(tmp_path,
         ({"levels_done": 2, "designs": {"2": {"rules": ["nope"], "tied": 0}}}, "rules"),
         ({"levels_done": 2, "refined": [2]}, "refined"),
         ({"levels_done": 2, "complete": "yes"}, "complete"),
+        ({"levels_done": 2, "designs": {"\u00b2": {"rules": ["S"], "tied": 0}}}, "designs"),
+        ({"levels_done": 2, "designs": {"2" * 5000: {"rules": ["S"], "tied": 0}}}, "designs"),
     ]:
         (folder.path / CHECKPOINT_FILE).write_text(json.dumps(state))
         refused(capsys, "info", folder.path, fragments=(CHECKPOINT_FILE, fragment))

@@ -285,9 +285,14 @@ def _manifest(settings: TallSettings) -> dict[str, Any]:
 def is_search_folder(path: str | os.PathLike) -> bool:
     """Whether ``path`` is a folder a tall search wrote (``structgen info`` tells it from an evolution run)."""
     folder = RunFolder(path)
-    if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
+    if _is_old_folder(folder):
         return True
     return (folder / RunFolder.CONFIG).is_file() and folder.manifest().get("run_kind") == RUN_KIND
+
+
+def _is_old_folder(folder: RunFolder) -> bool:
+    """Whether ``folder`` is a search folder of structgen 0.2 (``settings.json``, no ``config.toml``)."""
+    return (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists()
 
 
 def _old_settings(folder: RunFolder) -> TallSettings:
@@ -327,7 +332,7 @@ def _open_folder(path: Path, settings: TallSettings, workers: int, overwrite: bo
     folder = RunFolder(path)
     if path.exists() and not path.is_dir():
         raise InputError(f"{path}: is a file, expected a run folder")
-    old = (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists()
+    old = _is_old_folder(folder)
     if not old and (not is_search_folder(path) or overwrite):
         if (folder / RunFolder.CONFIG).is_file() and not overwrite:
             raise InputError(f"{path}: holds a run that is not a tall search; choose another folder")
@@ -366,9 +371,14 @@ def _checkpoint(
         atomic_write(folder / CHECKPOINT_FILE, json.dumps(state, indent=2) + "\n")
 
 
+def _checkpoint_path(folder: RunFolder, old: bool = False) -> Path:
+    """Where the search's checkpoint is; ``old``: in a folder of structgen 0.2 not yet converted."""
+    return folder / (_OLD_CHECKPOINT if old else CHECKPOINT_FILE)
+
+
 def _saved_state(folder: RunFolder, old: bool = False) -> Any:
-    """The checkpoint's content ({} before the first); ``old``: of a folder of structgen 0.2 not yet converted."""
-    path = folder / (_OLD_CHECKPOINT if old else CHECKPOINT_FILE)
+    """The checkpoint's content ({} before the first)."""
+    path = _checkpoint_path(folder, old)
     return read_json(path, 16 * MiB) if path.exists() or path.is_symlink() else {}
 
 
@@ -392,16 +402,14 @@ def _load(value: Any, field: str, where: Path) -> float:
     return _number(value)
 
 
-def _restore(state: Any, where: Path, settings: TallSettings | None = None) -> tuple[int, list, dict[int, TallDesign], list[int]]:
-    """From a checkpoint: the levels searched, the beam, each height's design and the heights refined. Every field
-    is checked for what a search writes (whole numbers, rules it knows, a height per design no taller than the
-    levels searched, and with ``settings`` no more levels than they search); anything else is an error naming the
+def _restore(state: Any, path: Path, settings: TallSettings) -> tuple[int, list, dict[int, TallDesign], list[int]]:
+    """From a checkpoint (read from ``path``): the levels searched, the beam, each height's design and the heights
+    refined. Every field is checked for what a search writes (whole numbers, rules it knows, a height per design no
+    taller than the levels searched, no more levels than ``settings`` search); anything else is an error naming the
     field."""
-    path = where / CHECKPOINT_FILE
     if not isinstance(state, dict):
         raise InputError(f"{path}: not a tall search checkpoint (expected an object)")
-    high = MAX_LEVELS if settings is None else settings.levels
-    done = _whole(state.get("levels_done", 1), 1, high, "levels_done", path)
+    done = _whole(state.get("levels_done", 1), 1, settings.levels, "levels_done", path)
     kept_rows = state.get("kept", [[[], 0]])
     if not isinstance(kept_rows, list):
         raise InputError(f"{path}: kept is {type(kept_rows).__name__}; expected a list of [rules, tied] pairs")
@@ -415,7 +423,8 @@ def _restore(state: Any, where: Path, settings: TallSettings | None = None) -> t
         raise InputError(f"{path}: designs is {type(rows).__name__}; expected an object of designs by height")
     designs = {}
     for key, row in rows.items():
-        if not key.isdigit() or not isinstance(row, dict):
+        # ASCII digits, and few: int() refuses 4,300 digits and reads "²" as no number at all.
+        if not (key.isascii() and key.isdigit() and len(key) <= 3) or not isinstance(row, dict):
             raise InputError(f"{path}: designs[{key!r}] is not a design under its height")
         levels = _whole(int(key), 2, done, f"designs[{key!r}]'s height", path)
         rules = _rules(row.get("rules"), f"designs[{key!r}].rules", path)
@@ -493,16 +502,10 @@ def search_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
     folder = RunFolder(run_dir)
     if not is_search_folder(folder.path):
         raise RunFolderError(f"{folder.path}: not a tall search folder")
-    if (folder / _OLD_SETTINGS).is_file() and not (folder / RunFolder.CONFIG).exists():
-        settings = _old_settings(folder)
-        state: Any = _saved_state(folder, old=True)
-        checkpoint = folder.path / _OLD_CHECKPOINT
-    else:
-        settings, _ = _read_config(folder)
-        state, checkpoint = _saved_state(folder), folder / CHECKPOINT_FILE
-    if not isinstance(state, dict):
-        raise InputError(f"{checkpoint}: not a tall search checkpoint (expected an object)")
-    done, _, designs, refined = _restore(state, folder.path, settings)
+    old = _is_old_folder(folder)
+    settings = _old_settings(folder) if old else _read_config(folder)[0]
+    state = _saved_state(folder, old)
+    done, _, designs, refined = _restore(state, _checkpoint_path(folder, old), settings)
     rows = [
         {
             **design.to_json(),
@@ -600,17 +603,18 @@ def find_tallest(
     if not isinstance(workers, int) or isinstance(workers, bool) or workers < 0:
         raise InputError(f"workers must be a whole number, 0 or more, got {workers!r}")
     if run_dir is None:
-        return _search(settings, None, workers, progress, log or (lambda line: None))
+        fresh = _restore({}, Path(CHECKPOINT_FILE), settings)
+        return _search(settings, None, fresh, workers, progress, log or (lambda line: None))
     folder, old = _open_folder(Path(run_dir), settings, workers, overwrite)
     with folder.locked():
         # The checkpoint is read back before anything is written: a damaged one refuses with the folder unchanged.
-        _restore(_saved_state(folder, old), folder.path, settings)
+        restored = _restore(_saved_state(folder, old), _checkpoint_path(folder, old), settings)
         if old:
             _convert_old_folder(folder)
         if folder.config_text() != _config_text(settings, workers):
             folder.write_config(_config_text(settings, workers))
         folder.remove_temporary_files()
-        return _search(settings, folder, workers, progress, log or (lambda line: None))
+        return _search(settings, folder, restored, workers, progress, log or (lambda line: None))
 
 
 def resume_search(
@@ -630,10 +634,15 @@ def resume_search(
 
 
 def _search(
-    settings: TallSettings, folder: RunFolder | None, workers: int, progress: bool, say: Callable[[str], None]
+    settings: TallSettings,
+    folder: RunFolder | None,
+    restored: tuple[int, list, dict[int, TallDesign], list[int]],
+    workers: int,
+    progress: bool,
+    say: Callable[[str], None],
 ) -> TallResult:
-    state = _saved_state(folder) if folder is not None else {}
-    done, kept, designs, refined = _restore(state, folder.path if folder is not None else Path("."), settings)
+    """The search from where ``restored`` (what :func:`_restore` read from the folder's checkpoint) says it stands."""
+    done, kept, designs, refined = restored
     _checkpoint(folder, done, kept, designs, refined)  # not complete until this call's outputs are written
     physics = settings.physics
     if done > 1:
