@@ -204,7 +204,9 @@ def _checked_checkpoint(
     checked_whole(saved, "update", path, 0, settings.updates)
     checked_like(policy.state_dict(), checked_weights(saved, "policy", path), path, "policy")
     checked_optimiser(saved, "optimiser", path, list(policy.parameters()))
-    games = checked_like(_pool_arrays(pool), saved.get("pool"), path, "pool", varying=tuple(stack_games(pool)))
+    # The pool's size changes as it evolves: one game gives each array's type and number of dimensions.
+    reference = _pool_arrays(pool[:1])
+    games = checked_like(reference, saved.get("pool"), path, "pool", varying=tuple(reference))
     count = len(games["rewards"])
     if count == 0 or any(len(value) != count for value in games.values()):
         raise InputError(f"{path}: pool holds {count} games (its arrays must be non-empty and of one length)")

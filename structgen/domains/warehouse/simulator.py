@@ -85,13 +85,13 @@ class _WarehouseTasks:
         self.endpoints = np.flatnonzero(tiles.ravel() == code("e"))
         if len(self.workstations) == 0 or len(self.endpoints) == 0:
             raise InputError("a warehouse simulation needs workstations and endpoints")
-        self.weights = np.ones(len(self.workstations))
+        weights = np.ones(len(self.workstations))
         if uneven:  # the paper's uneven setting: the left column's workstations are five times likelier
-            self.weights[self.workstations % tiles.shape[1] < tiles.shape[1] // 2] = 5.0
-        self.weights /= self.weights.sum()
+            weights[self.workstations % tiles.shape[1] < tiles.shape[1] // 2] = 5.0
+        weights /= weights.sum()
         # Generator.choice(p=...) draws one uniform and bisects this same cumulative table, but rebuilds and checks
         # it on every call (13 us, a sixth of a 200-robot run); drawing the uniform here gives the same goals.
-        self.cumulative = np.cumsum(self.weights)
+        self.cumulative = np.cumsum(weights)
         self.cumulative /= self.cumulative[-1]
         self.targets = np.concatenate([self.workstations, self.endpoints]).astype(np.int32)
         self.rng = rng
