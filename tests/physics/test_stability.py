@@ -166,6 +166,29 @@ def test_same_input_gives_the_same_report_bit_for_bit():
     assert np.array_equal(first.final_positions, second.final_positions)
 
 
+def test_an_emptied_world_gives_what_a_fresh_world_gives(monkeypatch):
+    # The client's world is emptied, not reset, between structures (it keeps the solver's buffers); a structure that
+    # breaks must still come out bit for bit as in a world that never held anything, whatever came before it.
+    from physics import bullet
+
+    fresh = bullet._Client()
+    monkeypatch.setattr(bullet, "_client", fresh)
+    try:
+        first = check_stability(cantilever(2), FAST)
+        assert first.broken_joints
+        check_stability(braced(5), FAST)
+        shapes_after_braced = list(fresh.shapes)
+        again = check_stability(cantilever(2), FAST)
+        assert without_timing(first) == without_timing(again)
+        assert np.array_equal(first.final_positions, again.final_positions)
+        # Only the structure in the world owns shapes: nothing piles up from one structure to the next.
+        assert len(fresh.shapes) <= len(shapes_after_braced)
+        structure = cantilever(2)
+        assert fresh.pb.getNumBodies(physicsClientId=fresh.id) == 1 + structure.n_vertices + structure.n_edges
+    finally:
+        fresh.pb.disconnect(physicsClientId=fresh.id)
+
+
 # -- inputs -----------------------------------------------------------------------------------------------------------------
 def test_plain_arrays_mappings_and_pairs_are_accepted():
     vertices, edges = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 2]]), np.array([[0, 1], [1, 2]])
