@@ -92,6 +92,9 @@ class GASettings:
             0 by default, as the paper found recombination no better than random networks.
         initial: random genomes in the first generation; 0 for ``population``. With ``parents = initial`` and
             ``population = 2 * parents`` this is a (mu + lambda) strategy with mu = lambda (Autoverse's 40 + 40).
+        ties: who is kept among equal scores: "parents" (the old stay ahead) or "newest" (children stay ahead, so a
+            population whose scores are all equal drifts instead of standing still: the paper's experiments at full
+            size, where every random network's structure is crushed to a score of 0).
     """
 
     population: int = 100
@@ -100,9 +103,12 @@ class GASettings:
     mutation_scale: float = 0.25
     crossover_rate: float = 0.0
     initial: int = 0
+    ties: str = "parents"
 
     def __post_init__(self) -> None:
         _positive_int(self, "population", "parents")
+        if self.ties not in ("parents", "newest"):
+            raise ValueError(f"optimizer ties must be 'parents' or 'newest', got {self.ties!r}")
         if self.parents >= self.population:
             raise ValueError(f"optimizer parents ({self.parents}) must be fewer than population ({self.population})")
         _in_range(self, "mutation_rate", 0.0, 1.0, low_open=True)
@@ -150,10 +156,13 @@ class GeneticAlgorithm(Optimizer):
             raise RuntimeError("tell() before ask()")
         if self.parents is None:
             pool, scores = list(self._asked), np.asarray(objective, dtype=np.float64)
+        elif self.settings.ties == "newest":
+            pool = list(self._asked) + list(self.parents)
+            scores = np.concatenate([np.asarray(objective, dtype=np.float64), self.parent_objective])
         else:
             pool = list(self.parents) + list(self._asked)
             scores = np.concatenate([self.parent_objective, objective])
-        # Stable sort: among equal scores, parents (listed first) stay ahead of children.
+        # Stable sort: among equal scores, whoever is listed first stays ahead.
         keep = np.argsort(-scores, kind="stable")[: self.settings.parents]
         chosen = [pool[i] for i in keep]
         self.parents = np.array(chosen) if self.problem.flat else chosen

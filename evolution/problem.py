@@ -120,6 +120,8 @@ class Problem:
         measure_ranges: ``(low, high)`` for each measure; they lay out quality-diversity archives.
         field_names: names of the extra per-candidate fields :meth:`evaluate` reports.
         plot_fields: fields of the best candidate worth plotting over generations.
+        mean_fields: fields whose mean over each generation's candidates the metrics also record
+            (``generation_mean_<field>``; each generation's maximum of every field is always recorded).
         result_objective: the name of a field that ranks candidates in a quality-diversity result archive instead of
             the objective (the layout domains search on throughput plus similarity but keep the best throughput per
             cell, as the original does); None: the objective.
@@ -138,6 +140,7 @@ class Problem:
     measure_ranges: tuple[tuple[float, float], ...] = ()
     field_names: tuple[str, ...] = ()
     plot_fields: tuple[str, ...] = ()
+    mean_fields: tuple[str, ...] = ()
     objective_floor: float = 0.0
     result_objective: str | None = None
     genome_types: tuple[type, ...] = ()

@@ -125,6 +125,7 @@ def _metrics_row(state: RunState, evaluation: Evaluation, optimizer: Optimizer, 
     row.update({f"best_{name}": value for name, value in zip(problem.measure_names, best.measures)})
     row.update({f"best_{name}": value for name, value in best.fields.items()})
     row.update({f"generation_max_{name}": float(values.max()) for name, values in evaluation.fields.items()})
+    row.update({f"generation_mean_{name}": float(np.mean(evaluation.fields[name])) for name in problem.mean_fields})
     if optimizer.archive is not None:
         stats = optimizer.archive.stats
         row.update(

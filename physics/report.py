@@ -83,7 +83,8 @@ class StabilityReport:
     wall_time: float = 0.0
     cpu_time: float = 0.0
     config: PhysicsConfig = field(default_factory=PhysicsConfig)
-    method: str = "bullet"  # "bullet": simulated; "statics": predicted by physics.statics; "transient": first moments
+    method: str = "bullet"  # "bullet": simulated; "statics": predicted by physics.statics; "transient": first moments;
+    # "collapse": screened out by physics.statics.overload_ratio as falling apart entirely
     falling: int = 0
     final_speed: float = 0.0
 

@@ -41,7 +41,16 @@ from physics.config import PhysicsConfig
 from physics.model import Bodies, InputError, place, read_structure
 from physics.report import BrokenJoint, StabilityReport, height_of, integrity_of, quality
 
-__all__ = ["StaticsResult", "bounding_loads", "check_statics", "check_statics_with_loads", "joint_forces", "predict"]
+__all__ = [
+    "StaticsResult",
+    "bounding_loads",
+    "check_collapse",
+    "check_statics",
+    "check_statics_with_loads",
+    "joint_forces",
+    "overload_ratio",
+    "predict",
+]
 
 # Young's modulus of the beams (Pa); the solution for forces does not depend on it, only on stiffness ratios.
 _E = 1.0e9
@@ -466,3 +475,76 @@ def check_statics_with_loads(structure: Any, config: PhysicsConfig | None = None
         method="statics",
     )
     return report, result.first_loads
+
+
+def overload_ratio(structure: Any, config: PhysicsConfig | None = None) -> float:
+    """How many times over the joints crossing the worst horizontal cut are loaded, at the least (no solve: linear
+    in the structure's size).
+
+    Cut the structure between two lattice levels. Everything above the cut, and the cylinders crossing it, rest on
+    the crossing cylinders' lower joints, and a joint's force is at least its vertical part, so those joints carry
+    on average at least (weight above + crossing cylinders' weight) / (number crossing). The ratio of that to the
+    break force, at the worst cut, is a bound: above 1 no static equilibrium holds every joint, and far above it (a
+    random network's block of a thousand vertices, 3 to 130) the simulation crushes the structure from the bottom
+    up and keeps almost none of its joints. Infinite for a part above a cut that nothing joins to the ground.
+    """
+    config = config or PhysicsConfig()
+    bodies = _placed(structure, config)
+    edges = bodies.edges
+    if not len(edges):
+        return 0.0
+    level = np.rint((bodies.sphere_positions[:, 2] - config.sphere_radius) / config.spacing).astype(np.int64)
+    low = np.minimum(level[edges[:, 0]], level[edges[:, 1]])
+    high = np.maximum(level[edges[:, 0]], level[edges[:, 1]])
+    top = int(level.max())
+    # Per cut k (between levels k and k + 1): spheres and whole cylinders above it, and the cylinders crossing it.
+    spheres_above = len(level) - np.cumsum(np.bincount(level, minlength=top + 1))[:top]
+    cylinders_above = len(edges) - np.cumsum(np.bincount(low, minlength=top + 1))[:top]
+    # On the lattice an edge spans at most one level, so the edges crossing cut k are those from level k to k + 1.
+    crossing = np.bincount(low[high > low], minlength=top + 1)[:top]
+    if not top:
+        return 0.0
+    load = (spheres_above * config.sphere_mass + (cylinders_above + crossing) * config.cylinder_mass) * config.gravity
+    with np.errstate(divide="ignore"):
+        ratios = np.where(crossing > 0, load / (config.break_force * np.maximum(crossing, 1)), np.inf)
+    return float(ratios.max())
+
+
+def check_collapse(structure: Any, config: PhysicsConfig | None = None) -> StabilityReport:
+    """The report of a structure that falls apart entirely (``method="collapse"``): every joint broken, every vertex on
+    the ground, I = H = Q = 0. What a screen reports for structures whose :func:`overload_ratio` is far above 1,
+    without a solve or a simulation."""
+    config = config or PhysicsConfig()
+    started_wall, started_cpu = time.perf_counter(), time.process_time()
+    bodies = _placed(structure, config)
+    edges = bodies.edges
+    final = bodies.sphere_positions.copy()
+    final[:, 2] = config.sphere_radius
+    ends = bodies.cylinder_ends(bodies.cylinder_positions, bodies.cylinder_orientations)
+    ends[:, :, 2] = config.cylinder_radius
+    broken = tuple(
+        BrokenJoint(joint=j, edge=j // 2, vertex=int(edges[j // 2, j % 2]), time=0.0, force=0.0, torque=0.0, fell=True)
+        for j in range(bodies.n_joints)
+    )
+    integrity = integrity_of(len(broken), bodies.n_joints)
+    return StabilityReport(
+        integrity=integrity,
+        height=0.0,
+        complexity=len(final),
+        score=quality(integrity, 0.0, len(final), config),
+        n_joints=bodies.n_joints,
+        broken_joints=broken,
+        joint_forces=np.full(bodies.n_joints, np.nan),
+        peak_force=0.0,
+        initial_positions=bodies.sphere_positions,
+        final_positions=final,
+        final_edge_ends=ends,
+        edges=edges,
+        sim_time=0.0,
+        steps=0,
+        settled=True,
+        wall_time=time.perf_counter() - started_wall,
+        cpu_time=time.process_time() - started_cpu,
+        config=config,
+        method="collapse",
+    )

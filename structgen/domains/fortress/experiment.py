@@ -14,19 +14,16 @@ disk, a killed experiment resumes run by run, and a Dask worker needs only the p
 from __future__ import annotations
 
 import json
-import os
-import re
-import subprocess
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from evolution.files import atomic_write
-from structgen.commands import EXIT_BAD_INPUT
 from structgen.errors import InputError
+from structgen.seed_runs import ADDRESS, check_seed_folder, expected_run, run_all
 
-__all__ = ["PAPER_TABLE", "run_experiment", "run_seed", "table_markdown"]
+__all__ = ["PAPER_TABLE", "run_experiment", "table_markdown"]
 
 # The QD paper's Table 3 (10 runs merged): best score, QD score and archive size, as evolved (100 ticks), on new
 # seeds (100 ticks) and on new seeds with 500-tick episodes.
@@ -35,109 +32,6 @@ PAPER_TABLE = {
     "entities_entropy": [(0.958, 2156, 6974), (0.958, 2005, 6951), (0.958, 2011, 6950)],
 }
 PASSES = ("as evolved", "new seeds", "new seeds, longer episodes")
-#: A Dask scheduler's address: an optional scheme, a host and a port.
-_ADDRESS = re.compile(r"(?:[a-z][a-z0-9+.-]*://)?[A-Za-z0-9._\-\[\]:]+:[0-9]{1,5}")
-
-
-def _finished(run_dir: Path) -> bool:
-    """Whether the run reached its configured generations (its last metrics row says so)."""
-    from structgen.runs import open_run
-
-    try:
-        folder, experiment = open_run(run_dir)
-        rows = folder.metrics()
-    except Exception:
-        return False
-    return bool(rows) and rows[-1]["generation"] >= experiment.run.generations and folder.has_checkpoint()
-
-
-def run_seed(config: str, measures: str, seed: int, run_dir: str, threads: int, generations: int | None = None) -> str:
-    """One run of the experiment in its own process (``threads`` numba threads): started, resumed, or left alone
-    when it has finished. Returns the run folder. Runs anywhere the package is installed (a Dask worker too)."""
-    path = Path(run_dir)
-    if _finished(path):
-        return run_dir
-    command = [sys.executable, "-m", "structgen"]
-    if (path / "config.toml").is_file():
-        command += ["resume", run_dir]
-    else:
-        command += ["evolve", config, "--seed", str(seed), "--run-dir", run_dir, "--set", f"problem.measures={measures}"]
-        if generations is not None:
-            command += ["--generations", str(generations)]
-    environment = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
-    done = subprocess.run(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    if done.returncode != 0:
-        last = done.stderr.strip().splitlines()[-1] if done.stderr.strip() else f"exit {done.returncode}"
-        # The run's own verdict travels on: bad input there (exit 2) is bad input here.
-        kind = InputError if done.returncode == EXIT_BAD_INPUT else RuntimeError
-        raise kind(f"seed {seed} ({run_dir}): {last}")
-    return run_dir
-
-
-def _expected_run(config: str | Path, measures: str, seed: int, generations: int | None) -> Any:
-    """The configuration ``run_seed`` starts a seed's run with, checked (its errors name the file)."""
-    from structgen.config import ConfigError
-    from structgen.experiment import load_experiment
-
-    changes: dict[str, Any] = {"seed": seed}
-    if generations is not None:
-        changes["generations"] = generations
-    try:
-        return load_experiment(config, overrides=[f"problem.measures={measures}"], run_changes=changes)
-    except ConfigError as err:
-        raise InputError(str(err)) from None
-
-
-def _check_seed_folder(run_dir: Path, expected: Any) -> None:
-    """Refuse a ``seed-S`` folder that is not this experiment's run for that seed: its results would be merged into
-    the table as if they were (settings that only say where or how long a run goes may differ, but not its
-    generations)."""
-    from evolution import RunFolderError
-    from structgen.config import flatten
-    from structgen.runs import EDITABLE, open_run
-
-    if not run_dir.exists() and not run_dir.is_symlink():
-        return
-    if not run_dir.is_dir():
-        raise InputError(f"{run_dir}: is not a folder; the experiment keeps each seed's run there")
-    if not any(run_dir.iterdir()):
-        return
-    try:
-        _, found = open_run(run_dir)
-    except (RunFolderError, InputError) as err:
-        raise InputError(f"{run_dir}: not this experiment's run ({err})") from None
-    before, now = flatten(found.to_mapping()), flatten(expected.to_mapping())
-    free = set(EDITABLE) - {"run.generations"}
-    differ = sorted(key for key in before.keys() | now.keys() if key not in free and before.get(key) != now.get(key))
-    if differ:
-        listing = "; ".join(f"{key} {before.get(key)!r} (wanted {now.get(key)!r})" for key in differ[:5])
-        raise InputError(
-            f"{run_dir / 'config.toml'}: a run with other settings than this experiment's for its seed: {listing}; "
-            "move it away or choose another OUT_DIR"
-        )
-
-
-def _run_all(jobs: Sequence[tuple], parallel: int, cluster: str, report: Callable[[str], None]) -> None:
-    if cluster:
-        try:
-            from distributed import Client, as_completed
-        except ImportError:
-            raise InputError("--cluster needs the 'distributed' package (pip install distributed)") from None
-        try:
-            client = Client(cluster, timeout="10s")
-        except OSError as err:
-            raise InputError(f"--cluster {cluster}: cannot reach a Dask scheduler there ({err})") from None
-        with client:
-            futures = [client.submit(run_seed, *job, pure=False) for job in jobs]
-            for future in as_completed(futures):
-                report(future.result())
-        return
-    from concurrent.futures import ThreadPoolExecutor, as_completed
-
-    # Threads only wait on the run processes.
-    with ThreadPoolExecutor(max_workers=parallel) as pool:
-        for future in as_completed([pool.submit(run_seed, *job) for job in jobs]):
-            report(future.result())
 
 
 def run_experiment(
@@ -161,26 +55,27 @@ def run_experiment(
         raise InputError(f"measures must be one of {', '.join(MEASURES)}, got {measures!r}")
     if not Path(config).is_file():
         raise InputError(f"{config}: no such configuration file")
-    if cluster and not _ADDRESS.fullmatch(cluster):
+    if cluster and not ADDRESS.fullmatch(cluster):
         raise InputError(f"--cluster {cluster[:60]!r}: not a Dask scheduler's address (tcp://host:port or host:port)")
+    overrides = (f"problem.measures={measures}",)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
     # Every seed's folder is checked before any run starts, so that nothing runs for a table that would be refused.
     for seed in seeds:
-        _check_seed_folder(out / f"seed-{seed}", _expected_run(config, measures, seed, generations))
+        check_seed_folder(out / f"seed-{seed}", expected_run(config, overrides, seed, generations))
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise InputError(f"{out}: cannot make this folder ({err.strerror})") from None
-    jobs = [(str(config), measures, seed, str(out / f"seed-{seed}"), threads, generations) for seed in seeds]
+    jobs = [(str(config), overrides, seed, str(out / f"seed-{seed}"), threads, generations) for seed in seeds]
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=len(jobs), desc=f"{measures} runs", unit="run", file=sys.stderr)
     try:
-        _run_all(jobs, parallel, cluster, lambda done: bar.update(1) if bar is not None else None)
+        run_all(jobs, parallel, cluster, lambda done: bar.update(1) if bar is not None else None)
     finally:
         if bar is not None:
             bar.close()

@@ -25,6 +25,7 @@ from structgen.commands import (
     add_set_option,
     output_path,
     settings_from_args,
+    png_output_path,
     whole_number,
 )
 from structgen.structure import Structure
@@ -687,8 +688,74 @@ def _add_tall(subparsers: Any) -> None:
     tall.set_defaults(handler=cmd_tall)
 
 
+def cmd_experiment(args: argparse.Namespace) -> int:
+    from structgen.domains.structures.experiment import run_experiment, table_markdown
+
+    report = run_experiment(
+        args.name, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, workers=args.workers,
+        spawns=args.spawns, progress=not args.json,
+    )  # fmt: skip
+    print(json.dumps(report) if args.json else table_markdown(report), end="" if not args.json else "\n")
+    return EXIT_OK
+
+
+def _add_experiment(subparsers: Any) -> None:
+    from structgen.domains.structures.experiment import EXPERIMENTS
+
+    p = subparsers.add_parser(
+        "experiment",
+        help="one of the stable-structures paper's four experiments at its settings: runs per seed, then the table",
+        description="Run configs/paper_NAME.toml once per seed (OUT_DIR/seed-S; a folder there is resumed, or kept if "
+        "it got far enough), several runs at a time, keeping each run's best structure at the paper's spawn numbers "
+        "(OUT_DIR/seed-S-spawns/), then write OUT_DIR/table.json and OUT_DIR/table.md beside the paper's numbers: the "
+        "first structure standing whole, the tallest standing by spawns 5,800, 6,811, 7,480 and 28,577, the best "
+        "score, and the paper's Table 1 (time per generation by the population's mean integrity) measured here.",
+    )
+    p.add_argument("name", choices=list(EXPERIMENTS), help="the experiment")
+    p.add_argument("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)")
+    p.add_argument("--config", metavar="TOML", help="each run's configuration (default configs/paper_NAME.toml)")
+    p.add_argument(
+        "--seeds", type=whole_number(0, 2**31), nargs="+", default=[0, 1, 2], metavar="S", help="run seeds (default 0 1 2)"
+    )
+    p.add_argument(
+        "--spawns", type=whole_number(1, 10**8), metavar="N",
+        help="networks each run evaluates (default the paper's: 28,577 for baseline and average-height, 5,800 for "
+        "cutoff, 6,811 for no-build-down); the run goes to the end of the generation holding spawn N",
+    )  # fmt: skip
+    p.add_argument("--parallel", type=whole_number(1, 1024), default=2, metavar="N", help="runs at once (default 2)")
+    p.add_argument(
+        "--workers", type=whole_number(0, 256), default=1, metavar="W",
+        help="evaluation processes of each run (default 1: on a few cores, runs side by side use them best)",
+    )  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
+    p.set_defaults(handler=cmd_experiment)
+
+
+def cmd_figure(args: argparse.Namespace) -> int:
+    from structgen.domains.structures.experiment import figure
+
+    print(figure(args.out_dir, args.output))
+    return EXIT_OK
+
+
+def _add_figure(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "figure",
+        help="the paper's figures from an experiment: each run's best structure at the paper's spawn numbers",
+        description="Lay out the pictures an experiment kept (OUT_DIR/seed-S-spawns/spawn-N/structure.png) in one "
+        "PNG, a row per seed and a column per spawn number, as the paper's figures 4 to 9 show its structures.",
+    )
+    p.add_argument("out_dir", metavar="OUT_DIR", help="an experiment's folder")
+    p.add_argument(
+        "-o", "--output", type=png_output_path, metavar="PNG", help="where to write the figure (default OUT_DIR/figure.png)"
+    )
+    p.set_defaults(handler=cmd_figure)
+
+
 class StructureCommands(DomainCommands):
     adders = {
+        "experiment": _add_experiment,
+        "figure": _add_figure,
         "grow": _add_grow,
         "check": _add_check,
         "render": _add_render,

@@ -1,0 +1,347 @@
+"""The stable-structures paper's four experiments at its own settings, a table beside its numbers, and its figures.
+
+``structgen structures experiment NAME OUT_DIR`` runs ``configs/paper_<NAME>.toml`` once per seed (default 0, 1, 2),
+each in its own run folder ``OUT_DIR/seed-<S>``, several at a time (:mod:`structgen.seed_runs`: a folder that exists
+is resumed, or kept when it got far enough). Each run stops at the generations holding the paper's spawn numbers on
+the way (``milestones``) and keeps its best structure there in ``OUT_DIR/seed-<S>-spawns/spawn-<N>/``, the pictures
+the ``figure`` command lays out as the paper's figures 4 to 9. Then the table is written from the runs' metrics:
+``OUT_DIR/table.json`` and ``OUT_DIR/table.md``.
+
+Spawns count the networks evaluated: generation 1 evaluates the whole population (spawns 1 to 100), every later
+generation the children (80 more), so spawn N lies in generation 1 + ceil((N - 100) / 80). The paper's "93rd
+evolution iteration" is generation 94 here (its iterations count after the first population).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import statistics
+import sys
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from evolution.files import atomic_write
+from structgen.errors import InputError
+from structgen.seed_runs import check_seed_folder, expected_run, run_seed
+
+__all__ = [
+    "EXPERIMENTS",
+    "PAPER_TABLE_1",
+    "TABLE_SPAWNS",
+    "figure",
+    "generation_of",
+    "run_experiment",
+    "seed_row",
+    "table_markdown",
+]
+
+
+@dataclass(frozen=True)
+class PaperExperiment:
+    """One of the paper's experiments: its configuration file, its spawn budget, the spawns its figures show, and
+    what it reports."""
+
+    config: str
+    spawns: int
+    milestones: tuple[int, ...]
+    reports: str
+
+
+EXPERIMENTS = {
+    "baseline": PaperExperiment(
+        "configs/paper_baseline.toml",
+        28_577,
+        (6_135, 7_480, 28_577),
+        "first integrity 1 at spawn 7,480 (its 93rd iteration); the final structure (spawn 28,577) three vertices "
+        "tall, its upper layer joined",
+    ),
+    "cutoff": PaperExperiment(
+        "configs/paper_cutoff.toml", 5_800, (381, 5_800), "four vertices tall at spawn 5,800 (cutoff 0.6)"
+    ),
+    "no-build-down": PaperExperiment(
+        "configs/paper_no-build-down.toml",
+        6_811,
+        (6_811,),
+        "at spawn 6,811 a structure like the 40-hour experiment's final one, with fewer vertices",
+    ),
+    "average-height": PaperExperiment(
+        "configs/paper_average-height.toml", 28_577, (28_577,), "a small foundation with a spike (no spawn named)"
+    ),
+}
+#: Spawns at which the table gives the tallest structure standing so far (the paper's figures' spawn numbers).
+TABLE_SPAWNS = (5_800, 6_811, 7_480, 28_577)
+#: The paper's Table 1: seconds per generation and per structure (its evaluator) by the population's mean integrity.
+PAPER_TABLE_1 = {"< 0.5": (2044.41, 25.06), "0.5 to 1": (1060.41, 11.99), "= 1": (131.25, 1.42)}
+_FIRST, _LATER = 100, 80
+
+
+def generation_of(spawn: int, first: int = _FIRST, later: int = _LATER) -> int:
+    """The generation that evaluates spawn number ``spawn`` (1-based)."""
+    return 1 if spawn <= first else 1 + math.ceil((spawn - first) / later)
+
+
+def spawns_by(generation: int, first: int = _FIRST, later: int = _LATER) -> int:
+    """Spawns evaluated by the end of ``generation``."""
+    return first + later * (generation - 1)
+
+
+def _regime(mean_integrity: float) -> str:
+    if mean_integrity >= 1 - 1e-9:
+        return "= 1"
+    return "< 0.5" if mean_integrity < 0.5 else "0.5 to 1"
+
+
+def seed_row(run_dir: Path, workers: int) -> dict[str, Any]:
+    """One run's line of the table, from its metrics and its best candidate."""
+    from structgen.runs import open_run
+
+    folder, _ = open_run(run_dir)
+    rows = folder.metrics()
+    if not rows:
+        raise InputError(f"{run_dir}: the run has no finished generation yet")
+    first_whole = next((r for r in rows if r.get("generation_max_standing_edges", 0) > 0), None)
+    tallest: dict[str, Any] = {}
+    for spawn in TABLE_SPAWNS:
+        upto = [r for r in rows if r["generation"] <= generation_of(spawn)]
+        if rows[-1]["generation"] < generation_of(spawn):
+            tallest[str(spawn)] = None  # the run did not get that far
+            continue
+        tallest[str(spawn)] = {
+            "height": max(r["generation_max_standing_height"] for r in upto),
+            "vertices": max(r["generation_max_standing_vertices"] for r in upto),
+            "edges": max(r["generation_max_standing_edges"] for r in upto),
+        }
+    regimes: dict[str, list[tuple[float, float]]] = {}
+    for before, row in zip([{"wall_s": 0.0, "evaluations": 0}, *rows], rows):
+        seconds = row["wall_s"] - before["wall_s"]
+        structures = row["evaluations"] - before["evaluations"]
+        if seconds > 0 and structures > 0:
+            # Core-seconds per structure: the evaluator's cost had it run on one core, as the paper's did.
+            regimes.setdefault(_regime(row["generation_mean_integrity"]), []).append(
+                (seconds, seconds * workers / structures)
+            )
+    best = json.loads((folder.path / "best" / "best.json").read_text()) if (folder.path / "best" / "best.json").is_file() else {}
+    return {
+        "run": str(run_dir),
+        "generations": rows[-1]["generation"],
+        "spawns": rows[-1]["evaluations"],
+        "wall_s": rows[-1]["wall_s"],
+        "first_standing_with_edges_spawn": spawns_by(first_whole["generation"]) if first_whole else None,
+        "first_standing_with_edges_generation": first_whole["generation"] if first_whole else None,
+        "tallest_standing": tallest,
+        "best_objective": rows[-1]["best_objective"],
+        "best_fields": best.get("fields", {}),
+        "table_1": {
+            name: {
+                "generations": len(pairs),
+                "seconds_per_generation": statistics.fmean(p[0] for p in pairs),
+                "core_seconds_per_structure": statistics.fmean(p[1] for p in pairs),
+            }
+            for name, pairs in regimes.items()
+        },
+    }
+
+
+def _snapshot(run_dir: Path, spawn: int) -> None:
+    """Keep the run's best candidate as it is at the end of the generation holding ``spawn``."""
+    target = run_dir.parent / f"{run_dir.name}-spawns" / f"spawn-{spawn}"
+    if target.exists():
+        return
+    staging = target.with_name(target.name + ".partial")
+    shutil.rmtree(staging, ignore_errors=True)
+    shutil.copytree(run_dir / "best", staging)
+    staging.rename(target)
+
+
+def _run_one_seed(config: str, seed: int, run_dir: str, workers: int, generations: int, milestones: Sequence[int]) -> str:
+    """Run a seed to each milestone generation in turn (keeping its best there), then to ``generations``."""
+    from structgen.runs import open_run
+
+    path = Path(run_dir)
+    overrides = (f"run.workers={workers}",)
+    for spawn in sorted(milestones):
+        stop = generation_of(spawn)
+        if stop > generations:
+            break
+        reached = 0
+        if (path / "config.toml").is_file():
+            rows = open_run(path)[0].metrics()
+            reached = rows[-1]["generation"] if rows else 0
+        if reached > stop:
+            continue  # gone past it already (an older run); its best there is not known any more
+        run_seed(config, overrides, seed, run_dir, 1, stop)
+        _snapshot(path, spawn)
+    run_seed(config, overrides, seed, run_dir, 1, generations)
+    return run_dir
+
+
+def run_experiment(
+    name: str,
+    out_dir: str | Path,
+    *,
+    config: str | Path | None = None,
+    seeds: Sequence[int] = (0, 1, 2),
+    parallel: int = 2,
+    workers: int = 1,
+    spawns: int | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Run (or finish) every seed's run, then write and return the table (see the module's description)."""
+    if name not in EXPERIMENTS:
+        raise InputError(f"experiment must be one of {', '.join(EXPERIMENTS)}, got {name!r}")
+    paper = EXPERIMENTS[name]
+    config = str(config or paper.config)
+    if not Path(config).is_file():
+        raise InputError(f"{config}: no such configuration file (run from the project's folder, or pass --config)")
+    budget = paper.spawns if spawns is None else spawns
+    generations = generation_of(budget)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
+    overrides = (f"run.workers={workers}",)
+    for seed in seeds:
+        check_seed_folder(out / f"seed-{seed}", expected_run(config, overrides, seed, generations))
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"{out}: cannot make this folder ({err.strerror})") from None
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(seeds), desc=f"{name} runs", unit="run", file=sys.stderr)
+    try:
+        with ThreadPoolExecutor(max_workers=parallel) as pool:  # threads only wait on the run processes
+            jobs = [
+                pool.submit(_run_one_seed, config, seed, str(out / f"seed-{seed}"), workers, generations, paper.milestones)
+                for seed in seeds
+            ]
+            for job in as_completed(jobs):
+                job.result()
+                if bar is not None:
+                    bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    report = {
+        "experiment": name,
+        "config": config,
+        "seeds": list(seeds),
+        "spawn_budget": budget,
+        "paper_spawn_budget": paper.spawns,
+        "generations": generations,
+        "workers_per_run": workers,
+        "paper": paper.reports,
+        "paper_table_1": {k: {"seconds_per_generation": v[0], "seconds_per_structure": v[1]} for k, v in PAPER_TABLE_1.items()},
+        "runs": [seed_row(out / f"seed-{seed}", workers) for seed in seeds],
+    }
+    atomic_write(out / "table.json", json.dumps(report, indent=1) + "\n")
+    atomic_write(out / "table.md", table_markdown(report))
+    return report
+
+
+def _mean_se(values: Sequence[float]) -> str:
+    if not values:
+        return "not reached"
+    mean = statistics.fmean(values)
+    if len(values) < 2:
+        return f"{mean:,.0f}"
+    return f"{mean:,.0f} ± {statistics.stdev(values) / math.sqrt(len(values)):,.0f}"
+
+
+def table_markdown(report: dict[str, Any]) -> str:
+    """The experiment's table: per run and over runs, beside the paper's numbers."""
+    runs = report["runs"]
+    lines = [
+        f"### {report['experiment']}: {len(runs)} runs of {report['config']}, {report['spawn_budget']:,} spawns each "
+        f"(the paper: {report['paper_spawn_budget']:,}, one run)",
+        "",
+        f"The paper: {report['paper']}.",
+        "",
+        "| seed | spawns | first standing with an edge, by spawn | "
+        + " | ".join(f"tallest standing by spawn {s:,} (H / V / E)" for s in TABLE_SPAWNS)
+        + " | best Q | wall time |",
+        "|---|---:|---:|" + "---:|" * len(TABLE_SPAWNS) + "---:|---:|",
+    ]
+    for seed, run in zip(report["seeds"], runs):
+        cells = []
+        for spawn in TABLE_SPAWNS:
+            t = run["tallest_standing"][str(spawn)]
+            cells.append("not run" if t is None else f"{t['height']:.2f} / {t['vertices']:.0f} / {t['edges']:.0f}")
+        first = run["first_standing_with_edges_spawn"]
+        lines.append(
+            f"| {seed} | {run['spawns']:,} | {'not reached' if first is None else f'{first:,}'} | "
+            + " | ".join(cells)
+            + f" | {run['best_objective']:.2f} | {run['wall_s'] / 60:.1f} min |"
+        )
+    firsts = [r["first_standing_with_edges_spawn"] for r in runs if r["first_standing_with_edges_spawn"] is not None]
+    reached = f"{len(firsts)} of {len(runs)} runs"
+    lines += [
+        "",
+        f"First structure standing with at least one edge (integrity 1): {_mean_se(firsts)} (mean ± standard error "
+        f"over the {reached} that reached one; the paper: 7,480).",
+        "",
+        "The paper's Table 1 measured here (seconds per generation on this machine, core-seconds per structure):",
+        "",
+        "| population's mean integrity | generations | s per generation | core-s per structure | paper: s per generation "
+        "/ per structure | speed-up per structure |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for regime, (paper_generation, paper_structure) in PAPER_TABLE_1.items():
+        found = [r["table_1"][regime] for r in runs if regime in r["table_1"]]
+        if not found:
+            lines.append(f"| {regime} | 0 | | | {paper_generation:,.0f} / {paper_structure:.2f} | |")
+            continue
+        count = sum(f["generations"] for f in found)
+        per_generation = sum(f["seconds_per_generation"] * f["generations"] for f in found) / count
+        per_structure = sum(f["core_seconds_per_structure"] * f["generations"] for f in found) / count
+        lines.append(
+            f"| {regime} | {count} | {per_generation:.2f} | {per_structure:.3f} | {paper_generation:,.0f} / "
+            f"{paper_structure:.2f} | {paper_structure / per_structure:,.0f}x |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def figure(out_dir: str | Path, output: str | Path | None = None) -> str:
+    """One PNG of the pictures an experiment kept: a row per seed, a column per spawn number. Returns its path."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    kept = sorted(out.glob("seed-*-spawns/spawn-*/structure.png"))
+    if not kept:
+        raise InputError(f"{out}: no pictures kept here (an experiment keeps them in seed-S-spawns/spawn-N/)")
+    seeds = sorted({p.parent.parent.name.removesuffix("-spawns") for p in kept}, key=lambda n: int(n.split("-")[1]))
+    spawns = sorted({int(p.parent.name.split("-")[1]) for p in kept})
+    target = Path(output) if output else out / "figure.png"
+    fig, axes = plt.subplots(len(seeds), len(spawns), figsize=(4 * len(spawns), 4 * len(seeds)), squeeze=False)
+    for row, seed in enumerate(seeds):
+        for column, spawn in enumerate(spawns):
+            ax = axes[row][column]
+            ax.axis("off")
+            picture = out / f"{seed}-spawns" / f"spawn-{spawn}" / "structure.png"
+            if picture.is_file():
+                ax.imshow(plt.imread(picture))
+                best = json.loads((picture.parent / "best.json").read_text()) if (picture.parent / "best.json").is_file() else {}
+                fields = best.get("fields", {})
+                ax.set_title(
+                    f"{seed}, best by spawn {spawn:,}\nQ {best.get('objective', float('nan')):.1f}, I "
+                    f"{fields.get('integrity', float('nan')):.2f}, H {fields.get('height', float('nan')):.1f}, "
+                    f"V {fields.get('complexity', float('nan')):.0f}",
+                    fontsize=9,
+                )
+            else:
+                ax.set_title(f"{seed}: not kept at spawn {spawn:,}", fontsize=9)
+    fig.tight_layout()
+    staging = target.with_name(target.name + ".partial.png")
+    fig.savefig(staging, dpi=80)
+    plt.close(fig)
+    staging.replace(target)
+    return str(target)
