@@ -73,6 +73,8 @@ EXPERIMENTS = {
         "configs/paper_average-height.toml", 28_577, (28_577,), "a small foundation with a spike (no spawn named)"
     ),
 }
+#: Spawns at which every run also keeps its best and its parents, for the pictures and the judge's sample.
+SAMPLE_SPAWNS = (500, 2_000, 4_000, 10_000, 20_000)
 #: Spawns at which the table gives the tallest structure standing so far (the paper's figures' spawn numbers).
 TABLE_SPAWNS = (5_800, 6_811, 7_480, 28_577)
 #: The paper's Table 1: seconds per generation and per structure (its evaluator) by the population's mean integrity.
@@ -148,13 +150,20 @@ def seed_row(run_dir: Path, workers: int) -> dict[str, Any]:
 
 
 def _snapshot(run_dir: Path, spawn: int) -> None:
-    """Keep the run's best candidate as it is at the end of the generation holding ``spawn``."""
+    """Keep the run's best candidate as it is at the end of the generation holding ``spawn``, and its parents then
+    (``parents.npy``: the population a judge's agreement is measured on, generation by generation)."""
+    import numpy as np
+
+    from structgen.runs import open_run
+
     target = run_dir.parent / f"{run_dir.name}-spawns" / f"spawn-{spawn}"
     if target.exists():
         return
     staging = target.with_name(target.name + ".partial")
     shutil.rmtree(staging, ignore_errors=True)
     shutil.copytree(run_dir / "best", staging)
+    parents = open_run(run_dir)[0].load_checkpoint().optimizer.parents
+    np.save(staging / "parents.npy", np.asarray(parents, dtype=np.float64))
     staging.rename(target)
 
 
@@ -218,7 +227,10 @@ def run_experiment(
     try:
         with ThreadPoolExecutor(max_workers=parallel) as pool:  # threads only wait on the run processes
             jobs = [
-                pool.submit(_run_one_seed, config, seed, str(out / f"seed-{seed}"), workers, generations, paper.milestones)
+                pool.submit(
+                    _run_one_seed, config, seed, str(out / f"seed-{seed}"), workers, generations,
+                    sorted(set(paper.milestones) | set(SAMPLE_SPAWNS)),
+                )  # fmt: skip
                 for seed in seeds
             ]
             for job in as_completed(jobs):
