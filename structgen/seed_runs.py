@@ -37,9 +37,7 @@ def finished(run_dir: Path, generations: int | None = None) -> bool:
     return bool(rows) and rows[-1]["generation"] >= target and folder.has_checkpoint()
 
 
-def run_seed(
-    config: str, overrides: Sequence[str], seed: int, run_dir: str, threads: int, generations: int | None = None
-) -> str:
+def run_seed(config: str, overrides: Sequence[str], seed: int, run_dir: str, threads: int, generations: int | None = None) -> str:
     """One run of the experiment in its own process (``threads`` numba threads): started, resumed (to
     ``generations`` when given), or left alone when it has got that far. Returns the run folder. Runs anywhere the
     package is installed (a Dask worker too)."""
@@ -81,10 +79,10 @@ def expected_run(config: str | Path, overrides: Sequence[str], seed: int, genera
         raise InputError(str(err)) from None
 
 
-def check_seed_folder(run_dir: Path, expected: Any) -> None:
+def check_seed_folder(run_dir: Path, expected: Any, *, any_length: bool = False) -> None:
     """Refuse a ``seed-S`` folder that is not this experiment's run for that seed: its results would be merged into
     the table as if they were (settings that only say where or how long a run goes may differ, but not its
-    generations)."""
+    generations, unless ``any_length``: an experiment that runs its seeds in stages)."""
     from evolution import RunFolderError
     from structgen.config import flatten
     from structgen.runs import EDITABLE, open_run
@@ -100,7 +98,7 @@ def check_seed_folder(run_dir: Path, expected: Any) -> None:
     except (RunFolderError, InputError) as err:
         raise InputError(f"{run_dir}: not this experiment's run ({err})") from None
     before, now = flatten(found.to_mapping()), flatten(expected.to_mapping())
-    free = set(EDITABLE) - {"run.generations"}
+    free = set(EDITABLE) if any_length else set(EDITABLE) - {"run.generations"}
     differ = sorted(key for key in before.keys() | now.keys() if key not in free and before.get(key) != now.get(key))
     if differ:
         listing = "; ".join(f"{key} {before.get(key)!r} (wanted {now.get(key)!r})" for key in differ[:5])

@@ -119,6 +119,27 @@ def test_ga_generation_sizes_and_elitism():
     assert all(b >= a for a, b in zip(best, best[1:]))  # the best is never lost
 
 
+def test_ga_keeps_the_newest_among_equal_scores_when_asked():
+    # A population whose scores are all equal (the paper's experiments, where every random structure is crushed to 0)
+    # must drift with ties = "newest"; by default the first parents stay.
+    class Flat(Sphere):
+        def evaluate(self, genomes, seeds):
+            result = super().evaluate(genomes, seeds)
+            return type(result)(np.zeros(len(genomes)), result.measures, result.fields)
+
+    problem = Flat()
+    for ties, parents_stay in (("parents", True), ("newest", False)):
+        ga = make_optimizer("ga", problem, GASettings(population=10, parents=4, ties=ties), seed=0)
+        step(ga, problem)
+        first_parents = ga.parents.copy()
+        children, _ = step(ga, problem, 1)
+        assert np.array_equal(ga.parents, first_parents) is parents_stay
+        if not parents_stay:
+            np.testing.assert_array_equal(ga.parents, children[:4])
+    with pytest.raises(ValueError, match="ties"):
+        GASettings(ties="oldest")
+
+
 def test_ga_mutation_moves_a_share_of_genes_within_the_scale():
     problem = Sphere()
     settings = GASettings(population=101, parents=1, mutation_rate=0.25, mutation_scale=0.1)

@@ -348,3 +348,28 @@ def test_the_same_rules_one_level_taller_overload_the_lowest_joints():
     assert not report.intact and min(pyramid.vertices[j.vertex][2] for j in report.broken_joints) == 0
     with pytest.raises(ValueError, match="at least 2 levels"):
         sparse_pyramid(1)
+
+
+# -- the collapse screen --------------------------------------------------------------------------------------------------
+def test_overload_ratio_is_the_worst_cuts_least_load_over_the_break_force():
+    from physics.statics import overload_ratio
+    from structgen.domains.structures.samples import braced, column
+
+    config = PhysicsConfig()
+    # Column of four: three spheres, two cylinders above the lowest cut and one crossing it: 6 unit weights on one joint.
+    assert overload_ratio(column(4), config) == pytest.approx(6 * 9.81 / 52.5)
+    assert overload_ratio(column(3), config) == pytest.approx(4 * 9.81 / 52.5)
+    assert overload_ratio(braced(4), config) < 1  # the braced tower stands, so no cut can be over
+    assert overload_ratio({"vertices": [[0, 0, 0]], "edges": []}, config) == 0.0
+    # A piece above a cut that nothing joins to the ground.
+    assert overload_ratio({"vertices": [[0, 0, 0], [3, 0, 2], [3, 0, 3]], "edges": [[1, 2]]}, config) == float("inf")
+
+
+def test_a_collapse_report_breaks_every_joint_and_scores_zero():
+    from physics.statics import check_collapse
+    from structgen.domains.structures.samples import column
+
+    report = check_collapse(column(5), PhysicsConfig())
+    assert report.method == "collapse" and report.integrity == 0 and report.score == 0 and report.height == 0
+    assert len(report.broken_joints) == report.n_joints == 8 and not report.stands
+    assert report.complexity == 5 and report.verdict().startswith("breaks")

@@ -24,8 +24,8 @@ from structgen.commands import (
     InputError,
     add_set_option,
     output_path,
-    settings_from_args,
     png_output_path,
+    settings_from_args,
     whole_number,
 )
 from structgen.structure import Structure

@@ -1,0 +1,142 @@
+"""How well the paper experiments' judge decides as the paper's 30 s of gravity decides.
+
+    python benchmarks/structures_paper_judge.py OUT_DIR [OUT_DIR ...] [--per-snapshot 8] [--random 10]
+        [--workers 2] [--json FILE]
+
+OUT_DIR is a ``structgen structures experiment`` folder. The sample: from every run, ``--per-snapshot`` of the
+parents it kept at each spawn it stopped at (``seed-S-spawns/spawn-N/parents.npy``: the population across the
+generations) and ``--random`` random networks of its settings (its first generation: for the baseline, blocks of
+about a thousand vertices). Each structure is scored twice: by the run's own judge (the configuration's
+``problem.evaluator``, the "screened" one for the paper's configurations) and by the faithful preset (1/240 s steps,
+50 solver iterations, 30 s). Structures of more than ``--short-joints`` joints are simulated with the faithful
+stepping for ``--short-horizon`` seconds instead (30 s of a block of 12,000 joints costs about an hour of CPU; in
+the fast preset's runs of such blocks four fifths of the breaks happen in the first second); the table counts them
+apart.
+
+Prints the verdict agreement (stands / breaks), Spearman's rank correlation of Q over the whole sample (failing
+structures included), the kinds of disagreement, and the cost of each judge.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+
+import numpy as np  # noqa: E402
+from scipy.stats import spearmanr  # noqa: E402
+
+from physics import check_many  # noqa: E402
+from structgen.runs import open_run  # noqa: E402
+
+
+def _sample(out_dirs: list[str], per_snapshot: int, random_count: int, seed: int) -> list[dict]:
+    rng = np.random.default_rng(seed)
+    items = []
+    for out in map(Path, out_dirs):
+        runs = sorted(p for p in out.glob("seed-*") if p.is_dir() and not p.name.endswith("-spawns"))
+        if not runs:
+            raise SystemExit(f"{out}: no seed-S run folders here")
+        for run in runs:
+            _, experiment = open_run(run)
+            problem = experiment.make_problem()
+            for genome in problem.initial_genomes(random_count, rng):
+                items.append({"problem": problem, "genome": genome, "source": f"{out.name}/{run.name}/random"})
+            for snapshot in sorted((run.parent / f"{run.name}-spawns").glob("spawn-*/parents.npy")):
+                parents = np.load(snapshot)
+                chosen = rng.choice(len(parents), size=min(per_snapshot, len(parents)), replace=False)
+                for index in chosen:
+                    items.append(
+                        {"problem": problem, "genome": parents[index], "source": f"{out.name}/{run.name}/{snapshot.parent.name}"}
+                    )
+    return items
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out_dirs", nargs="+", metavar="OUT_DIR", help="structgen structures experiment folders")
+    parser.add_argument("--per-snapshot", type=int, default=8, help="parents drawn from each kept population")
+    parser.add_argument("--random", type=int, default=10, help="random networks per run (its first generation)")
+    parser.add_argument("--short-joints", type=int, default=3000, help="above this many joints, a short reference")
+    parser.add_argument("--short-horizon", type=float, default=3.0, help="its simulated seconds")
+    parser.add_argument("--workers", type=int, default=2, help="processes for the reference simulations")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the draw")
+    parser.add_argument("--json", metavar="FILE", help="also write every structure's scores here")
+    args = parser.parse_args()
+
+    items = _sample(args.out_dirs, args.per_snapshot, args.random, args.seed)
+    print(f"{len(items)} structures drawn", file=sys.stderr)
+    structures, references = [], []
+    for item in items:
+        problem = item["problem"]
+        structure = problem.structure_of(item["genome"])
+        started = time.process_time()
+        judged = problem.judge(structure)
+        item.update(
+            judge_cpu=time.process_time() - started, vertices=structure.n_vertices, edges=structure.n_edges,
+            judge_q=judged.score, judge_stands=judged.stands, judge_method=judged.method, judge_i=judged.integrity,
+        )  # fmt: skip
+        faithful = problem.settings.physics.stepped_as("faithful")
+        short = 2 * structure.n_edges > args.short_joints
+        if short:
+            faithful = faithful.replace(horizon=args.short_horizon)
+        item["reference"] = "faithful stepping, short" if short else "faithful"
+        structures.append(structure)
+        references.append(faithful.replace(**faithful.room_for(structure.n_vertices, structure.n_edges)))
+    # One call per configuration: check_many takes one.
+    reports: dict[int, object] = {}
+    for config in {id(c): c for c in references}.values():
+        positions = [i for i, c in enumerate(references) if c == config]
+        for i, report in zip(positions, check_many([structures[i] for i in positions], config, workers=args.workers)):
+            reports[i] = report
+    for i, item in enumerate(items):
+        report = reports[i]
+        item.update(ref_q=report.score, ref_stands=report.stands, ref_i=report.integrity, ref_cpu=report.cpu_time)
+
+    agree = [it["judge_stands"] == it["ref_stands"] for it in items]
+    rho = spearmanr([it["judge_q"] for it in items], [it["ref_q"] for it in items]).statistic
+    kinds: dict[str, int] = {}
+    for it in items:
+        if it["judge_stands"] != it["ref_stands"]:
+            key = f"judge ({it['judge_method']}) says {'stands' if it['judge_stands'] else 'breaks'}, reference says " + (
+                "stands" if it["ref_stands"] else "breaks"
+            )
+            kinds[key] = kinds.get(key, 0) + 1
+    print("| sample | structures | verdicts agreeing | Spearman rho of Q | judge CPU s (mean) | reference CPU s (mean) |")
+    print("|---|---:|---:|---:|---:|---:|")
+
+    def line(name: str, chosen: list[dict]) -> None:
+        if not chosen:
+            return
+        same = sum(it["judge_stands"] == it["ref_stands"] for it in chosen)
+        r = (
+            spearmanr([it["judge_q"] for it in chosen], [it["ref_q"] for it in chosen]).statistic
+            if len(chosen) > 2
+            else float("nan")
+        )
+        print(
+            f"| {name} | {len(chosen)} | {same} ({100 * same / len(chosen):.1f} %) | {r:.3f} | "
+            f"{statistics.fmean(it['judge_cpu'] for it in chosen):.3f} | {statistics.fmean(it['ref_cpu'] for it in chosen):.2f} |"
+        )
+
+    line("all", items)
+    for method in sorted({it["judge_method"] for it in items}):
+        line(f"judged by {method}", [it for it in items if it["judge_method"] == method])
+    line("reference: faithful 30 s", [it for it in items if it["reference"] == "faithful"])
+    line(f"reference: faithful stepping, {args.short_horizon:g} s", [it for it in items if it["reference"] != "faithful"])
+    print()
+    print(f"Agreement {100 * statistics.fmean(agree):.1f} % of {len(items)}; Spearman rho {rho:.3f}.")
+    for key, count in sorted(kinds.items(), key=lambda kv: -kv[1]):
+        print(f"- {count}: {key}")
+    if args.json:
+        keep = [{k: v for k, v in it.items() if k not in ("problem", "genome")} for it in items]
+        Path(args.json).write_text(json.dumps({"agreement": statistics.fmean(agree), "spearman": rho, "items": keep}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

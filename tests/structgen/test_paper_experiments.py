@@ -1,0 +1,99 @@
+"""The stable-structures paper's four experiments: their configuration files hold the paper's settings, spawns map to
+generations as the paper counts them, the screened judge routes structures as it says, and the experiment command
+runs seeds, keeps their structures at the paper's spawn numbers, resumes, writes the table and draws the figure."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from structgen.domains.structures.experiment import EXPERIMENTS, generation_of, spawns_by
+from structgen.domains.structures.problem import StableStructures, StructuresSettings
+from structgen.domains.structures.samples import column
+from structgen.experiment import load_experiment
+from structgen.nca import NCAConfig
+from tests.helpers import cli
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_spawns_fall_in_generations_as_the_paper_counts_them():
+    # 100 networks in the first generation, 80 in every later one; the paper's spawn 7,480 came in its 93rd
+    # iteration after the first population, generation 94 here.
+    assert [generation_of(s) for s in (1, 100, 101, 180, 181)] == [1, 1, 2, 2, 3]
+    assert generation_of(7_480) == 94 and generation_of(28_577) == 357
+    assert spawns_by(357) == 28_580 and spawns_by(1) == 100
+
+
+@pytest.mark.parametrize("name", list(EXPERIMENTS))
+def test_each_configuration_file_holds_the_papers_settings(name):
+    experiment = load_experiment(ROOT / EXPERIMENTS[name].config)
+    ga, problem = experiment.optimizer_settings, experiment.problem_settings
+    assert experiment.optimizer_name == "ga"
+    assert (ga.population, ga.parents, ga.crossover_rate, ga.mutation_scale) == (100, 20, 0.0, 0.25)
+    assert problem.nca.iterations == 5 and problem.nca.hidden == 60 and problem.nca.max_vertices == 2**31 - 1
+    assert (problem.physics.break_force, problem.physics.height_weight, problem.physics.complexity_weight) == (52.5, 1, 1)
+    assert problem.nca.cutoff == (0.6 if name == "cutoff" else 0.5)
+    assert problem.nca.build_down is (name != "no-build-down")
+    assert problem.physics.height_mode == ("mean" if name == "average-height" else "max")
+    # The run reaches the end of the generation holding the paper's spawn budget.
+    assert experiment.run.generations == generation_of(EXPERIMENTS[name].spawns)
+
+
+def test_the_screened_judge_scores_crushed_blocks_as_collapsed_without_a_solve():
+    problem = StableStructures(StructuresSettings(evaluator="screened", nca=NCAConfig(max_vertices=2**31 - 1)))
+    # A random network of the paper's settings builds a block of about a thousand vertices.
+    genome = problem.initial_genomes(1, np.random.default_rng(0))
+    result = problem.evaluate(genome, np.zeros(1))
+    assert result.fields["complexity"][0] > 500
+    assert result.fields["evaluator"][0] == 2 and result.objective[0] == 0 and result.fields["integrity"][0] == 0
+    # Below the threshold the static analysis decides, and the simulation where it says the structure stands.
+    lenient = StableStructures(StructuresSettings(evaluator="screened", collapse_ratio=2.0))
+    assert lenient.judge(column(6)).method == "statics"  # 1.87 times over: far past the margin, a solve decides
+    assert lenient.judge(column(4)).method == "bullet"  # 1.12 times over: close enough to simulate
+    assert lenient.judge(column(3)).method == "bullet"  # predicted to stand: simulated
+    strict = StableStructures(StructuresSettings(evaluator="screened", collapse_ratio=1.0))
+    assert strict.judge(column(4)).method == "collapse"
+    with pytest.raises(ValueError, match="collapse_ratio"):
+        StructuresSettings(collapse_ratio=0.5)
+
+
+def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tmp_path, capsys):
+    out = tmp_path / "cutoff"
+    # 400 spawns: five generations, the last holding the paper's spawn 381.
+    code, printed, _ = cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json")
+    assert code == 0
+    report = json.loads(printed)
+    assert report == json.loads((out / "table.json").read_text())
+    run = report["runs"][0]
+    assert run["generations"] == 5 and run["spawns"] == 420
+    assert report["paper_spawn_budget"] == 5_800 and report["spawn_budget"] == 400
+    kept = out / "seed-3-spawns"
+    assert sorted(p.name for p in kept.iterdir()) == ["spawn-381"]
+    assert np.load(kept / "spawn-381" / "parents.npy").shape == (20, 4766)
+    assert "| 3 | 420 |" in (out / "table.md").read_text()
+    assert sum(r["generations"] for r in run["table_1"].values()) == 5
+    # Run again: nothing to do.
+    metrics = (out / "seed-3" / "metrics.jsonl").read_text()
+    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json")[0] == 0
+    assert (out / "seed-3" / "metrics.jsonl").read_text() == metrics
+    # Asked for more, the run resumes where it stopped and keeps its best at the next sample spawn, 500.
+    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "500", "--json")[0] == 0
+    assert json.loads((out / "table.json").read_text())["runs"][0]["generations"] == 6
+    assert (out / "seed-3" / "metrics.jsonl").read_text().startswith(metrics)
+    assert json.loads((kept / "spawn-500" / "best.json").read_text())["generation"] <= 6
+    code, printed, _ = cli(capsys, "structures", "figure", out)
+    assert code == 0 and (out / "figure.png").read_bytes().startswith(b"\x89PNG")
+    # Another configuration's run in a seed's folder is refused before anything runs, as is a missing file.
+    code, _, err = cli(
+        capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--config", ROOT / "configs/paper_baseline.toml"
+    )
+    assert code == 2 and "seed-3" in err and "other settings" in err
+    assert (out / "seed-3" / "metrics.jsonl").read_text().count("\n") == 6
+    code, _, err = cli(capsys, "structures", "experiment", "cutoff", tmp_path / "b", "--config", tmp_path / "none.toml")
+    assert code == 2 and "none.toml" in err
+    code, _, err = cli(capsys, "structures", "figure", tmp_path / "b")
+    assert code == 2 and "no pictures" in err
