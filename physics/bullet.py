@@ -10,9 +10,9 @@ Facts this module relies on (measured on pybullet 3.2.7, and pinned by tests):
 - PyBullet cannot break a joint by itself (its breaking threshold is not exposed; a force limit makes joints slide),
   so every joint is polled after every step and removed once its load exceeds the limit.
 - Spheres get a little rolling and spinning friction, or debris rolls forever and never settles.
-- One client per process. Its world is emptied before every structure (every constraint, body and collision shape
-  removed) rather than reset: the same commands then give bit-for-bit the result a fresh world gives (pinned by a
-  test), and the constraint solver keeps its buffers. A fresh world's first step costs time growing with the square
+- One client per process. Its world is emptied before every structure (every constraint and body removed; collision
+  shapes are made once and kept) rather than reset: the same commands then give bit-for-bit the result a fresh world
+  gives (pinned by a test), and the constraint solver keeps its buffers. A fresh world's first step costs time growing with the square
   of the joint count (Bullet grows its Jacobian buffers one row at a time: 2.8 s at 2,354 joints, minutes at
   10,000); an emptied world pays that once per process for the largest structure so far.
 """
@@ -42,7 +42,8 @@ class _Client:
         with silenced():
             self.id = self.pb.connect(self.pb.DIRECT)
         self.pid = os.getpid()
-        self.shapes: list[int] = []  # collision shapes of the structure in the world, removed with it
+        # Collision shapes by kind and size, made once: PyBullet will not remove a shape a removed body used.
+        self.shapes: dict[tuple, int] = {}
 
     def empty_world(self) -> None:
         """Remove everything the last structure put into the world, keeping the solver's buffers."""
@@ -51,14 +52,13 @@ class _Client:
             pb.removeConstraint(pb.getConstraintUniqueId(index, physicsClientId=cid), physicsClientId=cid)
         for index in reversed(range(pb.getNumBodies(physicsClientId=cid))):
             pb.removeBody(pb.getBodyUniqueId(index, physicsClientId=cid), physicsClientId=cid)
-        for shape in self.shapes:
-            pb.removeCollisionShape(shape, physicsClientId=cid)
-        self.shapes = []
 
     def shape(self, kind: int, **size: float) -> int:
-        handle = self.pb.createCollisionShape(kind, physicsClientId=self.id, **size)
-        self.shapes.append(handle)
-        return handle
+        # Sizes rounded in the key, so float noise in a length does not make another shape.
+        key = (kind, *sorted((name, round(value, 9)) for name, value in size.items()))
+        if key not in self.shapes:
+            self.shapes[key] = self.pb.createCollisionShape(kind, physicsClientId=self.id, **size)
+        return self.shapes[key]
 
 
 _client: _Client | None = None
@@ -127,7 +127,6 @@ def _build(client: _Client, bodies: Bodies, config: PhysicsConfig) -> tuple[list
         )
         spheres.append(body)
 
-    rods: dict[float, int] = {}  # one collision shape per distinct length (three on a lattice)
     cylinders, joints = [], []
     radius = config.sphere_radius
     for (a, b), centre, orientation, length, direction in zip(
@@ -137,10 +136,8 @@ def _build(client: _Client, bodies: Bodies, config: PhysicsConfig) -> tuple[list
         bodies.cylinder_lengths.tolist(),
         bodies.directions.tolist(),
     ):
-        key = round(length, 9)
-        if key not in rods:
-            rods[key] = client.shape(pb.GEOM_CYLINDER, radius=config.cylinder_radius, height=length)
-        body = pb.createMultiBody(config.cylinder_mass, rods[key], -1, centre, orientation, physicsClientId=cid)
+        rod = client.shape(pb.GEOM_CYLINDER, radius=config.cylinder_radius, height=length)  # three lengths on a lattice
+        body = pb.createMultiBody(config.cylinder_mass, rod, -1, centre, orientation, physicsClientId=cid)
         pb.setCollisionFilterGroupMask(body, -1, _STRUCTURE_GROUP, _GROUND_GROUP, physicsClientId=cid)
         pb.changeDynamics(body, -1, lateralFriction=config.friction, physicsClientId=cid)
         cylinders.append(body)

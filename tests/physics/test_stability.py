@@ -177,12 +177,12 @@ def test_an_emptied_world_gives_what_a_fresh_world_gives(monkeypatch):
         first = check_stability(cantilever(2), FAST)
         assert first.broken_joints
         check_stability(braced(5), FAST)
-        shapes_after_braced = list(fresh.shapes)
+        shapes_after_braced = dict(fresh.shapes)
         again = check_stability(cantilever(2), FAST)
         assert without_timing(first) == without_timing(again)
         assert np.array_equal(first.final_positions, again.final_positions)
-        # Only the structure in the world owns shapes: nothing piles up from one structure to the next.
-        assert len(fresh.shapes) <= len(shapes_after_braced)
+        # Shapes are made once per size: nothing piles up from one structure to the next.
+        assert fresh.shapes == shapes_after_braced and len(fresh.shapes) <= 5  # ground, sphere, three rod lengths
         structure = cantilever(2)
         assert fresh.pb.getNumBodies(physicsClientId=fresh.id) == 1 + structure.n_vertices + structure.n_edges
     finally:
