@@ -21,10 +21,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 
 import numpy as np  # noqa: E402
 
-from physics import (
-    PhysicsConfig,  # noqa: E402
-    bullet,  # noqa: E402
-)
+from physics import PhysicsConfig, bullet  # noqa: E402
 from physics.model import place, read_structure  # noqa: E402
 from structgen.nca import NCAConfig, grow_population, n_params  # noqa: E402
 

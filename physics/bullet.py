@@ -12,9 +12,9 @@ Facts this module relies on (measured on pybullet 3.2.7, and pinned by tests):
 - Spheres get a little rolling and spinning friction, or debris rolls forever and never settles.
 - One client per process. Its world is emptied before every structure (every constraint and body removed; collision
   shapes are made once and kept) rather than reset: the same commands then give bit-for-bit the result a fresh world
-  gives (pinned by a test), and the constraint solver keeps its buffers. A fresh world's first step costs time growing with the square
-  of the joint count (Bullet grows its Jacobian buffers one row at a time: 2.8 s at 2,354 joints, minutes at
-  10,000); an emptied world pays that once per process for the largest structure so far.
+  gives (pinned by a test), and the constraint solver keeps its buffers. A fresh world's first step costs time
+  growing with the square of the joint count (Bullet grows its Jacobian buffers one row at a time: 2.8 s at 2,354
+  joints, minutes at 10,000); an emptied world pays that once per process for the largest structure so far.
 """
 
 from __future__ import annotations
