@@ -20,12 +20,12 @@ whole numbers, so a structure that sags from height 3 to 2.998 stays in the cell
 ## Fields
 ``integrity`` (the transient evaluator's strength ratio), ``height``, ``complexity``, ``standing_height`` (the
 height if no joint broke, or none would have, and nothing was still falling when the simulation ended, else 0),
-``standing_vertices`` and ``standing_edges`` (its size when it stands, else 0), ``edges``, ``broken_joints``,
-``settled`` (0/1), ``failed`` (0/1: the check refused the structure), ``capped`` (0/1: growth stopped at the NCA's
-vertex cap), ``evaluator`` (0: scored by the static solve, 1: by the simulation, 2: by the collapse screen), and
-with the transient evaluator ``peak_force`` (N). Metrics record each generation's maximum of every field, so the
-tallest standing structure of a run is there even when it was not the best-scoring one, and the mean of
-``integrity``, ``complexity`` and ``edges``.
+``edges``, ``broken_joints``, ``settled`` (0/1), ``failed`` (0/1: the check refused the structure), ``capped`` (0/1:
+growth stopped at the NCA's vertex cap), ``evaluator`` (0: scored by the static solve, 1: by the simulation, 2: by
+the collapse screen), and with the transient evaluator ``peak_force`` (N), with the screened one
+``standing_vertices`` and ``standing_edges`` (the size of a structure that stands, else 0). Metrics record each
+generation's maximum of every field, so the tallest standing structure of a run is there even when it was not the
+best-scoring one, and the mean of ``integrity``, ``complexity`` and ``edges``.
 
 ## The paper's special rules
 As settings: ``problem.nca.cutoff`` (activation cutoff, 0.6 in the paper's variant), ``problem.nca.build_down =
@@ -149,8 +149,6 @@ class StableStructures(Problem):
         "height",
         "complexity",
         "standing_height",
-        "standing_vertices",
-        "standing_edges",
         "edges",
         "broken_joints",
         "settled",
@@ -166,6 +164,8 @@ class StableStructures(Problem):
         self.settings = settings or StructuresSettings()
         if self.settings.evaluator == "transient":
             self.field_names = (*self.field_names, "peak_force")
+        if self.settings.evaluator == "screened":  # the paper's experiments' table needs them; older runs lack them
+            self.field_names = (*self.field_names, "standing_vertices", "standing_edges")
         if self.settings.also_grow:
             self.field_names = (*self.field_names, "grown_integrity")
         nca = self.settings.nca
@@ -186,8 +186,6 @@ class StableStructures(Problem):
             "height": [r.height for r in reports],
             "complexity": [r.complexity for r in reports],
             "standing_height": [r.height if r.stands else 0.0 for r in reports],
-            "standing_vertices": [float(s.n_vertices) if r.stands else 0.0 for s, r in zip(structures, reports)],
-            "standing_edges": [float(s.n_edges) if r.stands else 0.0 for s, r in zip(structures, reports)],
             "edges": [s.n_edges for s in structures],
             "broken_joints": [len(r.broken_joints) for r in reports],
             "settled": [float(r.settled) for r in reports],
@@ -199,6 +197,9 @@ class StableStructures(Problem):
         objective = np.array([r.score if r.height >= self.settings.min_height else 0.0 for r in reports])
         if self.settings.evaluator == "transient":
             fields["peak_force"] = [r.peak_force for r in reports]
+        if self.settings.evaluator == "screened":
+            fields["standing_vertices"] = [float(s.n_vertices) if r.stands else 0.0 for s, r in zip(structures, reports)]
+            fields["standing_edges"] = [float(s.n_edges) if r.stands else 0.0 for s, r in zip(structures, reports)]
         if self.settings.also_grow:
             lowest = self.grown_integrity(genomes).min(axis=1)
             fields["grown_integrity"] = lowest.tolist()
