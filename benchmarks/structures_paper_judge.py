@@ -63,7 +63,7 @@ def _sample(out_dirs: list[str], per_snapshot: int, random_count: int, seed: int
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("out_dirs", nargs="+", metavar="OUT_DIR", help="structgen structures experiment folders")
+    parser.add_argument("out_dirs", nargs="*", metavar="OUT_DIR", help="structgen structures experiment folders")
     parser.add_argument("--per-snapshot", type=int, default=8, help="parents drawn from each kept population")
     parser.add_argument("--random", type=int, default=10, help="random networks per run (its first generation)")
     parser.add_argument("--full-joints", type=int, default=300, help="up to this many joints: the full 30 s")
@@ -72,9 +72,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2, help="processes for the reference simulations")
     parser.add_argument("--seed", type=int, default=0, help="seed of the draw")
     parser.add_argument("--json", metavar="FILE", help="also write every structure's scores here")
+    parser.add_argument(
+        "--include", metavar="FILE", nargs="+", default=[], help="earlier --json files whose structures join the table"
+    )
     args = parser.parse_args()
 
-    drawn = _sample(args.out_dirs, args.per_snapshot, args.random, args.seed)
+    drawn = _sample(args.out_dirs, args.per_snapshot, args.random, args.seed) if args.out_dirs else []
     grown = [item["problem"].structure_of(item["genome"]) for item in drawn]
     large = [i for i, s in enumerate(grown) if 2 * s.n_edges > args.settle_joints]
     rng = np.random.default_rng(args.seed)
@@ -112,6 +115,8 @@ def main() -> None:
     for i, item in enumerate(items):
         report = reports[i]
         item.update(ref_q=report.score, ref_stands=report.stands, ref_i=report.integrity, ref_cpu=report.cpu_time)
+    for earlier in args.include:
+        items += json.loads(Path(earlier).read_text())["items"]
 
     agree = [it["judge_stands"] == it["ref_stands"] for it in items]
     rho = spearmanr([it["judge_q"] for it in items], [it["ref_q"] for it in items]).statistic
