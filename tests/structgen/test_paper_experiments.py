@@ -64,9 +64,15 @@ def test_the_screened_judge_scores_crushed_blocks_as_collapsed_without_a_solve()
 def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tmp_path, capsys):
     out = tmp_path / "cutoff"
     # 400 spawns: five generations, the last holding the paper's spawn 381.
-    code, printed, _ = cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json")
+    results = tmp_path / "results" / "table"
+    code, printed, _ = cli(
+        capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json", "--results", results
+    )
     assert code == 0
     report = json.loads(printed)
+    # The tables of all four experiments gain this one, keyed by its name.
+    assert json.loads(results.with_suffix(".json").read_text()) == {"cutoff": report}
+    assert "### cutoff: 1 runs" in results.with_suffix(".md").read_text()
     assert report == json.loads((out / "table.json").read_text())
     run = report["runs"][0]
     assert run["generations"] == 5 and run["spawns"] == 420

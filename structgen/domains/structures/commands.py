@@ -693,7 +693,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
     report = run_experiment(
         args.name, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, workers=args.workers,
-        spawns=args.spawns, progress=not args.json,
+        spawns=args.spawns, progress=not args.json, results=args.results,
     )  # fmt: skip
     print(json.dumps(report) if args.json else table_markdown(report), end="" if not args.json else "\n")
     return EXIT_OK
@@ -726,6 +726,11 @@ def _add_experiment(subparsers: Any) -> None:
     p.add_argument(
         "--workers", type=whole_number(0, 256), default=1, metavar="W",
         help="evaluation processes of each run (default 1: on a few cores, runs side by side use them best)",
+    )  # fmt: skip
+    p.add_argument(
+        "--results", metavar="STEM",
+        help="also put the table into STEM.json and STEM.md, the tables of all four experiments (the project keeps "
+        "them in docs/results/structures-paper-table)",
     )  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
     p.set_defaults(handler=cmd_experiment)

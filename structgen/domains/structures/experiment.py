@@ -35,6 +35,7 @@ __all__ = [
     "TABLE_SPAWNS",
     "figure",
     "generation_of",
+    "merge_results",
     "run_experiment",
     "seed_row",
     "table_markdown",
@@ -195,8 +196,10 @@ def run_experiment(
     workers: int = 1,
     spawns: int | None = None,
     progress: bool = True,
+    results: str | Path | None = None,
 ) -> dict[str, Any]:
-    """Run (or finish) every seed's run, then write and return the table (see the module's description)."""
+    """Run (or finish) every seed's run, then write and return the table (see the module's description); with
+    ``results``, also put it into the tables of all four experiments (:func:`merge_results`)."""
     if name not in EXPERIMENTS:
         raise InputError(f"experiment must be one of {', '.join(EXPERIMENTS)}, got {name!r}")
     paper = EXPERIMENTS[name]
@@ -255,7 +258,31 @@ def run_experiment(
     }
     atomic_write(out / "table.json", json.dumps(report, indent=1) + "\n")
     atomic_write(out / "table.md", table_markdown(report))
+    if results is not None:
+        merge_results(report, results)
     return report
+
+
+def merge_results(report: dict[str, Any], stem: str | Path) -> None:
+    """Put one experiment's table into the tables of all four (``STEM.json``, keyed by experiment, and ``STEM.md``,
+    every experiment's table in the paper's order), replacing that experiment's earlier one."""
+    stem = Path(stem)
+    path = stem.with_name(stem.name + ".json")
+    tables: dict[str, Any] = {}
+    if path.is_file():
+        try:
+            tables = json.loads(path.read_text())
+        except json.JSONDecodeError as err:
+            raise InputError(f"{path}: not the JSON these tables are kept in ({err.msg}, line {err.lineno})") from None
+        if not isinstance(tables, dict):
+            raise InputError(f"{path}: not the JSON these tables are kept in (an object keyed by experiment)")
+    tables[report["experiment"]] = report
+    ordered = {name: tables[name] for name in EXPERIMENTS if name in tables}
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(path, json.dumps(ordered, indent=1) + "\n")
+    command = f"structgen structures experiment NAME OUT_DIR --results {stem}"
+    text = f"# The stable-structures paper's experiments, run here\n\nWritten by `{command}`.\n\n"
+    atomic_write(stem.with_name(stem.name + ".md"), text + "\n".join(table_markdown(t) for t in ordered.values()))
 
 
 def _mean_se(values: Sequence[float]) -> str:
