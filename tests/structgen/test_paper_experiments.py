@@ -15,7 +15,7 @@ from structgen.domains.structures.problem import StableStructures, StructuresSet
 from structgen.domains.structures.samples import column
 from structgen.experiment import load_experiment
 from structgen.nca import NCAConfig
-from tests.helpers import cli
+from tests.helpers import cli, outcome
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -91,6 +91,11 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     assert json.loads((out / "table.json").read_text())["runs"][0]["generations"] == 6
     assert (out / "seed-3" / "metrics.jsonl").read_text().startswith(metrics)
     assert json.loads((kept / "spawn-500" / "best.json").read_text())["generation"] <= 6
+    # Run in stages, a seed comes out as it would have run straight through.
+    straight = tmp_path / "straight"
+    config = ROOT / "configs/paper_cutoff.toml"
+    assert cli(capsys, "evolve", config, "--seed", 3, "--generations", 6, "--run-dir", straight, "--set", "run.workers=1")[0] == 0
+    assert outcome(straight) == outcome(out / "seed-3")
     code, printed, _ = cli(capsys, "structures", "figure", out)
     assert code == 0 and (out / "figure.png").read_bytes().startswith(b"\x89PNG")
     # Another configuration's run in a seed's folder is refused before anything runs, as is a missing file.
