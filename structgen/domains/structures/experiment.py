@@ -387,7 +387,7 @@ def figure(out_dir: str | Path, output: str | Path | None = None) -> str:
                 ax.set_title(f"{seed}: not kept at spawn {spawn:,}", fontsize=9)
     fig.tight_layout()
     staging = target.with_name(target.name + ".partial.png")
-    fig.savefig(staging, dpi=80)
+    fig.savefig(staging, dpi=64)
     plt.close(fig)
     staging.replace(target)
     return str(target)
