@@ -299,15 +299,16 @@ def table_markdown(report: dict[str, Any]) -> str:
     runs = report["runs"]
     spawns = [s for s in TABLE_SPAWNS if s <= report["spawn_budget"]]
     lines = [
-        f"### {report['experiment']}: {len(runs)} runs of {report['config']}, {report['spawn_budget']:,} spawns each "
+        f"### {report['experiment']}: {len(runs)} run{'s' if len(runs) != 1 else ''} of {report['config']}, "
+        f"{report['spawn_budget']:,} spawns each "
         f"(the paper: {report['paper_spawn_budget']:,}, one run)",
         "",
         f"The paper: {report['paper']}. Each cell below: the tallest structure that stood with no joint broken by "
         "that spawn (H, and in brackets how many vertices tall), then the most vertices and edges of any that stood.",
         "",
         "| seed | spawns | first standing with an edge, by spawn | "
-        + " | ".join(f"by spawn {s:,}: H (tall) / V / E" for s in spawns)
-        + " | best Q | wall time |",
+        + "".join(f"by spawn {s:,}: H (tall) / V / E | " for s in spawns)
+        + "best Q | wall time |",
         "|---|---:|---:|" + "---:|" * len(spawns) + "---:|---:|",
     ]
     for seed, run in zip(report["seeds"], runs):
@@ -317,12 +318,15 @@ def table_markdown(report: dict[str, Any]) -> str:
             if t is None:
                 cells.append("not reached")
                 continue
+            if not t["vertices"]:
+                cells.append("none stood")
+                continue
             cells.append(f"{t['height']:.2f} ({round(t['height']) + 1}) / {t['vertices']:.0f} / {t['edges']:.0f}")
         first = run["first_standing_with_edges_spawn"]
         lines.append(
             f"| {seed} | {run['spawns']:,} | {'not reached' if first is None else f'{first:,}'} | "
-            + " | ".join(cells)
-            + f" | {run['best_objective']:.2f} | {run['wall_s'] / 60:.1f} min |"
+            + "".join(f"{cell} | " for cell in cells)
+            + f"{run['best_objective']:.2f} | {run['wall_s'] / 60:.1f} min |"
         )
     firsts = [r["first_standing_with_edges_spawn"] for r in runs if r["first_standing_with_edges_spawn"] is not None]
     reached = f"{len(firsts)} of {len(runs)} runs"
