@@ -72,7 +72,7 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     report = json.loads(printed)
     # The tables of all four experiments gain this one, keyed by its name.
     assert json.loads(results.with_suffix(".json").read_text()) == {"cutoff": report}
-    assert "### cutoff: 1 runs" in results.with_suffix(".md").read_text()
+    assert "### cutoff: 1 run of" in results.with_suffix(".md").read_text()
     assert report == json.loads((out / "table.json").read_text())
     run = report["runs"][0]
     assert run["generations"] == 5 and run["spawns"] == 420
