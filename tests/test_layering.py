@@ -6,7 +6,7 @@ Layers, lowest first; a module may import from its own layer's modules and from 
    ``physics`` uses only evolution's worker pool (``evolution.pool``, the one pool every parallel step runs on).
 2. structgen's core: the data types, generators, export and settings (``structure``, ``nca``, ``mesh``, ``config``...).
 3. ``structgen.domains.registry`` and ``structgen.commands``: how domains are described and how they add verbs.
-4. ``structgen.experiment`` and ``structgen.runs``: configurations and runs, for any domain.
+4. ``structgen.experiment``, ``structgen.runs`` and ``structgen.seed_runs``: configurations and runs, for any domain.
 5. the domains (``structgen.domains.<name>``): none imports another domain.
 6. ``structgen.cli``: knows domains only through the registry.
 
@@ -106,7 +106,7 @@ def layer(name: str) -> int:
         return 2
     if name in ("structgen.domains", "structgen.domains.registry", "structgen.commands"):
         return 3
-    if name in ("structgen.experiment", "structgen.runs", "structgen.training_folder"):
+    if name in ("structgen.experiment", "structgen.runs", "structgen.seed_runs", "structgen.training_folder"):
         return 4
     if name.startswith("structgen.domains."):
         return 5

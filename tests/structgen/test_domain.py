@@ -155,7 +155,7 @@ def test_a_screen_margin_below_one_is_refused():
 
 
 def test_unknown_evaluator_is_refused():
-    with pytest.raises(ValueError, match="evaluator must be one of bullet, statics, statics\\+bullet, transient"):
+    with pytest.raises(ValueError, match="evaluator must be one of bullet, statics, statics\\+bullet, screened, transient"):
         StructuresSettings(evaluator="fem")
 
 
