@@ -114,8 +114,9 @@ def seed_row(run_dir: Path, workers: int) -> dict[str, Any]:
             continue
         tallest[str(spawn)] = {
             "height": max(r["generation_max_standing_height"] for r in upto),
-            "vertices": max(r["generation_max_standing_vertices"] for r in upto),
-            "edges": max(r["generation_max_standing_edges"] for r in upto),
+            # Only the screened evaluator records sizes (a run of another configuration shows 0 there).
+            "vertices": max(r.get("generation_max_standing_vertices", 0.0) for r in upto),
+            "edges": max(r.get("generation_max_standing_edges", 0.0) for r in upto),
         }
     regimes: dict[str, list[tuple[float, float]]] = {}
     for before, row in zip([{"wall_s": 0.0, "evaluations": 0}, *rows], rows):
@@ -318,7 +319,7 @@ def table_markdown(report: dict[str, Any]) -> str:
             if t is None:
                 cells.append("not reached")
                 continue
-            if not t["vertices"]:
+            if not t["vertices"] and not t["height"]:
                 cells.append("none stood")
                 continue
             cells.append(f"{t['height']:.2f} ({round(t['height']) + 1}) / {t['vertices']:.0f} / {t['edges']:.0f}")
