@@ -28,10 +28,12 @@ __all__ = [
     "DomainCommands",
     "InputError",
     "Parser",
+    "add_seed_run_options",
     "add_set_option",
     "device_name",
     "finite_number",
     "output_path",
+    "print_table",
     "settings_from_args",
     "verbs_wanted",
     "whole_number",
@@ -212,6 +214,29 @@ def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_sett
         raise InputError(f"{run_dir}: {what} runs in this process; give --generations (updates) only")
     settings = read_settings(RunFolder(run_dir))
     return settings if args.generations is None else dataclasses.replace(settings, updates=args.generations)
+
+
+def add_seed_run_options(
+    parser: argparse.ArgumentParser, *, config_help: str, config_default: str | None, seeds: list[int], seeds_help: str
+) -> None:
+    """The options every ``experiment`` verb shares (one run per seed, several at a time, then a table):
+    ``OUT_DIR``, ``--config``, ``--seeds``, ``--parallel`` and ``--json``. The experiment itself and how each run
+    uses its processes are the verb's own."""
+    parser.add_argument("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)")
+    parser.add_argument("--config", default=config_default, metavar="TOML", help=f"each run's configuration ({config_help})")
+    parser.add_argument(
+        "--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S", help=f"run seeds ({seeds_help})"
+    )
+    parser.add_argument("--parallel", type=whole_number(1, 1024), default=2, metavar="N", help="runs at once (default 2)")
+    parser.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
+
+
+def print_table(report: Mapping[str, Any], args: argparse.Namespace, markdown: Callable[[Any], str]) -> int:
+    """An experiment's table on stdout: one JSON object with ``--json``, else its markdown."""
+    import json
+
+    print(json.dumps(report) if args.json else markdown(report), end="\n" if args.json else "")
+    return EXIT_OK
 
 
 def verbs_wanted(names: Iterable[str], only: Collection[str] | None) -> list[str]:

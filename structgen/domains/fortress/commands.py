@@ -15,7 +15,16 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import MAX_SEED, DomainCommands, InputError, output_path, png_output_path, whole_number
+from structgen.commands import (
+    MAX_SEED,
+    DomainCommands,
+    InputError,
+    add_seed_run_options,
+    output_path,
+    png_output_path,
+    print_table,
+    whole_number,
+)
 
 EXIT_OK = 0
 
@@ -258,8 +267,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         args.measures, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, threads=args.threads,
         cluster=args.cluster or "", generations=args.generations, longer=args.longer, progress=not args.json,
     )  # fmt: skip
-    print(json.dumps(report) if args.json else table_markdown(report), end="" if not args.json else "\n")
-    return EXIT_OK
+    return print_table(report, args, table_markdown)
 
 
 def _add_experiment(subparsers: Any) -> None:
@@ -272,16 +280,10 @@ def _add_experiment(subparsers: Any) -> None:
         "cell) and write OUT_DIR/table.json and OUT_DIR/table.md beside the paper's numbers.",
     )
     p.add_argument("measures", choices=["entities_nodes", "entities_entropy"], help="the experiment: its measures")
-    p.add_argument("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)")
-    p.add_argument(
-        "--config", default="configs/fortress_paper.toml", metavar="TOML",
-        help="each run's configuration (default configs/fortress_paper.toml: the paper's run)",
+    add_seed_run_options(
+        p, config_default="configs/fortress_paper.toml", config_help="default configs/fortress_paper.toml: the paper's run",
+        seeds=list(range(20, 30)), seeds_help="default 20 to 29, the original's sweep",
     )  # fmt: skip
-    p.add_argument(
-        "--seeds", type=whole_number(0, 2**31), nargs="+", default=list(range(20, 30)), metavar="S",
-        help="run seeds (default 20 to 29, the original's sweep)",
-    )  # fmt: skip
-    p.add_argument("--parallel", type=whole_number(1, 1024), default=2, metavar="N", help="runs at once (default 2)")
     p.add_argument(
         "--threads", type=whole_number(1, 1024), default=1, metavar="T",
         help="engine threads of each run (default 1: on a few cores, runs side by side use them best)",
@@ -291,7 +293,6 @@ def _add_experiment(subparsers: Any) -> None:
         "--generations", type=whole_number(1, 10**7), metavar="N", help="generations of each run (default: the config's)"
     )
     p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")
-    p.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
     p.set_defaults(handler=cmd_experiment)
 
 

@@ -22,9 +22,11 @@ from structgen.commands import (
     MAX_SEED,
     DomainCommands,
     InputError,
+    add_seed_run_options,
     add_set_option,
     output_path,
     png_output_path,
+    print_table,
     settings_from_args,
     whole_number,
 )
@@ -695,8 +697,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         args.name, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, workers=args.workers,
         spawns=args.spawns, progress=not args.json, results=args.results,
     )  # fmt: skip
-    print(json.dumps(report) if args.json else table_markdown(report), end="" if not args.json else "\n")
-    return EXIT_OK
+    return print_table(report, args, table_markdown)
 
 
 def _add_experiment(subparsers: Any) -> None:
@@ -712,17 +713,14 @@ def _add_experiment(subparsers: Any) -> None:
         "score, and the paper's Table 1 (time per generation by the population's mean integrity) measured here.",
     )
     p.add_argument("name", choices=list(EXPERIMENTS), help="the experiment")
-    p.add_argument("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)")
-    p.add_argument("--config", metavar="TOML", help="each run's configuration (default configs/paper_NAME.toml)")
-    p.add_argument(
-        "--seeds", type=whole_number(0, 2**31), nargs="+", default=[0, 1, 2], metavar="S", help="run seeds (default 0 1 2)"
+    add_seed_run_options(
+        p, config_default=None, config_help="default configs/paper_NAME.toml", seeds=[0, 1, 2], seeds_help="default 0 1 2"
     )
     p.add_argument(
         "--spawns", type=whole_number(1, 10**8), metavar="N",
         help="networks each run evaluates (default the paper's: 28,577 for baseline and average-height, 5,800 for "
         "cutoff, 6,811 for no-build-down); the run goes to the end of the generation holding spawn N",
     )  # fmt: skip
-    p.add_argument("--parallel", type=whole_number(1, 1024), default=2, metavar="N", help="runs at once (default 2)")
     p.add_argument(
         "--workers", type=whole_number(0, 256), default=1, metavar="W",
         help="evaluation processes of each run (default 1: on a few cores, runs side by side use them best)",
@@ -732,7 +730,6 @@ def _add_experiment(subparsers: Any) -> None:
         help="also put the table into STEM.json and STEM.md, the tables of all four experiments (the project keeps "
         "them in docs/results/structures-paper-table)",
     )  # fmt: skip
-    p.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
     p.set_defaults(handler=cmd_experiment)
 
 
