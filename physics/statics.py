@@ -39,7 +39,7 @@ from scipy.sparse.linalg import splu
 
 from physics.config import PhysicsConfig
 from physics.model import Bodies, InputError, place, read_structure
-from physics.report import BrokenJoint, StabilityReport, height_of, integrity_of, quality
+from physics.report import BrokenJoint, EveryJointFell, StabilityReport, height_of, integrity_of, quality
 
 __all__ = [
     "StaticsResult",
@@ -525,10 +525,7 @@ def check_collapse(structure: Any, config: PhysicsConfig | None = None) -> Stabi
     final[:, 2] = config.sphere_radius
     ends = bodies.cylinder_ends(bodies.cylinder_positions, bodies.cylinder_orientations)
     ends[:, :, 2] = config.cylinder_radius
-    broken = tuple(
-        BrokenJoint(joint=j, edge=j // 2, vertex=int(edges[j // 2, j % 2]), time=0.0, force=0.0, torque=0.0, fell=True)
-        for j in range(bodies.n_joints)
-    )
+    broken = EveryJointFell(edges)
     integrity = integrity_of(len(broken), bodies.n_joints)
     return StabilityReport(
         integrity=integrity,

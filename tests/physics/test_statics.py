@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -373,3 +374,13 @@ def test_a_collapse_report_breaks_every_joint_and_scores_zero():
     assert report.method == "collapse" and report.integrity == 0 and report.score == 0 and report.height == 0
     assert len(report.broken_joints) == report.n_joints == 8 and not report.stands
     assert report.complexity == 5 and report.verdict().startswith("breaks")
+    # Its joints read as a simulation's would: joint j joins edge j // 2 to that edge's end j % 2, each fell at time 0.
+    edges = report.edges
+    joints = list(report.broken_joints)
+    assert [(b.joint, b.edge, b.vertex) for b in joints] == [(j, j // 2, int(edges[j // 2, j % 2])) for j in range(8)]
+    assert all(b.fell and b.time == 0 and b.force == 0 for b in joints)
+    assert report.broken_joints[-1] == joints[7] and report.broken_joints[2:4] == tuple(joints[2:4])
+    assert report.broken_joints == tuple(joints) and report.broken_edges.tolist() == [0, 1, 2, 3]
+    with pytest.raises(IndexError):
+        report.broken_joints[8]
+    assert json.loads(json.dumps(report.to_dict()))["broken_joints"][3]["vertex"] == joints[3].vertex
