@@ -91,6 +91,14 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     assert json.loads((out / "table.json").read_text())["runs"][0]["generations"] == 6
     assert (out / "seed-3" / "metrics.jsonl").read_text().startswith(metrics)
     assert json.loads((kept / "spawn-500" / "best.json").read_text())["generation"] <= 6
+    # --table-only runs nothing, even short of the budget: the table shows how far the run got.
+    code, printed, _ = cli(
+        capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "800", "--table-only", "--json"
+    )
+    assert code == 0 and json.loads(printed)["runs"][0]["generations"] == 6
+    assert (out / "seed-3" / "metrics.jsonl").read_text().count("\n") == 6
+    code, _, err = cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "4", "--table-only")
+    assert code == 2 and "seed-4" in err and not (out / "seed-4").exists()
     # Run in stages, a seed comes out as it would have run straight through.
     straight = tmp_path / "straight"
     config = ROOT / "configs/paper_cutoff.toml"

@@ -695,7 +695,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
     report = run_experiment(
         args.name, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, workers=args.workers,
-        spawns=args.spawns, progress=not args.json, results=args.results,
+        spawns=args.spawns, progress=not args.json, results=args.results, table_only=args.table_only,
     )  # fmt: skip
     return print_table(report, args, table_markdown)
 
@@ -729,6 +729,11 @@ def _add_experiment(subparsers: Any) -> None:
         "--results", metavar="STEM",
         help="also put the table into STEM.json and STEM.md, the tables of all four experiments (the project keeps "
         "them in docs/results/structures-paper-table)",
+    )  # fmt: skip
+    p.add_argument(
+        "--table-only", action="store_true",
+        help="run nothing: write the table from the seeds' runs as they stand (an unfinished run with the spawns it "
+        "reached; resume it later without this option)",
     )  # fmt: skip
     p.set_defaults(handler=cmd_experiment)
 

@@ -198,9 +198,11 @@ def run_experiment(
     spawns: int | None = None,
     progress: bool = True,
     results: str | Path | None = None,
+    table_only: bool = False,
 ) -> dict[str, Any]:
     """Run (or finish) every seed's run, then write and return the table (see the module's description); with
-    ``results``, also put it into the tables of all four experiments (:func:`merge_results`)."""
+    ``results``, also put it into the tables of all four experiments (:func:`merge_results`). With ``table_only``
+    nothing runs: the table is written from the runs as they stand, an unfinished one with the spawns it reached."""
     if name not in EXPERIMENTS:
         raise InputError(f"experiment must be one of {', '.join(EXPERIMENTS)}, got {name!r}")
     paper = EXPERIMENTS[name]
@@ -214,13 +216,16 @@ def run_experiment(
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
     overrides = (f"run.workers={workers}",)
     for seed in seeds:
-        check_seed_folder(out / f"seed-{seed}", expected_run(config, overrides, seed, generations), any_length=True)
+        run_dir = out / f"seed-{seed}"
+        if table_only and not (run_dir / "metrics.jsonl").is_file():
+            raise InputError(f"{run_dir}: no run here to put in the table (run it without --table-only)")
+        check_seed_folder(run_dir, expected_run(config, overrides, seed, generations), any_length=True)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise InputError(f"{out}: cannot make this folder ({err.strerror})") from None
     bar = None
-    if progress:
+    if progress and not table_only:
         from tqdm import tqdm
 
         bar = tqdm(total=len(seeds), desc=f"{name} runs", unit="run", file=sys.stderr)
@@ -236,7 +241,7 @@ def run_experiment(
                     generations,
                     sorted(set(paper.milestones) | set(SAMPLE_SPAWNS)),
                 )  # fmt: skip
-                for seed in seeds
+                for seed in ([] if table_only else seeds)
             ]
             for job in as_completed(jobs):
                 job.result()
