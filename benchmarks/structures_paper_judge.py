@@ -16,7 +16,8 @@ about a thousand vertices). Each structure is scored twice: by the run's own jud
   random (a block of 12,000 joints costs a minute and a half even so); with ``--large-horizon`` only its first
   seconds: joints only ever break, so the integrity then bounds the integrity at the end from above.
 
-The table counts each kind apart.
+The table counts each kind apart. References run ``--workers`` at a time; after each such chunk the scores so far
+go to ``--json`` (marked ``partial`` until the end), so a stopped draw keeps what it had and ``--include`` takes it.
 
 Prints the verdict agreement (stands / breaks), Spearman's rank correlation of Q over the whole sample (failing
 structures included), the kinds of disagreement, and the cost of each judge.
@@ -36,6 +37,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 import numpy as np  # noqa: E402
 from scipy.stats import spearmanr  # noqa: E402
 
+from evolution.files import atomic_write  # noqa: E402
 from physics import check_many  # noqa: E402
 from structgen.runs import open_run  # noqa: E402
 
@@ -109,17 +111,24 @@ def main() -> None:
             item["reference"], reference = "fast preset", physics.stepped_as("fast")
         structures.append(structure)
         references.append(reference)
-    # One call per configuration (check_many takes one), its size caps raised to the largest structure's.
-    reports: dict[int, object] = {}
-    for config in set(references):
+    # Per configuration (check_many takes one), its size caps raised to the largest structure's, in chunks of
+    # --workers structures: a reference costs minutes, so each chunk's results are written (--json) and reported
+    # as they come, and a stopped draw keeps what it had.
+    done = 0
+    for config in sorted(set(references), key=str):
         positions = [i for i, c in enumerate(references) if c == config]
         room = config.room_for(max(structures[i].n_vertices for i in positions), max(structures[i].n_edges for i in positions))
-        batch = [structures[i] for i in positions]
-        for i, report in zip(positions, check_many(batch, config.replace(**room), workers=args.workers)):
-            reports[i] = report
-    for i, item in enumerate(items):
-        report = reports[i]
-        item.update(ref_q=report.score, ref_stands=report.stands, ref_i=report.integrity, ref_cpu=report.cpu_time)
+        for start in range(0, len(positions), args.workers):
+            chunk = positions[start : start + args.workers]
+            reports = check_many([structures[i] for i in chunk], config.replace(**room), workers=args.workers)
+            for i, report in zip(chunk, reports):
+                items[i].update(
+                    ref_q=report.score, ref_stands=report.stands, ref_i=report.integrity, ref_cpu=report.cpu_time
+                )  # fmt: skip
+            done += len(chunk)
+            print(f"{done} of {len(items)} references ({items[chunk[0]]['reference']})", file=sys.stderr)
+            if args.json:
+                _write(args.json, [it for it in items if "ref_q" in it], partial=done < len(items))
     for earlier in args.include:
         items += json.loads(Path(earlier).read_text())["items"]
 
@@ -159,8 +168,13 @@ def main() -> None:
     for key, count in sorted(kinds.items(), key=lambda kv: -kv[1]):
         print(f"- {count}: {key}")
     if args.json:
-        keep = [{k: v for k, v in it.items() if k not in ("problem", "genome")} for it in items]
-        Path(args.json).write_text(json.dumps({"agreement": statistics.fmean(agree), "spearman": rho, "items": keep}, indent=1))
+        _write(args.json, items, partial=False, agreement=statistics.fmean(agree), spearman=rho)
+
+
+def _write(path: str, items: list[dict], partial: bool, **summary: float) -> None:
+    """The scores so far, atomically (``partial``: the draw had not finished; ``--include`` takes it as it is)."""
+    keep = [{k: v for k, v in it.items() if k not in ("problem", "genome")} for it in items]
+    atomic_write(Path(path), json.dumps({**summary, "partial": partial, "items": keep}, indent=1))
 
 
 if __name__ == "__main__":
