@@ -38,7 +38,7 @@ import numpy as np  # noqa: E402
 from scipy.stats import spearmanr  # noqa: E402
 
 from evolution.files import atomic_write  # noqa: E402
-from physics import check_many  # noqa: E402
+from physics import CheckPool  # noqa: E402
 from structgen.runs import open_run  # noqa: E402
 
 
@@ -111,24 +111,26 @@ def main() -> None:
             item["reference"], reference = "fast preset", physics.stepped_as("fast")
         structures.append(structure)
         references.append(reference)
-    # Per configuration (check_many takes one), its size caps raised to the largest structure's, in chunks of
+    # Per configuration (a check takes one), its size caps raised to the largest structure's, in chunks of
     # --workers structures: a reference costs minutes, so each chunk's results are written (--json) and reported
     # as they come, and a stopped draw keeps what it had.
     done = 0
-    for config in sorted(set(references), key=str):
-        positions = [i for i, c in enumerate(references) if c == config]
-        room = config.room_for(max(structures[i].n_vertices for i in positions), max(structures[i].n_edges for i in positions))
-        for start in range(0, len(positions), args.workers):
-            chunk = positions[start : start + args.workers]
-            reports = check_many([structures[i] for i in chunk], config.replace(**room), workers=args.workers)
-            for i, report in zip(chunk, reports):
-                items[i].update(
-                    ref_q=report.score, ref_stands=report.stands, ref_i=report.integrity, ref_cpu=report.cpu_time
-                )  # fmt: skip
-            done += len(chunk)
-            print(f"{done} of {len(items)} references ({items[chunk[0]]['reference']})", file=sys.stderr)
-            if args.json:
-                _write(args.json, [it for it in items if "ref_q" in it], partial=done < len(items))
+    with CheckPool(args.workers) as pool:  # one set of worker processes for every chunk
+        for config in sorted(set(references), key=str):
+            positions = [i for i, c in enumerate(references) if c == config]
+            room = config.room_for(
+                max(structures[i].n_vertices for i in positions), max(structures[i].n_edges for i in positions)
+            )
+            for start in range(0, len(positions), args.workers):
+                chunk = positions[start : start + args.workers]
+                for i, report in zip(chunk, pool.check([structures[i] for i in chunk], config.replace(**room))):
+                    items[i].update(
+                        ref_q=report.score, ref_stands=report.stands, ref_i=report.integrity, ref_cpu=report.cpu_time
+                    )  # fmt: skip
+                done += len(chunk)
+                print(f"{done} of {len(items)} references ({items[chunk[0]]['reference']})", file=sys.stderr)
+                if args.json:
+                    _write(args.json, [it for it in items if "ref_q" in it], partial=done < len(items))
     for earlier in args.include:
         items += json.loads(Path(earlier).read_text())["items"]
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from structgen.commands import (
+    EXIT_OK,
     MAX_SEED,
     DomainCommands,
     InputError,
@@ -25,8 +26,6 @@ from structgen.commands import (
     print_table,
     whole_number,
 )
-
-EXIT_OK = 0
 
 
 def _world_source(p: argparse.ArgumentParser) -> None:

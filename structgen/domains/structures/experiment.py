@@ -187,6 +187,38 @@ def _run_one_seed(config: str, seed: int, run_dir: str, workers: int, generation
     return run_dir
 
 
+def _run_seeds(
+    name: str,
+    config: str,
+    seeds: Sequence[int],
+    out: Path,
+    parallel: int,
+    workers: int,
+    generations: int,
+    milestones: Sequence[int],
+    progress: bool,
+) -> None:
+    """Every seed's run to ``generations``, ``parallel`` at a time, each in its own process."""
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(seeds), desc=f"{name} runs", unit="run", file=sys.stderr)
+    try:
+        with ThreadPoolExecutor(max_workers=parallel) as pool:  # threads only wait on the run processes
+            jobs = [
+                pool.submit(_run_one_seed, config, seed, str(out / f"seed-{seed}"), workers, generations, milestones)
+                for seed in seeds
+            ]
+            for job in as_completed(jobs):
+                job.result()
+                if bar is not None:
+                    bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
 def run_experiment(
     name: str,
     out_dir: str | Path,
@@ -224,32 +256,9 @@ def run_experiment(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise InputError(f"{out}: cannot make this folder ({err.strerror})") from None
-    bar = None
-    if progress and not table_only:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(seeds), desc=f"{name} runs", unit="run", file=sys.stderr)
-    try:
-        with ThreadPoolExecutor(max_workers=parallel) as pool:  # threads only wait on the run processes
-            jobs = [
-                pool.submit(
-                    _run_one_seed,
-                    config,
-                    seed,
-                    str(out / f"seed-{seed}"),
-                    workers,
-                    generations,
-                    sorted(set(paper.milestones) | set(SAMPLE_SPAWNS)),
-                )  # fmt: skip
-                for seed in ([] if table_only else seeds)
-            ]
-            for job in as_completed(jobs):
-                job.result()
-                if bar is not None:
-                    bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
+    if not table_only:
+        milestones = sorted(set(paper.milestones) | set(SAMPLE_SPAWNS))
+        _run_seeds(name, config, seeds, out, parallel, workers, generations, milestones, progress)
     report = {
         "experiment": name,
         "config": config,
