@@ -117,7 +117,9 @@ def main() -> None:
     done = 0
     with CheckPool(args.workers) as pool:  # one set of worker processes for every chunk
         for config in sorted(set(references), key=str):
-            positions = [i for i, c in enumerate(references) if c == config]
+            # Smallest first, so a chunk's references cost about the same (no worker waits long on its neighbour)
+            # and a draw stopped early has as many structures as its time allowed.
+            positions = sorted((i for i, c in enumerate(references) if c == config), key=lambda i: structures[i].n_edges)
             room = config.room_for(
                 max(structures[i].n_vertices for i in positions), max(structures[i].n_edges for i in positions)
             )

@@ -37,10 +37,21 @@ def finished(run_dir: Path, generations: int | None = None) -> bool:
     return bool(rows) and rows[-1]["generation"] >= target and folder.has_checkpoint()
 
 
-def run_seed(config: str, overrides: Sequence[str], seed: int, run_dir: str, threads: int, generations: int | None = None) -> str:
-    """One run of the experiment in its own process (``threads`` numba threads): started, resumed (to
-    ``generations`` when given), or left alone when it has got that far. Returns the run folder. Runs anywhere the
-    package is installed (a Dask worker too)."""
+def run_seed(
+    config: str,
+    overrides: Sequence[str],
+    seed: int,
+    run_dir: str,
+    threads: int,
+    generations: int | None = None,
+    workers: int | None = None,
+) -> str:
+    """One run of the experiment in its own process (``threads`` numba threads, ``workers`` evaluation processes,
+    default the configuration's): started, resumed (to ``generations`` when given), or left alone when it has got
+    that far. Returns the run folder. Runs anywhere the package is installed (a Dask worker too).
+
+    ``workers`` is passed as an option, not as a setting among ``overrides``: a resumed run reads only its own
+    config.toml, so a setting would be lost there."""
     path = Path(run_dir)
     if finished(path, generations):
         return run_dir
@@ -55,6 +66,8 @@ def run_seed(config: str, overrides: Sequence[str], seed: int, run_dir: str, thr
             command += ["--set", assignment]
         if generations is not None:
             command += ["--generations", str(generations)]
+    if workers is not None:
+        command += ["--workers", str(workers)]
     environment = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
     done = subprocess.run(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     if done.returncode != 0:

@@ -116,3 +116,26 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     assert code == 2 and "none.toml" in err
     code, _, err = cli(capsys, "structures", "figure", tmp_path / "b")
     assert code == 2 and "no pictures" in err
+
+
+def test_a_seed_run_keeps_its_worker_count_when_it_is_resumed(tmp_path, monkeypatch):
+    # A resumed run reads only its own config.toml: the experiment's --workers must reach it as an option, or a
+    # resumed seed silently runs on the one process it was started with.
+    import subprocess
+
+    from structgen import seed_runs
+
+    commands = []
+
+    def record(command, **_):
+        commands.append(command)
+        return subprocess.CompletedProcess(command, 0, "", "")
+
+    monkeypatch.setattr(seed_runs.subprocess, "run", record)
+    fresh, started = tmp_path / "fresh", tmp_path / "started"
+    started.mkdir()
+    (started / "config.toml").write_text("")
+    seed_runs.run_seed("c.toml", (), 0, str(fresh), 1, 5, workers=2)
+    seed_runs.run_seed("c.toml", (), 0, str(started), 1, 5, workers=2)
+    assert commands[0][3] == "evolve" and commands[0][-2:] == ["--workers", "2"]
+    assert commands[1][3:5] == ["resume", str(started)] and commands[1][-2:] == ["--workers", "2"]

@@ -170,7 +170,6 @@ def _run_one_seed(config: str, seed: int, run_dir: str, workers: int, generation
     from structgen.runs import open_run
 
     path = Path(run_dir)
-    overrides = (f"run.workers={workers}",)
     for spawn in sorted(milestones):
         stop = generation_of(spawn)
         if stop > generations:
@@ -181,9 +180,9 @@ def _run_one_seed(config: str, seed: int, run_dir: str, workers: int, generation
             reached = rows[-1]["generation"] if rows else 0
         if reached > stop:
             continue  # gone past it already (an older run); its best there is not known any more
-        run_seed(config, overrides, seed, run_dir, 1, stop)
+        run_seed(config, (), seed, run_dir, 1, stop, workers)
         _snapshot(path, spawn)
-    run_seed(config, overrides, seed, run_dir, 1, generations)
+    run_seed(config, (), seed, run_dir, 1, generations, workers)
     return run_dir
 
 
@@ -246,12 +245,11 @@ def run_experiment(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
-    overrides = (f"run.workers={workers}",)
     for seed in seeds:
         run_dir = out / f"seed-{seed}"
         if table_only and not (run_dir / "metrics.jsonl").is_file():
             raise InputError(f"{run_dir}: no run here to put in the table (run it without --table-only)")
-        check_seed_folder(run_dir, expected_run(config, overrides, seed, generations), any_length=True)
+        check_seed_folder(run_dir, expected_run(config, (), seed, generations), any_length=True)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
