@@ -150,8 +150,28 @@ def test_the_screen_simulates_a_star_statics_narrowly_breaks_and_it_stands():
 
 
 def test_a_screen_margin_below_one_is_refused():
-    with pytest.raises(ValueError, match="screen_margin must be a number of at least 1, got 0.5"):
-        StructuresSettings(screen_margin=0.5)
+    for bad in (0.5, float("nan"), True):
+        with pytest.raises(ValueError, match=f"screen_margin must be a number of at least 1 \\(or inf\\), got {bad!r}"):
+            StructuresSettings(screen_margin=bad)
+
+
+def test_an_infinite_screen_margin_simulates_what_statics_says_breaks_far_over(tmp_path):
+    # A column of four breaks at the bottom under statics; with margin inf it goes to the simulation, whose verdict
+    # (it breaks too) then counts, and the setting survives a run folder's config.toml.
+    from structgen.domains.structures.samples import column
+    from structgen.experiment import load_experiment
+
+    tower = column(6)
+    assert StableStructures(StructuresSettings(evaluator="statics+bullet", screen_margin=1)).judge(tower).method == "statics"
+    report = StableStructures(StructuresSettings(evaluator="statics+bullet", screen_margin=float("inf"))).judge(tower)
+    assert report.method == "bullet" and not report.intact
+    config = tmp_path / "c.toml"
+    config.write_text('[problem]\nname = "structures-v0"\nevaluator = "screened"\nscreen_margin = inf\n')
+    experiment = load_experiment(config)
+    assert experiment.problem_settings.screen_margin == float("inf")
+    again = tmp_path / "again.toml"
+    again.write_text(experiment.to_toml())
+    assert load_experiment(again).problem_settings.screen_margin == float("inf")
 
 
 def test_unknown_evaluator_is_refused():
