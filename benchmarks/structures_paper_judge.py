@@ -163,6 +163,10 @@ def main() -> None:
         )
 
     line("all", items)
+    # Per experiment: a high rho over a sample of all sizes can hide a judge that mis-ranks one experiment's
+    # populations, whose structures are all of about one size.
+    for experiment in sorted({it["source"].split("/")[0] for it in items}):
+        line(f"from {experiment}", [it for it in items if it["source"].split("/")[0] == experiment])
     for method in sorted({it["judge_method"] for it in items}):
         line(f"judged by {method}", [it for it in items if it["judge_method"] == method])
     for reference in sorted({it["reference"] for it in items}):
