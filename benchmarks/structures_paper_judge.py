@@ -20,7 +20,8 @@ The table counts each kind apart. References run ``--workers`` at a time; after 
 go to ``--json`` (marked ``partial`` until the end), so a stopped draw keeps what it had and ``--include`` takes it.
 
 Prints the verdict agreement (stands / breaks), Spearman's rank correlation of Q over the whole sample (failing
-structures included), the kinds of disagreement, and the cost of each judge.
+structures included) and per experiment, the kinds of disagreement, and the cost of each judge. Each row counts the
+structures drawn and, in brackets, the distinct ones: a kept population often holds one structure several times.
 """
 
 from __future__ import annotations
@@ -145,7 +146,7 @@ def main() -> None:
                 "stands" if it["ref_stands"] else "breaks"
             )
             kinds[key] = kinds.get(key, 0) + 1
-    print("| sample | structures | verdicts agreeing | Spearman rho of Q | judge CPU s (mean) | reference CPU s (mean) |")
+    print("| sample | structures drawn (distinct) | verdicts agreeing | Spearman rho of Q | judge CPU s (mean) | reference CPU s (mean) |")
     print("|---|---:|---:|---:|---:|---:|")
 
     def line(name: str, chosen: list[dict]) -> None:
@@ -158,7 +159,7 @@ def main() -> None:
             else float("nan")
         )
         print(
-            f"| {name} | {len(chosen)} | {same} ({100 * same / len(chosen):.1f} %) | {r:.3f} | "
+            f"| {name} | {len(chosen)} ({_distinct(chosen)}) | {same} ({100 * same / len(chosen):.1f} %) | {r:.3f} | "
             f"{statistics.fmean(it['judge_cpu'] for it in chosen):.3f} | {statistics.fmean(it['ref_cpu'] for it in chosen):.2f} |"
         )
 
@@ -177,6 +178,13 @@ def main() -> None:
         print(f"- {count}: {key}")
     if args.json:
         _write(args.json, items, partial=False, agreement=statistics.fmean(agree), spearman=rho)
+
+
+def _distinct(items: list[dict]) -> int:
+    """How many different structures: a kept population often holds the same structure grown by several genomes,
+    and a draw then picks it more than once (each pick counts in the table, as the population holds it)."""
+    run = lambda it: "/".join(it["source"].split("/")[:2])  # noqa: E731  (the same structure in two snapshots of a run)
+    return len({(run(it), it["vertices"], it["edges"], round(it["judge_q"], 9)) for it in items})
 
 
 def _write(path: str, items: list[dict], partial: bool, **summary: float) -> None:
