@@ -146,7 +146,9 @@ def main() -> None:
                 "stands" if it["ref_stands"] else "breaks"
             )
             kinds[key] = kinds.get(key, 0) + 1
-    print("| sample | structures drawn (distinct) | verdicts agreeing | Spearman rho of Q | judge CPU s (mean) | reference CPU s (mean) |")
+    print(
+        "| sample | structures drawn (distinct) | verdicts agreeing | Spearman rho of Q | judge CPU s (mean) | reference CPU s (mean) |"
+    )
     print("|---|---:|---:|---:|---:|---:|")
 
     def line(name: str, chosen: list[dict]) -> None:
