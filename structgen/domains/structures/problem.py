@@ -83,7 +83,7 @@ class StructuresSettings:
             simulates every structure the static analysis can answer for (with "screened", all that the collapse
             screen lets through). The static integrity of a structure that partly breaks is no guide to the
             simulation's: on the no-build-down runs' populations (250 to 600 vertices, most joints holding) it ranks
-            them as the faithful preset does with Spearman's rho 0.2 where the fast preset reaches 0.9, at 8 s of
+            them as the faithful preset does with Spearman's rho 0.4 where the fast preset reaches 0.9, at 7 s of
             CPU a structure instead of 0.5 (benchmarks/structures.md, "The paper's experiments").
         collapse_ratio: the "screened" evaluator's threshold. Random networks with five growth steps build blocks of
             about a thousand vertices (5,000 to 7,000 edges) whose joints at the worst level are loaded 3 to 130 times
