@@ -65,17 +65,23 @@ def _sample(out_dirs: list[str], per_snapshot: int, random_count: int, seed: int
     return items
 
 
+def add_draw_options(parser: argparse.ArgumentParser) -> None:
+    """The options that decide which structures a draw picks (with its OUT_DIRs): one place, so that a script
+    drawing the same sample again has the same defaults."""
+    parser.add_argument("--per-snapshot", type=int, default=8, help="parents drawn from each kept population")
+    parser.add_argument("--random", type=int, default=10, help="random networks per run (its first generation)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the draw")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out_dirs", nargs="*", metavar="OUT_DIR", help="structgen structures experiment folders")
-    parser.add_argument("--per-snapshot", type=int, default=8, help="parents drawn from each kept population")
-    parser.add_argument("--random", type=int, default=10, help="random networks per run (its first generation)")
+    add_draw_options(parser)
     parser.add_argument("--full-joints", type=int, default=300, help="up to this many joints: the full 30 s")
     parser.add_argument("--settle-joints", type=int, default=3000, help="up to this many: faithful, stopped at rest")
     parser.add_argument("--max-large", type=int, default=12, help="structures above that drawn into the sample")
     parser.add_argument("--large-horizon", type=float, help="simulate those for only this many seconds")
     parser.add_argument("--workers", type=int, default=2, help="processes for the reference simulations")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the draw")
     parser.add_argument("--json", metavar="FILE", help="also write every structure's scores here")
     parser.add_argument(
         "--include", metavar="FILE", nargs="+", default=[], help="earlier --json files whose structures join the table"
@@ -185,7 +191,10 @@ def main() -> None:
 def _distinct(items: list[dict]) -> int:
     """How many different structures: a kept population often holds the same structure grown by several genomes,
     and a draw then picks it more than once (each pick counts in the table, as the population holds it)."""
-    run = lambda it: "/".join(it["source"].split("/")[:2])  # noqa: E731  (the same structure in two snapshots of a run)
+
+    def run(item: dict) -> str:  # the same structure kept in two snapshots of a run is one structure
+        return "/".join(item["source"].split("/")[:2])
+
     return len({(run(it), it["vertices"], it["edges"], round(it["judge_q"], 9)) for it in items})
 
 

@@ -25,7 +25,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 sys.path.append(str(Path(__file__).resolve().parent))  # the judge benchmark's draw, shared rather than copied
 
 from scipy.stats import spearmanr  # noqa: E402
-from structures_paper_judge import _sample  # noqa: E402
+from structures_paper_judge import _sample, add_draw_options  # noqa: E402
 
 from physics import CheckPool  # noqa: E402
 from structgen.config import parse_assignment  # noqa: E402
@@ -43,9 +43,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("draw", metavar="DRAW.json", help="a structures_paper_judge.py --json file")
     parser.add_argument("out_dirs", nargs="+", metavar="OUT_DIR", help="the experiment folders it was drawn from")
-    parser.add_argument("--per-snapshot", type=int, default=8, help="as the draw was made")
-    parser.add_argument("--random", type=int, default=10, help="as the draw was made")
-    parser.add_argument("--seed", type=int, default=0, help="as the draw was made")
+    add_draw_options(parser)  # as the draw was made
     parser.add_argument("--limit", type=int, default=40, help="structures simulated again, smallest first")
     parser.add_argument("--workers", type=int, default=2, help="processes for the simulations")
     parser.add_argument(
@@ -57,10 +55,13 @@ def main() -> None:
     for item in json.loads(Path(args.draw).read_text())["items"]:
         if item["reference"].startswith("faithful"):
             references.setdefault((item["source"], item["vertices"], item["edges"], round(item["judge_q"], 9)), item)
+    sizes = {key[:3] for key in references}
     drawn = _sample(args.out_dirs, args.per_snapshot, args.random, args.seed)
     chosen, seen = [], set()
     for item in drawn:
         structure = item["problem"].structure_of(item["genome"])
+        if (item["source"], structure.n_vertices, structure.n_edges) not in sizes:
+            continue  # no reference of this size: not worth the judge's second or so to find its score
         judged = item["problem"].judge(structure)
         key = (item["source"], structure.n_vertices, structure.n_edges, round(judged.score, 9))
         if key in references and key not in seen:  # each distinct structure once
