@@ -17,7 +17,8 @@ about a thousand vertices). Each structure is scored twice: by the run's own jud
   seconds: joints only ever break, so the integrity then bounds the integrity at the end from above.
 
 The table counts each kind apart. References run ``--workers`` at a time; after each such chunk the scores so far
-go to ``--json`` (marked ``partial`` until the end), so a stopped draw keeps what it had and ``--include`` takes it.
+go to ``--json`` (marked ``partial`` until the end), so a stopped draw keeps what it had and ``--include`` takes it;
+the same draw run again with ``--resume`` that file simulates only the references it lacks.
 
 Prints the verdict agreement (stands / breaks), Spearman's rank correlation of Q over the whole sample (failing
 structures included) and per experiment, the kinds of disagreement, and the cost of each judge. Each row counts the
@@ -86,6 +87,9 @@ def main() -> None:
     parser.add_argument(
         "--include", metavar="FILE", nargs="+", default=[], help="earlier --json files whose structures join the table"
     )
+    parser.add_argument(
+        "--resume", metavar="FILE", help="the --json file of this same draw, stopped: its references are not simulated again"
+    )
     args = parser.parse_args()
 
     drawn = _sample(args.out_dirs, args.per_snapshot, args.random, args.seed) if args.out_dirs else []
@@ -118,15 +122,20 @@ def main() -> None:
             item["reference"], reference = "fast preset", physics.stepped_as("fast")
         structures.append(structure)
         references.append(reference)
+    done = _resume(args.resume, items) if args.resume else 0
     # Per configuration (a check takes one), its size caps raised to the largest structure's, in chunks of
     # --workers structures: a reference costs minutes, so each chunk's results are written (--json) and reported
     # as they come, and a stopped draw keeps what it had.
-    done = 0
     with CheckPool(args.workers) as pool:  # one set of worker processes for every chunk
         for config in sorted(set(references), key=str):
             # Smallest first, so a chunk's references cost about the same (no worker waits long on its neighbour)
             # and a draw stopped early has as many structures as its time allowed.
-            positions = sorted((i for i, c in enumerate(references) if c == config), key=lambda i: structures[i].n_edges)
+            positions = sorted(
+                (i for i, c in enumerate(references) if c == config and "ref_q" not in items[i]),
+                key=lambda i: structures[i].n_edges,
+            )
+            if not positions:
+                continue
             room = config.room_for(
                 max(structures[i].n_vertices for i in positions), max(structures[i].n_edges for i in positions)
             )
@@ -188,6 +197,33 @@ def main() -> None:
         _write(args.json, items, partial=False, agreement=statistics.fmean(agree), spearman=rho)
 
 
+def _key(item: dict) -> tuple:
+    """What tells a drawn structure apart: where it was drawn, its size and its judge's score."""
+    return item["source"], item["vertices"], item["edges"], round(item["judge_q"], 9)
+
+
+def _resume(path: str, items: list[dict]) -> int:
+    """Take the references a stopped draw wrote to ``path`` for the structures drawn again; how many were taken. A
+    file from another draw (a structure in it that this draw lacks) is refused."""
+    try:
+        earlier = json.loads(Path(path).read_text())["items"]
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise SystemExit(f"{path}: not a --json file of this benchmark ({type(err).__name__}: {err})") from None
+    found = {_key(it): it for it in earlier if "ref_q" in it}
+    taken = 0
+    for item in items:
+        if (reference := found.get(_key(item))) is not None:
+            item.update({k: reference[k] for k in ("reference", "ref_q", "ref_stands", "ref_i", "ref_cpu")})
+            taken += 1
+    missing = set(found) - {_key(it) for it in items}
+    if missing:
+        raise SystemExit(
+            f"{path}: {len(missing)} of its structures are not in this draw (another draw's file?), e.g. {min(missing)}"
+        )
+    print(f"{taken} references taken from {path}", file=sys.stderr)
+    return taken
+
+
 def _distinct(items: list[dict]) -> int:
     """How many different structures: a kept population often holds the same structure grown by several genomes,
     and a draw then picks it more than once (each pick counts in the table, as the population holds it)."""
@@ -195,7 +231,7 @@ def _distinct(items: list[dict]) -> int:
     def run(item: dict) -> str:  # the same structure kept in two snapshots of a run is one structure
         return "/".join(item["source"].split("/")[:2])
 
-    return len({(run(it), it["vertices"], it["edges"], round(it["judge_q"], 9)) for it in items})
+    return len({(run(it), *_key(it)[1:]) for it in items})
 
 
 def _write(path: str, items: list[dict], partial: bool, **summary: float) -> None:
