@@ -63,10 +63,24 @@ def test_the_screened_judge_scores_crushed_blocks_as_collapsed_without_a_solve()
 
 def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tmp_path, capsys):
     out = tmp_path / "cutoff"
-    # 400 spawns: five generations, the last holding the paper's spawn 381.
+    # 400 spawns: five generations, the last holding the paper's spawn 381. Evaluated in the run's own process
+    # (--workers 0): the suite already keeps both cores busy, and a worker process only adds its start-up.
     results = tmp_path / "results" / "table"
+    quick = ("--workers", "0")
     code, printed, _ = cli(
-        capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json", "--results", results
+        capsys,
+        "structures",
+        "experiment",
+        "cutoff",
+        out,
+        "--seeds",
+        "3",
+        "--spawns",
+        "400",
+        "--json",
+        "--results",
+        results,
+        *quick,
     )
     assert code == 0
     report = json.loads(printed)
@@ -82,12 +96,14 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     assert np.load(kept / "spawn-381" / "parents.npy").shape == (20, 4766)
     assert "| 3 | 420 |" in (out / "table.md").read_text()
     assert sum(r["generations"] for r in run["table_1"].values()) == 5
+    # With no worker processes the run's own process is the one core that evaluated (0 once divided by zero).
+    assert all(r["core_seconds_per_structure"] > 0 for r in run["table_1"].values())
     # Run again: nothing to do.
     metrics = (out / "seed-3" / "metrics.jsonl").read_text()
-    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json")[0] == 0
+    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json", *quick)[0] == 0
     assert (out / "seed-3" / "metrics.jsonl").read_text() == metrics
     # Asked for more, the run resumes where it stopped and keeps its best at the next sample spawn, 500.
-    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "500", "--json")[0] == 0
+    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "500", "--json", *quick)[0] == 0
     assert json.loads((out / "table.json").read_text())["runs"][0]["generations"] == 6
     assert (out / "seed-3" / "metrics.jsonl").read_text().startswith(metrics)
     assert json.loads((kept / "spawn-500" / "best.json").read_text())["generation"] <= 6
@@ -102,7 +118,7 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     # Run in stages, a seed comes out as it would have run straight through.
     straight = tmp_path / "straight"
     config = ROOT / "configs/paper_cutoff.toml"
-    assert cli(capsys, "evolve", config, "--seed", 3, "--generations", 6, "--run-dir", straight, "--set", "run.workers=1")[0] == 0
+    assert cli(capsys, "evolve", config, "--seed", 3, "--generations", 6, "--run-dir", straight, "--set", "run.workers=0")[0] == 0
     assert outcome(straight) == outcome(out / "seed-3")
     code, printed, _ = cli(capsys, "structures", "figure", out)
     assert code == 0 and (out / "figure.png").read_bytes().startswith(b"\x89PNG")

@@ -723,7 +723,8 @@ def _add_experiment(subparsers: Any) -> None:
     )  # fmt: skip
     p.add_argument(
         "--workers", type=whole_number(0, 256), default=1, metavar="W",
-        help="evaluation processes of each run (default 1: on a few cores, runs side by side use them best)",
+        help="evaluation processes of each run, 0 for the run's own process (default 1: on a few cores, runs side by side "
+        "use them best); results do not depend on it",
     )  # fmt: skip
     p.add_argument(
         "--results", metavar="STEM",
