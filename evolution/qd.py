@@ -16,6 +16,8 @@ from ribs.schedulers import Scheduler
 from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, start_genome
 from evolution.problem import Problem
 
+__all__ = ["FieldRankedArchive", "ProblemMutationEmitter", "RibsOptimizer", "archive_bytes", "cma_mae", "map_elites"]
+
 
 def _cache_ribs_kernels() -> None:
     """Keep pyribs's numba kernels compiled on disk between processes.
@@ -38,8 +40,6 @@ def _cache_ribs_kernels() -> None:
 
 
 _cache_ribs_kernels()
-
-__all__ = ["FieldRankedArchive", "ProblemMutationEmitter", "RibsOptimizer", "archive_bytes", "cma_mae", "map_elites"]
 
 
 def _cells(settings: Any, problem: Problem) -> tuple[int, ...]:

@@ -66,22 +66,8 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     # 400 spawns: five generations, the last holding the paper's spawn 381. Evaluated in the run's own process
     # (--workers 0): the suite already keeps both cores busy, and a worker process only adds its start-up.
     results = tmp_path / "results" / "table"
-    quick = ("--workers", "0")
-    code, printed, _ = cli(
-        capsys,
-        "structures",
-        "experiment",
-        "cutoff",
-        out,
-        "--seeds",
-        "3",
-        "--spawns",
-        "400",
-        "--json",
-        "--results",
-        results,
-        *quick,
-    )
+    experiment = ("structures", "experiment", "cutoff", out, "--seeds", "3", "--workers", "0", "--json")
+    code, printed, _ = cli(capsys, *experiment, "--spawns", "400", "--results", results)
     assert code == 0
     report = json.loads(printed)
     # The tables of all four experiments gain this one, keyed by its name.
@@ -100,10 +86,10 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     assert all(r["core_seconds_per_structure"] > 0 for r in run["table_1"].values())
     # Run again: nothing to do.
     metrics = (out / "seed-3" / "metrics.jsonl").read_text()
-    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "400", "--json", *quick)[0] == 0
+    assert cli(capsys, *experiment, "--spawns", "400")[0] == 0
     assert (out / "seed-3" / "metrics.jsonl").read_text() == metrics
     # Asked for more, the run resumes where it stopped and keeps its best at the next sample spawn, 500.
-    assert cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "3", "--spawns", "500", "--json", *quick)[0] == 0
+    assert cli(capsys, *experiment, "--spawns", "500")[0] == 0
     assert json.loads((out / "table.json").read_text())["runs"][0]["generations"] == 6
     assert (out / "seed-3" / "metrics.jsonl").read_text().startswith(metrics)
     assert json.loads((kept / "spawn-500" / "best.json").read_text())["generation"] <= 6
