@@ -207,9 +207,9 @@ def _resume(path: str, items: list[dict]) -> int:
     file from another draw (a structure in it that this draw lacks) is refused."""
     try:
         earlier = json.loads(Path(path).read_text())["items"]
+        found = {_key(it): it for it in earlier if "ref_q" in it}
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise SystemExit(f"{path}: not a --json file of this benchmark ({type(err).__name__}: {err})") from None
-    found = {_key(it): it for it in earlier if "ref_q" in it}
     taken = 0
     for item in items:
         if (reference := found.get(_key(item))) is not None:

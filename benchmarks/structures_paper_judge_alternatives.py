@@ -25,7 +25,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 sys.path.append(str(Path(__file__).resolve().parent))  # the judge benchmark's draw, shared rather than copied
 
 from scipy.stats import spearmanr  # noqa: E402
-from structures_paper_judge import _sample, add_draw_options  # noqa: E402
+from structures_paper_judge import _key, _sample, add_draw_options  # noqa: E402
 
 from physics import CheckPool  # noqa: E402
 from structgen.config import parse_assignment  # noqa: E402
@@ -54,7 +54,7 @@ def main() -> None:
     references = {}
     for item in json.loads(Path(args.draw).read_text())["items"]:
         if item["reference"].startswith("faithful"):
-            references.setdefault((item["source"], item["vertices"], item["edges"], round(item["judge_q"], 9)), item)
+            references.setdefault(_key(item), item)
     sizes = {key[:3] for key in references}
     drawn = _sample(args.out_dirs, args.per_snapshot, args.random, args.seed)
     chosen, seen = [], set()
@@ -63,7 +63,9 @@ def main() -> None:
         if (item["source"], structure.n_vertices, structure.n_edges) not in sizes:
             continue  # no reference of this size: not worth the judge's second or so to find its score
         judged = item["problem"].judge(structure)
-        key = (item["source"], structure.n_vertices, structure.n_edges, round(judged.score, 9))
+        key = _key(
+            {"source": item["source"], "vertices": structure.n_vertices, "edges": structure.n_edges, "judge_q": judged.score}
+        )
         if key in references and key not in seen:  # each distinct structure once
             seen.add(key)
             chosen.append((structure, references[key], item["problem"].settings.physics))

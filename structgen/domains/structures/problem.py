@@ -82,7 +82,7 @@ class StructuresSettings:
             structure (benchmarks/structures.md, "Statics as a screen"). 1 screens on the prediction alone; ``inf``
             simulates every structure the static analysis can answer for (with "screened", all that the collapse
             screen lets through). The static integrity of a structure that partly breaks is no guide to the
-            simulation's: on the no-build-down runs' populations (200 to 470 vertices, most joints holding) it ranks
+            simulation's: on the no-build-down runs' populations (200 to 490 vertices, most joints holding) it ranks
             them as the faithful preset does with Spearman's rho 0.4 where the fast preset reaches 0.9, at 7 s of
             CPU a structure instead of 0.5 (benchmarks/structures.md, "The paper's experiments").
         collapse_ratio: the "screened" evaluator's threshold. Random networks with five growth steps build blocks of
