@@ -33,6 +33,7 @@ from evolution.runfolder import Best, RunFolder, RunFolderError, RunState, libra
 __all__ = [
     "Best",
     "RunFolder",
+    "RUN_CONDITIONS",
     "RunFolderError",
     "RunSettings",
     "RunState",
@@ -42,6 +43,10 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+#: Fields of a metrics row that say how a generation ran (its wall time, its local evaluation processes), not what it
+#: found: runs of the same seed and configuration agree on everything else.
+RUN_CONDITIONS = ("wall_s", "workers")
 
 
 @dataclass(frozen=True)
@@ -197,6 +202,8 @@ def advance(
             state.elapsed += time.perf_counter() - started
             metrics = _metrics_row(state, evaluation, optimizer, problem)
             metrics.update({f"schedule_{name}": value for name, value in schedule.items()})
+            if not settings.cluster:  # cost per structure needs the cores a generation ran on (resumes may differ)
+                metrics["workers"] = settings.workers
             folder.append_metrics(metrics)
             stopping = stop_requested()
             last = state.generation >= until or stopping

@@ -429,8 +429,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 128 + 13
-    except KeyboardInterrupt:
-        _report("interrupted")
+    except KeyboardInterrupt as err:
+        _report(str(err) or "interrupted")  # a stopped seed run (RunStopped) says how to resume
         return 130
     except Exception as err:
         code, message = _classify(err)

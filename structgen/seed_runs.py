@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import re
+import signal
 import subprocess
 import sys
 from collections.abc import Callable, Sequence
@@ -18,7 +19,13 @@ from typing import Any
 from structgen.commands import EXIT_BAD_INPUT
 from structgen.errors import InputError
 
-__all__ = ["ADDRESS", "check_seed_folder", "expected_run", "finished", "run_all", "run_seed"]
+__all__ = ["ADDRESS", "RunStopped", "check_seed_folder", "expected_run", "finished", "run_all", "run_seed"]
+
+
+class RunStopped(KeyboardInterrupt):
+    """A seed's run stopped by Ctrl-C (or SIGINT sent to it alone) after checkpointing; the experiment stops as if it
+    had been interrupted itself (exit 130), and the same command resumes it."""
+
 
 #: A Dask scheduler's address: an optional scheme, a host and a port.
 ADDRESS = re.compile(r"(?:[a-z][a-z0-9+.-]*://)?[A-Za-z0-9._\-\[\]:]+:[0-9]{1,5}")
@@ -70,6 +77,8 @@ def run_seed(
         command += ["--workers", str(workers)]
     environment = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
     done = subprocess.run(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if done.returncode in (130, -signal.SIGINT):
+        raise RunStopped(f"seed {seed} ({run_dir}) was stopped after its last checkpoint; the same command resumes it")
     if done.returncode != 0:
         last = done.stderr.strip().splitlines()[-1] if done.stderr.strip() else f"exit {done.returncode}"
         # The run's own verdict travels on: bad input there (exit 2) is bad input here.

@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+from evolution.run import RUN_CONDITIONS
 from structgen.cli import main
 
 
@@ -19,11 +20,15 @@ def cli(capsys, *argv) -> tuple[int, str, str]:
     return code, out, err
 
 
+def findings(metrics_file: Path) -> list[dict]:
+    """A metrics file's rows without the fields that say how each generation ran (see RUN_CONDITIONS)."""
+    rows = (json.loads(line) for line in metrics_file.read_text().splitlines())
+    return [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in rows]
+
+
 def outcome(run: Path) -> dict:
     """What must be identical between two runs of the same configuration (everything but timings)."""
-    metrics = [
-        {k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in (run / "metrics.jsonl").read_text().splitlines()
-    ]
+    metrics = findings(run / "metrics.jsonl")
     files = {
         name: (run / name).read_bytes()
         for name in ("best/genome.npy", "best/best.json", "best/structure.json", "archive.csv", "archive_solutions.npy")

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from evolution import Evaluation, RunFolder
+from evolution.run import RUN_CONDITIONS
 from evolution.runfolder import Best
 from structgen import domains
 from structgen.config import build
@@ -127,7 +128,7 @@ def test_a_run_resumed_after_one_generation_ends_like_two_straight(spec, tmp_pat
     resume(split.path, generations=2, progress=False)
 
     def outcome(folder: RunFolder) -> tuple[list, bytes, bytes]:
-        metrics = [{k: v for k, v in row.items() if k != "wall_s"} for row in folder.metrics()]
+        metrics = [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in folder.metrics()]
         genome = next(p for p in (folder / "best").iterdir() if p.name.startswith("genome."))
         return metrics, genome.read_bytes(), (folder / "best" / "best.json").read_bytes()
 

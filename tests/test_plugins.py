@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from evolution.run import RUN_CONDITIONS
+
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "dice-domain"
 
@@ -72,7 +74,7 @@ def test_it_evolves_resumes_and_exports_through_the_generic_commands(site, tmp_p
 
     def metrics(run: str) -> list[dict]:
         rows = (tmp_path / run / "metrics.jsonl").read_text().splitlines()
-        return [{k: v for k, v in json.loads(row).items() if k != "wall_s"} for row in rows]
+        return [{k: v for k, v in json.loads(row).items() if k not in RUN_CONDITIONS} for row in rows]
 
     assert len(metrics("run")) == 4 and metrics("run") == metrics("straight")
     done = structgen(site, "export", "run", "die.json", cwd=tmp_path)
@@ -101,7 +103,7 @@ def test_a_run_of_its_dataclass_genomes_killed_midway_resumes_to_the_run_that_ne
 
     def outcome(run: str) -> tuple[list, str]:
         lines = (tmp_path / run / "metrics.jsonl").read_text().splitlines()
-        rows = [{k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in lines]
+        rows = [{k: v for k, v in json.loads(line).items() if k not in RUN_CONDITIONS} for line in lines]
         return rows, (tmp_path / run / "best" / "genome.json").read_text()
 
     assert len(outcome("killed")[0]) == int(total) and outcome("killed") == outcome("straight")

@@ -13,13 +13,10 @@ import pytest
 from evolution import RunFolder
 from structgen.cli import main
 from structgen.runs import open_run
+from tests.helpers import findings
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "runs_0.1.0"
 RUNS = ["structures_ga", "structures_cma_mae", "ones_map_elites"]
-
-
-def metrics(path: Path) -> list[dict]:
-    return [{k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in path.read_text().splitlines()]
 
 
 @pytest.fixture
@@ -32,7 +29,7 @@ def old_run(tmp_path, request) -> Path:
 @pytest.mark.parametrize("old_run", RUNS, indirect=True)
 def test_an_old_run_resumes_to_what_it_would_have_become(old_run, capsys):
     assert main(["resume", str(old_run), "--generations", "4"]) == 0, capsys.readouterr().err
-    expected, found = metrics(FIXTURES / f"{old_run.name}.expected_metrics.jsonl"), metrics(old_run / "metrics.jsonl")
+    expected, found = findings(FIXTURES / f"{old_run.name}.expected_metrics.jsonl"), findings(old_run / "metrics.jsonl")
     # Columns added since (fields, generation means) come on top; every column that version wrote is the same.
     assert [{k: row[k] for k in want} for row, want in zip(found, expected)] == expected and len(found) == len(expected)
     assert 'name = "' in (old_run / "config.toml").read_text()

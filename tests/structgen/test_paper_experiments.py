@@ -141,3 +141,18 @@ def test_a_seed_run_keeps_its_worker_count_when_it_is_resumed(tmp_path, monkeypa
     seed_runs.run_seed("c.toml", (), 0, str(started), 1, 5, workers=2)
     assert commands[0][3] == "evolve" and commands[0][-2:] == ["--workers", "2"]
     assert commands[1][3:5] == ["resume", str(started)] and commands[1][-2:] == ["--workers", "2"]
+
+
+def test_a_seed_run_stopped_by_ctrl_c_stops_the_experiment_with_exit_130_and_says_how_to_resume(tmp_path, monkeypatch, capsys):
+    # Ctrl-C reaches the seed's own `structgen evolve`, which checkpoints and exits 130; the experiment once reported
+    # that as a failed run (a RuntimeError, exit 1) though nothing had failed and the same command resumes it.
+    import subprocess
+
+    from structgen import seed_runs
+
+    monkeypatch.setattr(seed_runs.subprocess, "run", lambda command, **_: subprocess.CompletedProcess(command, 130, "", ""))
+    out = tmp_path / "cutoff"
+    code, _, err = cli(capsys, "structures", "experiment", "cutoff", out, "--seeds", "0", "--spawns", "100", "--json")
+    assert code == 130
+    assert "seed 0" in err and "stopped after its last checkpoint" in err and "same command resumes" in err
+    assert not (out / "table.json").exists()

@@ -3,7 +3,6 @@ writes cleaned, and a run that fails before its first checkpoint leaves nothing 
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 import time
@@ -17,6 +16,7 @@ from evolution.toys import Sphere
 from structgen.cli import main
 from structgen.experiment import load_experiment
 from structgen.runs import evolve
+from tests.helpers import findings
 
 SPHERE = """\
 [run]
@@ -36,12 +36,6 @@ def config(tmp_path: Path, generations: int = 4) -> Path:
     path = tmp_path / "sphere.toml"
     path.write_text(SPHERE.format(generations=generations))
     return path
-
-
-def metrics(run: Path) -> list[dict]:
-    return [
-        {k: v for k, v in json.loads(line).items() if k != "wall_s"} for line in (run / "metrics.jsonl").read_text().splitlines()
-    ]
 
 
 def cli(capsys, *argv) -> tuple[int, str]:
@@ -74,7 +68,7 @@ def test_a_second_writer_is_refused_while_a_run_is_going(tmp_path, capsys):
     finally:
         process.kill()
         process.wait()
-    rows = metrics(run)
+    rows = findings(run / "metrics.jsonl")
     assert [row["generation"] for row in rows] == list(range(1, len(rows) + 1))  # one writer, nothing interleaved
 
 
@@ -84,7 +78,7 @@ def test_editing_how_long_a_run_goes_is_applied_and_recorded(tmp_path, capsys):
     path = tmp_path / "run" / "config.toml"
     path.write_text(path.read_text().replace("generations = 2", "generations = 4").replace("plot_every = 10", "plot_every = 3"))
     assert cli(capsys, "resume", tmp_path / "run")[0] == 0
-    assert metrics(tmp_path / "run") == metrics(tmp_path / "whole")
+    assert findings(tmp_path / "run" / "metrics.jsonl") == findings(tmp_path / "whole" / "metrics.jsonl")
     assert "plot_every = 3" in path.read_text()
 
 
@@ -149,11 +143,11 @@ def test_a_run_killed_before_its_first_checkpoint_resumes_from_the_beginning_to_
         with pytest.raises(RuntimeError, match="killed"):
             evolve(experiment, tmp_path / "run", progress=False)
     run = tmp_path / "run"
-    assert not (run / "checkpoint.pkl").exists() and len(metrics(run)) == 2  # kept: two generations ended
+    assert not (run / "checkpoint.pkl").exists() and len(findings(run / "metrics.jsonl")) == 2  # kept: two generations ended
     code, err = cli(capsys, "resume", run, "-v")
     assert code == 0, err
     assert "no checkpoint was written (2 generations recorded after none): starting again from the beginning" in err
-    assert metrics(run) == metrics(straight)
+    assert findings(run / "metrics.jsonl") == findings(straight / "metrics.jsonl")
 
 
 def test_a_checkpoint_is_written_when_its_time_has_come_and_waits_longer_after_a_slow_one(tmp_path, monkeypatch):

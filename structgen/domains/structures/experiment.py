@@ -119,10 +119,12 @@ def seed_row(run_dir: Path, workers: int) -> dict[str, Any]:
             "edges": max(r.get("generation_max_standing_edges", 0.0) for r in upto),
         }
     regimes: dict[str, list[tuple[float, float]]] = {}
-    cores = max(workers, 1)  # with no worker processes the run's own process evaluates
     for before, row in zip([{"wall_s": 0.0, "evaluations": 0}, *rows], rows):
         seconds = row["wall_s"] - before["wall_s"]
         structures = row["evaluations"] - before["evaluations"]
+        # Rows record the processes their generation ran with (a resume may change them); older rows do not, and
+        # count the ``workers`` given here. With no worker processes the run's own process evaluates: one core.
+        cores = max(row.get("workers", workers), 1)
         if seconds > 0 and structures > 0:
             # Core-seconds per structure: the evaluator's cost had it run on one core, as the paper's did.
             regimes.setdefault(_regime(row["generation_mean_integrity"]), []).append((seconds, seconds * cores / structures))
