@@ -67,6 +67,8 @@ def test_the_spec_loads_and_its_main_job_is_valid(domain):
     assert domains.spec(spec.id) is spec and all(domains.spec(alias) is spec for alias in spec.aliases)
     experiment = load_experiment(domain=spec.id)
     experiment.make_optimizer(problem)  # the main job's optimiser works on this domain
+    if spec.kernels:  # make install compiles them: a reference that does not load would fail every install
+        assert callable(domains.load_reference(spec.kernels))
 
 
 def test_evaluation_is_deterministic(domain):
@@ -134,3 +136,29 @@ def test_a_run_resumed_after_one_generation_ends_like_two_straight(spec, tmp_pat
 
     assert len(straight.metrics()) == 2
     assert outcome(split) == outcome(straight)
+
+
+COMPILED: list[str] = []
+
+
+def compile_for_test() -> None:
+    COMPILED.append("compiled")
+
+
+def test_install_compiles_each_domains_kernels_once_even_when_domains_share_them(monkeypatch):
+    from structgen.domains import registry
+
+    shared = f"{__name__}:compile_for_test"
+    fakes = {
+        name: domains.DomainSpec(id=name, entry_point="m:p", settings="m:s", summary="s", kernels=kernels)
+        for name, kernels in (("one-v0", shared), ("two-v0", shared), ("three-v0", None))
+    }
+    monkeypatch.setattr(registry, "_registry", fakes)
+    COMPILED.clear()
+    assert registry.compile_kernels() == [shared] and COMPILED == ["compiled"]
+    with pytest.raises(ValueError, match="kernels"):
+        domains.DomainSpec(id="bad-v0", entry_point="m:p", settings="m:s", summary="s", kernels="no_colon")
+    # The built-in domains with numba code: warehouse and manufacturing share the planners' kernels.
+    built_in = {spec.id: spec.kernels for spec in SPECS}
+    assert built_in["warehouse-v0"] == built_in["manufacturing-v0"] is not None
+    assert built_in["autoverse-v0"] and built_in["fortress-v0"]

@@ -18,6 +18,7 @@ AUTOVERSE = DomainSpec(
     settings="structgen.domains.autoverse.problem:AutoverseSettings",
     summary="grid games of rewrite rules, evolved so that best-first search needs many iterations to play them best",
     commands="structgen.domains.autoverse.commands:AUTOVERSE_COMMANDS",
+    kernels="structgen.domains.autoverse.engine:compile_kernels",
     libraries=("torch",),
     # The original's (40 + 40) loop with its budget of 200, for 10 generations in one process (the engine batches
     # the 40 searches; worker processes would only split the batch); the budget reaches about 2,000 by then.

@@ -40,7 +40,18 @@ from structgen.devices import resolve_device
 from structgen.domains.autoverse.game import FORCE, N_TILES, PLAYER
 from structgen.threads import FasterOf, one_torch_thread
 
-__all__ = ["DIRECTIONS", "EPISODE_STEPS", "Engine", "Mechanics", "Observation", "State", "codes", "multi_hot", "stack_games"]
+__all__ = [
+    "DIRECTIONS",
+    "EPISODE_STEPS",
+    "Engine",
+    "Mechanics",
+    "Observation",
+    "State",
+    "codes",
+    "compile_kernels",
+    "multi_hot",
+    "stack_games",
+]
 
 #: (row, column) step of each facing, by ``rot``.
 DIRECTIONS = ((0, -1), (1, 0), (0, 1), (-1, 0))
@@ -502,3 +513,16 @@ class Engine:
             rules = torch.zeros_like(rules)
         flat = torch.cat([F.one_hot(state.rot, 4).to(torch.int8), rules], dim=1)
         return view, flat
+
+
+def compile_kernels() -> None:
+    """Compile the numba backend's step functions (or load them from numba's cache in ``__pycache__``) by stepping a
+    batch of random games: the engine tries its serial and, with several threads, its parallel kernel on the first
+    steps. ``make install`` calls it (see :func:`structgen.domains.registry.compile_kernels`)."""
+    from structgen.domains.autoverse.game import random_game
+
+    rng = np.random.default_rng(0)
+    engine = Engine([random_game(rng) for _ in range(_PARALLEL_FROM_BATCH)], backend="numba")
+    state = engine.reset()
+    for _ in range(4):  # each way twice: to warm up, then to count
+        state, _, _ = engine.step(state, torch.zeros(len(state), dtype=torch.int64))

@@ -21,6 +21,7 @@ FORTRESS = DomainSpec(
     settings=f"{_PACKAGE}.problem:FortressSettings",
     summary="worlds of FSM-driven entities, illuminated with MAP-Elites for machines that their simulations explore",
     commands=f"{_PACKAGE}.commands:FORTRESS_COMMANDS",
+    kernels=f"{_PACKAGE}.world:compile_kernels",
     libraries=("numba",),
     # The original's MAP-Elites (100 x 100 cells, 9 mutants and 1 random world a generation, 5 simulations of 100
     # ticks each) for 1,000 of its 10,000 generations, in one process (the engine runs the 50 simulations of a

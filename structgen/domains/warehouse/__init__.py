@@ -25,6 +25,7 @@ _REPAIRED_MAIN = MainJob(
 
 WAREHOUSE = DomainSpec(
     id="warehouse-v0",
+    kernels=f"{_PACKAGE}.simulator:compile_kernels",
     entry_point=f"{_PACKAGE}.problem:LayoutProblem",
     settings=f"{_PACKAGE}.problem:WarehouseSettings",
     summary="warehouse layouts grown by a conv NCA, repaired by a MILP, scored by simulated robots' throughput",
@@ -45,6 +46,7 @@ WAREHOUSE = DomainSpec(
 
 MANUFACTURING = DomainSpec(
     id="manufacturing-v0",
+    kernels=f"{_PACKAGE}.simulator:compile_kernels",
     entry_point=f"{_PACKAGE}.problem:LayoutProblem",
     settings=f"{_PACKAGE}.problem:ManufacturingSettings",
     summary="manufacturing floors (three station kinds) grown by a conv NCA, repaired by a MILP, scored by robots' throughput",

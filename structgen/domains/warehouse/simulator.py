@@ -33,7 +33,15 @@ from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
 from structgen.errors import InputError
 
-__all__ = ["PBS_RULES", "PLANNERS", "LayoutEvaluation", "SimulationResult", "evaluate_layout", "simulate"]
+__all__ = [
+    "PBS_RULES",
+    "PLANNERS",
+    "LayoutEvaluation",
+    "SimulationResult",
+    "compile_kernels",
+    "evaluate_layout",
+    "simulate",
+]
 
 PLANNERS = ("pp", "pbs", "pibt")
 #: The ``pbs`` planner's rules that ``pbs_off`` can switch off, by name (module notes of :mod:`._pbs`): rule 1, own
@@ -429,3 +437,16 @@ def evaluate_layout(
         congested=congested,
         seconds=time.perf_counter() - began,
     )
+
+
+def compile_kernels() -> None:
+    """Compile the planners' numba functions (or load them from numba's cache in ``__pycache__``) by running each
+    planner for a few steps on a small warehouse: a first simulation after an install otherwise spends most of a
+    minute compiling. ``make install`` calls it (see :func:`structgen.domains.registry.compile_kernels`)."""
+    storage = np.zeros((9, 12), dtype=np.uint8)
+    shelf, endpoint = WAREHOUSE.vocabulary.index("@"), WAREHOUSE.vocabulary.index("e")
+    for row in (2, 6):
+        storage[row, 1:11] = shelf
+        storage[row - 1 : row + 2 : 2, 1:11] = endpoint
+    for planner in PLANNERS:
+        simulate(WAREHOUSE.complete(storage), 4, 20, planner=planner)
