@@ -136,29 +136,3 @@ def test_a_run_resumed_after_one_generation_ends_like_two_straight(spec, tmp_pat
 
     assert len(straight.metrics()) == 2
     assert outcome(split) == outcome(straight)
-
-
-COMPILED: list[str] = []
-
-
-def compile_for_test() -> None:
-    COMPILED.append("compiled")
-
-
-def test_install_compiles_each_domains_kernels_once_even_when_domains_share_them(monkeypatch):
-    from structgen.domains import registry
-
-    shared = f"{__name__}:compile_for_test"
-    fakes = {
-        name: domains.DomainSpec(id=name, entry_point="m:p", settings="m:s", summary="s", kernels=kernels)
-        for name, kernels in (("one-v0", shared), ("two-v0", shared), ("three-v0", None))
-    }
-    monkeypatch.setattr(registry, "_registry", fakes)
-    COMPILED.clear()
-    assert registry.compile_kernels() == [shared] and COMPILED == ["compiled"]
-    with pytest.raises(ValueError, match="kernels"):
-        domains.DomainSpec(id="bad-v0", entry_point="m:p", settings="m:s", summary="s", kernels="no_colon")
-    # The built-in domains with numba code: warehouse and manufacturing share the planners' kernels.
-    built_in = {spec.id: spec.kernels for spec in SPECS}
-    assert built_in["warehouse-v0"] == built_in["manufacturing-v0"] is not None
-    assert built_in["autoverse-v0"] and built_in["fortress-v0"]
