@@ -57,6 +57,7 @@ def _rows(folder: Path) -> list[dict]:
     return [{k: v for k, v in row.items() if k != "seconds"} for row in rows]
 
 
+@pytest.mark.slow
 def test_training_clones_then_trains_and_a_stopped_training_resumes_to_the_same_policy(evolved, tmp_path):
     whole = train(evolved, tmp_path / "whole", SMALL, progress=False)
     assert [row["update"] for row in whole] == [0, 1, 2, 3, 4]

@@ -236,6 +236,7 @@ def test_the_agent_commands(tmp_path, capsys):
     assert code != 0 and "shut.json: no two floor cells are connected" in err
 
 
+@pytest.mark.slow
 def test_the_experiment_grows_a_runs_elite_small_and_large(tmp_path, capsys):
     config = Path(__file__).resolve().parents[2] / "configs" / "maze_cma_mae.toml"
     code, _, _ = cli(

@@ -61,6 +61,7 @@ def test_the_screened_judge_scores_crushed_blocks_as_collapsed_without_a_solve()
         StructuresSettings(collapse_ratio=0.5)
 
 
+@pytest.mark.slow
 def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tmp_path, capsys):
     out = tmp_path / "cutoff"
     # 400 spawns: five generations, the last holding the paper's spawn 381. Evaluated in the run's own process
