@@ -26,9 +26,6 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    # The slow tests first (in their order): pytest-xdist hands tests out in this order, and a long test that starts
-    # last keeps one worker busy after the other has finished (longest first shortens the suite on 2 cores).
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
     if config.getoption("--run-inductor"):
         return
     skip = pytest.mark.skip(
