@@ -16,7 +16,15 @@ from ribs.schedulers import Scheduler
 from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, start_genome
 from evolution.problem import Problem
 
-__all__ = ["FieldRankedArchive", "ProblemMutationEmitter", "RibsOptimizer", "archive_bytes", "cma_mae", "map_elites"]
+__all__ = [
+    "FieldRankedArchive",
+    "ProblemMutationEmitter",
+    "RibsOptimizer",
+    "archive_bytes",
+    "cma_mae",
+    "compile_kernels",
+    "map_elites",
+]
 
 
 def _cache_ribs_kernels() -> None:
@@ -217,3 +225,18 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
             for k in range(settings.emitters)
         ]
     return RibsOptimizer(Scheduler(archive, emitters, result_archive=result_archive), problem)
+
+
+def compile_kernels() -> None:
+    """Compile pyribs's kernels into numba's cache (:func:`_cache_ribs_kernels`) with two generations of a small
+    CMA-MAE on each evolution strategy the optimisers use, so that a first quality-diversity run does not spend 7-9 s
+    compiling; ``make install`` calls it (through ``structgen.domains.registry.compile_kernels``)."""
+    from evolution.toys import Sphere
+
+    problem = Sphere()
+    for es in ("sep_cma_es", "cma_es"):
+        optimizer = cma_mae(problem, CMAMAESettings(cells=(4, 4), emitters=1, batch_size=4, es=es), seed=0)
+        for generation in range(2):
+            genomes = optimizer.ask()
+            evaluation = problem.evaluate(genomes, np.arange(len(genomes)) + generation)
+            optimizer.tell(evaluation.objective, evaluation.measures, **evaluation.fields)

@@ -36,6 +36,7 @@ __all__ = [
     "ENTRY_POINT_GROUP",
     "DomainSpec",
     "MainJob",
+    "OPTIMIZER_KERNELS",
     "UnknownDomainError",
     "compile_kernels",
     "load_reference",
@@ -227,10 +228,16 @@ def spec(name: str) -> DomainSpec:
     return found
 
 
+#: The optimisers' compiled code (pyribs's evolution strategies), compiled at install with the domains'.
+OPTIMIZER_KERNELS = "evolution.qd:compile_kernels"
+
+
 def compile_kernels() -> list[str]:
-    """Compile every domain's numba functions into numba's on-disk cache (``make install`` does this once); returns
-    the kernels' references, each once however many domains share it."""
-    done: list[str] = []
+    """Compile the optimisers' and every domain's numba functions into numba's on-disk cache (``make install`` does
+    this once); returns the kernels' references, each once however many domains share it."""
+    log.info("compiling the optimisers' kernels (%s)", OPTIMIZER_KERNELS)
+    load_reference(OPTIMIZER_KERNELS)()
+    done: list[str] = [OPTIMIZER_KERNELS]
     for domain in specs():
         if domain.kernels and domain.kernels not in done:
             log.info("compiling %s's kernels (%s)", domain.id, domain.kernels)
