@@ -25,6 +25,7 @@ from structgen import __version__, domains
 from structgen.commands import (
     EXIT_BAD_INPUT,
     EXIT_FAILURE,
+    EXIT_INTERRUPTED,
     EXIT_OK,
     MAX_SEED,
     InputError,
@@ -86,7 +87,7 @@ def cmd_evolve(args: argparse.Namespace) -> int:
     with graceful_interrupt() as stop:
         folder, state = evolve(experiment, args.run_dir, overwrite=args.overwrite, stop_requested=stop)
         _report_run(folder, state)
-        return 130 if stop() else EXIT_OK
+        return EXIT_INTERRUPTED if stop() else EXIT_OK
 
 
 def cmd_resume(args: argparse.Namespace) -> int:
@@ -102,7 +103,7 @@ def cmd_resume(args: argparse.Namespace) -> int:
             args.run_dir, generations=args.generations, workers=args.workers, cluster=args.cluster, stop_requested=stop
         )
         _report_run(folder, state)
-        return 130 if stop() else EXIT_OK
+        return EXIT_INTERRUPTED if stop() else EXIT_OK
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -431,7 +432,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 128 + 13
     except KeyboardInterrupt as err:
         _report(str(err) or "interrupted")  # a stopped seed run (RunStopped) says how to resume
-        return 130
+        return EXIT_INTERRUPTED
     except Exception as err:
         code, message = _classify(err)
         _report(message)

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 __all__ = [
     "EXIT_BAD_INPUT",
     "EXIT_FAILURE",
+    "EXIT_INTERRUPTED",
     "EXIT_OK",
     "MAX_SEED",
     "DomainCommands",
@@ -40,6 +41,8 @@ __all__ = [
 ]
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+#: Stopped by Ctrl-C after a checkpoint (128 + SIGINT, as shells report it); the same command or `resume` goes on.
+EXIT_INTERRUPTED = 130
 #: Seeds are whole numbers from 0 to this (what numpy's generators take in one 64-bit word).
 MAX_SEED = 2**63 - 1
 

@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from structgen.commands import EXIT_BAD_INPUT
+from structgen.commands import EXIT_BAD_INPUT, EXIT_INTERRUPTED
 from structgen.errors import InputError
 
 __all__ = ["ADDRESS", "RunStopped", "check_seed_folder", "expected_run", "finished", "run_all", "run_seed"]
@@ -77,7 +77,7 @@ def run_seed(
         command += ["--workers", str(workers)]
     environment = {**os.environ, "NUMBA_NUM_THREADS": str(threads)}
     done = subprocess.run(command, env=environment, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    if done.returncode in (130, -signal.SIGINT):
+    if done.returncode in (EXIT_INTERRUPTED, -signal.SIGINT):
         raise RunStopped(f"seed {seed} ({run_dir}) was stopped after its last checkpoint; the same command resumes it")
     if done.returncode != 0:
         last = done.stderr.strip().splitlines()[-1] if done.stderr.strip() else f"exit {done.returncode}"

@@ -20,10 +20,14 @@ def cli(capsys, *argv) -> tuple[int, str, str]:
     return code, out, err
 
 
-def findings(metrics_file: Path) -> list[dict]:
-    """A metrics file's rows without the fields that say how each generation ran (see RUN_CONDITIONS)."""
-    rows = (json.loads(line) for line in metrics_file.read_text().splitlines())
+def comparable(rows) -> list[dict]:
+    """Metrics rows without the fields that say how each generation ran (see RUN_CONDITIONS)."""
     return [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in rows]
+
+
+def findings(metrics_file: Path) -> list[dict]:
+    """A metrics file's rows, :func:`comparable`."""
+    return comparable(json.loads(line) for line in metrics_file.read_text().splitlines())
 
 
 def outcome(run: Path) -> dict:

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 from evolution import Evaluation, RunFolder
-from evolution.run import RUN_CONDITIONS
 from evolution.runfolder import Best
 from structgen import domains
 from structgen.config import build
 from structgen.experiment import load_experiment
 from structgen.runs import evolve, resume
+from tests.helpers import comparable
 
 SPECS = domains.specs()
 BATCH = 4
@@ -130,7 +130,7 @@ def test_a_run_resumed_after_one_generation_ends_like_two_straight(spec, tmp_pat
     resume(split.path, generations=2, progress=False)
 
     def outcome(folder: RunFolder) -> tuple[list, bytes, bytes]:
-        metrics = [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in folder.metrics()]
+        metrics = comparable(folder.metrics())
         genome = next(p for p in (folder / "best").iterdir() if p.name.startswith("genome."))
         return metrics, genome.read_bytes(), (folder / "best" / "best.json").read_bytes()
 

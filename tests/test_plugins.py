@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from evolution.run import RUN_CONDITIONS
+from tests.helpers import findings
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "dice-domain"
@@ -73,8 +73,7 @@ def test_it_evolves_resumes_and_exports_through_the_generic_commands(site, tmp_p
     assert straight.returncode == 0
 
     def metrics(run: str) -> list[dict]:
-        rows = (tmp_path / run / "metrics.jsonl").read_text().splitlines()
-        return [{k: v for k, v in json.loads(row).items() if k not in RUN_CONDITIONS} for row in rows]
+        return findings(tmp_path / run / "metrics.jsonl")
 
     assert len(metrics("run")) == 4 and metrics("run") == metrics("straight")
     done = structgen(site, "export", "run", "die.json", cwd=tmp_path)
@@ -102,9 +101,7 @@ def test_a_run_of_its_dataclass_genomes_killed_midway_resumes_to_the_run_that_ne
     assert straight.returncode == 0
 
     def outcome(run: str) -> tuple[list, str]:
-        lines = (tmp_path / run / "metrics.jsonl").read_text().splitlines()
-        rows = [{k: v for k, v in json.loads(line).items() if k not in RUN_CONDITIONS} for line in lines]
-        return rows, (tmp_path / run / "best" / "genome.json").read_text()
+        return findings(tmp_path / run / "metrics.jsonl"), (tmp_path / run / "best" / "genome.json").read_text()
 
     assert len(outcome("killed")[0]) == int(total) and outcome("killed") == outcome("straight")
 

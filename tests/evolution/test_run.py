@@ -20,8 +20,8 @@ from evolution import (
     make_optimizer,
 )
 from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
-from evolution.run import RUN_CONDITIONS
 from evolution.toys import Ones, Sphere, SphereSettings
+from tests.helpers import comparable
 
 CASES = {
     "ga-sphere": ("ga", Sphere, GASettings(population=10, parents=3)),
@@ -43,7 +43,7 @@ def new_run(tmp_path, name: str, case: str, generations: int, **settings):
 
 def results(folder: RunFolder) -> dict:
     """Everything a run leaves that must match bit for bit (not the timings)."""
-    metrics = [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in folder.metrics()]
+    metrics = comparable(folder.metrics())
     files = {}
     for name in ("archive.csv", "archive_solutions.npy", "best/genome.npy", "best/genome.json", "best/best.json"):
         path = folder / name
