@@ -19,6 +19,8 @@ from structgen.grid import Grid, GridError
 from tests import reference
 from tests.layouts.reference_conv_nca import reference_grow
 
+SHELF_TILE = WAREHOUSE.vocabulary.index("@")
+
 MAPS = reference.maps()
 OURS = MAPS / "warehouse" / "ours" / "nca_to_show"
 needs_maps = reference.needs("warehouse-maps")
@@ -522,3 +524,56 @@ def test_the_longest_shortest_path_is_found_a_block_at_a_time_as_over_the_whole_
     monkeypatch.setattr(mazes, "MAX_DIAMETER_FLOOR", 50)
     with pytest.raises(InputError, match="a maze of 64 floor cells"):
         mazes.diameter(np.zeros((8, 8), dtype=np.int64))
+
+
+def test_the_greedy_repair_spreads_shelves_over_the_map_with_aisles_across_the_rows():
+    # Packed into the top rows, a greedy layout congested with 200 robots (throughput 0.1 where HiGHS's answer with
+    # as many changes reached 6): robots must be able to cross the shelf rows everywhere.
+    from structgen.domains.warehouse.repair import GREEDY_AISLE_EVERY
+
+    for fill in (0, SHELF_TILE):
+        tiles = WAREHOUSE.complete(np.full((33, 32), fill, dtype=np.uint8))
+        greedy = greedy_repair(tiles, WAREHOUSE, shelves=240)
+        assert violations(greedy, WAREHOUSE, shelves=240, fixed=tiles) == []
+        shelf = greedy == SHELF_TILE
+        rows = np.flatnonzero(shelf.any(axis=1))
+        assert rows.min() < 5 and rows.max() > 27, "shelves only in part of the map"
+        for row in rows:  # no run of shelves longer than a block
+            run = longest = 0
+            for cell in shelf[row]:
+                run = run + 1 if cell else 0
+                longest = max(longest, run)
+            assert longest < GREEDY_AISLE_EVERY
+
+
+def test_layouts_far_from_valid_skip_highs_and_near_ones_get_it():
+    from structgen.domains.warehouse.repair import distance_from_valid
+
+    empty = WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8))
+    far = repair(empty, WAREHOUSE, shelves=240, greedy_beyond=100)
+    assert far.method == "greedy" and not far.optimal and far.seconds < 1  # HiGHS spent its whole minute on this
+    full = WAREHOUSE.complete(np.full((33, 32), SHELF_TILE, dtype=np.uint8))
+    bound = int((full == SHELF_TILE).sum()) - 240
+    answered = repair(full, WAREHOUSE, shelves=240, greedy_beyond=100)
+    assert answered.method == "greedy" and answered.optimal and answered.hamming == bound  # no repair changes fewer
+    # A valid layout off the greedy repair's rows (one shelf moved onto a corridor): the greedy answer changes cells
+    # where none need changing, so HiGHS searches and changes nothing.
+    near = next(_valid_with_one_shelf_moved(far.tiles))
+    assert distance_from_valid(near, WAREHOUSE, shelves=240) == 0
+    assert (greedy_repair(near, WAREHOUSE, shelves=240) != near).any()
+    searched = repair(near, WAREHOUSE, shelves=240, greedy_beyond=100, time_limit=30)
+    assert searched.method != "greedy" and searched.optimal and searched.hamming == 0
+    with pytest.raises(ValueError, match="greedy_beyond"):
+        repair(near, WAREHOUSE, shelves=240, greedy_beyond=-1)
+
+
+def _valid_with_one_shelf_moved(tiles: np.ndarray):
+    endpoint = WAREHOUSE.vocabulary.index("e")
+    floor = [(r, c) for r in range(1, 32) for c in range(3, 33) if tiles[r, c] == 0]
+    beside_endpoint = [(r, c) for r, c in floor if endpoint in (tiles[r - 1, c], tiles[r + 1, c])]
+    for added in beside_endpoint:
+        for removed in map(tuple, np.argwhere(tiles == SHELF_TILE)):
+            moved = tiles.copy()
+            moved[added], moved[removed] = SHELF_TILE, 0
+            if violations(moved, WAREHOUSE, shelves=240, fixed=tiles) == []:
+                yield moved

@@ -261,3 +261,23 @@ def test_distance_tables_beyond_the_memory_budget_are_refused_before_allocating(
     expected = r"distance tables \(1,000 goals x 90,000 cells\) and planning tables needs about 343 MiB"
     with pytest.raises(InputError, match=expected):
         distance_tables(_mapf.grid_neighbours(open_floor), np.arange(1000, dtype=np.int32))
+
+
+@pytest.mark.parametrize(
+    "planner, seed, uneven, tasks, congested_at",
+    [("pp", 0, False, 1844, None), ("pp", 1, True, 445, 140), ("pbs", 0, False, 1975, None), ("pibt", 0, False, 1623, None)],
+)
+def test_a_simulation_gives_the_tasks_it_gave_before_its_bookkeeping_was_compiled(planner, seed, uneven, tasks, congested_at):
+    # Counts from the NumPy bookkeeping that the numba kernels of _steps replaced, which draw goals from the same
+    # generator in the same order: every published throughput depends on this staying so.
+    from structgen.domains.warehouse.repair import greedy_repair
+
+    tiles = greedy_repair(WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8)), WAREHOUSE, shelves=240)
+    result = simulate(tiles, 200, 300, seed=seed, planner=planner, uneven=uneven)
+    assert result.tasks == tasks
+    assert result.congested == (congested_at is not None) and result.stopped_at == (congested_at or 300)
+
+
+def test_manufacturing_gives_the_tasks_it_gave_before_its_bookkeeping_was_compiled():
+    result = simulate(small_factory(), 12, 300, kind=MANUFACTURING, seed=4)
+    assert (result.tasks, result.congested) == (226, False)

@@ -100,3 +100,21 @@ def test_the_best_layout_written_is_the_one_that_was_scored(tmp_path, monkeypatc
     with pytest.raises(pytest.fail.Exception, match="repaired again"):
         problem.write_artifacts(genomes[(top + 1) % 3], tmp_path)
     assert repairs == [0]
+
+
+def test_training_sends_layouts_far_from_valid_to_the_greedy_repair_as_its_setting_says(monkeypatch):
+    import numpy as np
+
+    from structgen.domains.warehouse import problem as layout_problem
+    from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
+
+    with pytest.raises(ValueError, match="repair_greedy_beyond must be an integer from -1"):
+        WarehouseSettings(repair_greedy_beyond=-2)
+    asked = []
+    real = layout_problem.repair
+    monkeypatch.setattr(layout_problem, "repair", lambda *a, **k: asked.append(k["greedy_beyond"]) or real(*a, **k))
+    tiny = dict(size="6x8", shelves=6, iterations=5, hidden=8, repair_node_limit=50, agents=4, simulations=1)
+    genomes = LayoutProblem(WarehouseSettings(**tiny)).initial_genomes(1, np.random.default_rng(0))
+    for beyond, expected in ((-1, None), (0, 0), (100, 100)):
+        LayoutProblem(WarehouseSettings(**tiny, repair_greedy_beyond=beyond)).evaluate(genomes, np.arange(1))
+        assert asked.pop() == expected

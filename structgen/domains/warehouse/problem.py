@@ -22,7 +22,7 @@ from structgen.conv_nca import HIDDEN, ConvNCA
 from structgen.domains.warehouse.layouts import KINDS, REPAIR_TIME_LIMIT, LayoutKind
 from structgen.domains.warehouse.maze import MAX_DIAMETER_FLOOR
 from structgen.domains.warehouse.measures import pattern_entropy, shelf_components, similarity
-from structgen.domains.warehouse.repair import REPAIR_BYTES_PER_CELL, RepairError, repair
+from structgen.domains.warehouse.repair import REPAIR_BYTES_PER_CELL, REPAIR_GREEDY_BEYOND, RepairError, repair
 from structgen.domains.warehouse.simulator import PLANNERS
 from structgen.errors import InputError
 
@@ -54,6 +54,11 @@ class WarehouseSettings:
         HiGHS spends the whole time limit before branching (it can, on layouts far from valid: a random NCA's
         33x36 layout with no shelves held it for the whole minute with any node limit), so a run repeats exactly
         only when no repair reaches its time limit.
+    repair_greedy_beyond: layouts more than this many cells from valid (the shelf count's difference plus the cells
+        breaking a rule: ``repair.distance_from_valid``) get the greedy repair without HiGHS; -1: every layout goes
+        to HiGHS, as in the paper. HiGHS proves the fewest changes within about a second on layouts up to 100 cells
+        from valid and can spend its whole time limit on layouts far from it (random NCAs' empty ones), so with the
+        default a training run costs little and repeats exactly (measured: docs/layouts.md).
     hidden: the NCA's hidden channels (32 in the paper).
     """
 
@@ -69,6 +74,7 @@ class WarehouseSettings:
     repair_time_limit: float = REPAIR_TIME_LIMIT
     repair_threads: int = 1
     repair_node_limit: int = 0
+    repair_greedy_beyond: int = REPAIR_GREEDY_BEYOND
     hidden: int = HIDDEN
 
     kind = "warehouse"
@@ -79,6 +85,7 @@ class WarehouseSettings:
         _positive_int("shelves", self.shelves, 0, 10**7)
         _positive_int("repair_threads", self.repair_threads, 1, 1024)
         _positive_int("repair_node_limit", self.repair_node_limit, 0, 10**9)
+        _positive_int("repair_greedy_beyond", self.repair_greedy_beyond, -1, 10**9)
         _positive_int("hidden", self.hidden, 1, 1024)
         _positive_int("agents", self.agents, 0, 10**7)
         _positive_int("simulations", self.simulations, 0, 1000)
@@ -304,6 +311,7 @@ class LayoutProblem(Problem):
             seed=seed % (2**31),
             threads=self.settings.repair_threads,
             node_limit=self.settings.repair_node_limit or None,
+            greedy_beyond=None if self.settings.repair_greedy_beyond < 0 else self.settings.repair_greedy_beyond,
         )
 
     def write_artifacts(self, genome, folder: Path) -> list[Path]:

@@ -42,19 +42,29 @@ from structgen.errors import InputError
 log = logging.getLogger(__name__)
 
 __all__ = [
+    "GREEDY_AISLE_EVERY",
     "GREEDY_FIRST_CELLS",
     "LOCAL_MAX_SHARE",
     "LOCAL_RADIUS",
     "ROUNDING_MIN_CELLS",
+    "REPAIR_GREEDY_BEYOND",
     "ROUNDING_MIN_SECONDS",
     "RepairError",
     "RepairResult",
+    "distance_from_valid",
     "greedy_repair",
     "repair",
 ]
 
 #: Above this many cells the greedy repair runs first and seeds the MILP.
 GREEDY_FIRST_CELLS = 4000
+#: Training's default ``greedy_beyond`` (:func:`repair`): HiGHS proved the fewest changes in 0.4 to 1.1 s on the
+#: paper's grown 33x36 maps and valid maps with cells changed at random, up to 89 cells from valid; layouts with no
+#: shelves, 240 from valid, held it for the whole minute without an answer (measured, docs/layouts.md).
+REPAIR_GREEDY_BEYOND = 100
+#: The greedy repair leaves every this-many-th column of the storage area free of shelves (where there is room), an
+#: aisle across the shelf rows: blocks of ten shelves, as in the paper's human-designed layouts.
+GREEDY_AISLE_EVERY = 11
 #: A local repair frees the cells within this many steps of a cell that breaks a rule (and the cells that can make
 #: up a wrong shelf count) and holds every other cell as it is.
 LOCAL_RADIUS = 2
@@ -241,6 +251,7 @@ def repair(
     round_relaxation: bool | None = None,
     good_enough: int | None = None,
     local_first: bool | None = None,
+    greedy_beyond: int | None = None,
 ) -> RepairResult:
     """Repair a whole map (for warehouses, with its workstation columns).
 
@@ -273,6 +284,12 @@ def repair(
             None: for warehouses above :data:`GREEDY_FIRST_CELLS` cells, where the full search keeps little of a
             large layout's pattern (a tiled 101x102 warehouse: 255 changes in 14 s locally, as many as the
             original's CPLEX made, against 5,528 from the full search in 120 s).
+        greedy_beyond: answer a layout more than this many cells from valid (:func:`distance_from_valid`) with the
+            greedy repair alone, without HiGHS (``method`` "greedy"); a greedy answer that changes no more cells than
+            the shelf count must change is the fewest changes and ends any repair (``method`` "greedy", optimal).
+            HiGHS spends its whole time limit on layouts far from valid (random NCAs' 33x36 layouts with no shelves:
+            a minute, then the greedy answer anyway), so a training run repeats exactly and costs little only if
+            they never reach it. None: every layout goes to HiGHS.
 
     Raises:
         RepairError: no valid layout exists under the rules, or neither HiGHS within the time limit nor the greedy
@@ -295,6 +312,10 @@ def repair(
     # About 30 nonzeros a cell, and HiGHS's work on them: 210 MiB for a 101x102 map, measured (beside Python's own).
     check_memory(tiles.size * REPAIR_BYTES_PER_CELL, f"the repair of a {tiles.shape[0]}x{tiles.shape[1]} map", "a smaller map")
     log.info("repairing a %dx%d %s layout with HiGHS, at most %g s", *tiles.shape, kind.name, time_limit)
+    if greedy_beyond is not None:
+        routed = _greedy_route(tiles, kind, shelves, agents, greedy_beyond, began)
+        if routed is not None:
+            return routed
     model, decode, encode = build(tiles, shelves=shelves, agents=agents)
     # HiGHS checks its clock between steps, and at 101x102 one presolve step can run 1 to 2.5 s past its limit
     # (measured): keep a margin so that a repair of two minutes ends within its limit.
@@ -361,6 +382,38 @@ def repair(
         method,
         solution.status,
     )
+
+
+def distance_from_valid(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE, *, shelves: int | None = None) -> int:
+    """How far a layout is from valid, in cells: the shelves (warehouse, with ``shelves``) too many or too few plus
+    the cells that break a rule of their own (:func:`~structgen.domains.warehouse.measures.broken_cells`). The first
+    term is a lower bound on any repair's changes; the second says how much of the layout needs rearranging."""
+    tiles = np.asarray(tiles)
+    distance = int(broken_cells(tiles, kind).sum())
+    if kind.name == "warehouse" and shelves is not None:
+        distance += abs(int((tiles == kind.vocabulary.index("@")).sum()) - shelves)
+    return distance
+
+
+def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> RepairResult | None:
+    """:func:`repair`'s answer without HiGHS (see its ``greedy_beyond``), or None where HiGHS should search."""
+    if not (isinstance(beyond, (int, np.integer)) and beyond >= 0):
+        raise ValueError(f"greedy_beyond must be a whole number of cells, 0 or more, got {beyond!r}")
+    try:
+        greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
+    except RepairError:
+        return None
+    hamming = int((greedy != tiles).sum())
+    bound = abs(int((tiles == kind.vocabulary.index("@")).sum()) - shelves) if kind.name == "warehouse" else 0
+    optimal = hamming <= bound
+    if not optimal and distance_from_valid(tiles, kind, shelves=shelves) <= beyond:
+        return None
+    broken = violations(greedy, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
+    if broken:  # as for HiGHS's answers: never hand out an invalid layout
+        raise RepairError(f"the greedy {kind.name} layout is invalid: {'; '.join(broken)}")
+    status = "optimal: as many changes as the shelf count needs" if optimal else "far from valid: not searched"
+    gap = 0.0 if optimal else float("inf")
+    return RepairResult(greedy.astype(np.uint8), hamming, optimal, gap, time.perf_counter() - began, "greedy", status)
 
 
 #: Share of the time left that the linear relaxation, and then the rounding's smaller MILP, may use.
@@ -679,9 +732,13 @@ def greedy_repair(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE, *, shelves: i
     """A valid layout close to ``tiles``, fast and without a solver.
 
     Shelves (stations) may stand only on every third row, so the rows between stay open and connect everything
-    (through the workstation columns for warehouses, through a gap kept in every shelf row for manufacturing). Of
-    the three ways to choose those rows, the one that keeps the most of the layout is taken; shelves already there
-    are kept first, then the count is made up; each shelf gets an endpoint, preferably one already there."""
+    (through the workstation columns for warehouses, through a gap kept in every shelf row for manufacturing), and
+    not in every :data:`GREEDY_AISLE_EVERY`-th column where there is room without it, so robots can also cross the
+    shelf rows. Of the three ways to choose those rows, the one that keeps the most of the layout is taken; shelves
+    already there are kept first, then the count is made up; each shelf gets an endpoint, preferably one already
+    there. Where only some of the candidates are needed they are taken evenly spread over the map, not from its
+    top: a greedy layout packed into the top rows congests (measured on random NCAs' 33x36 layouts: throughput 0.1
+    with 200 robots where HiGHS's answer with as many changes reached 6)."""
     tiles = np.asarray(tiles).astype(np.int64)
     best = None
     for offset in range(3):
@@ -694,6 +751,13 @@ def greedy_repair(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE, *, shelves: i
     if best is None:
         raise RepairError(f"the greedy repair cannot place the {kind.name} layout's shelves")
     return best
+
+
+def _spread(cells: np.ndarray, count: int) -> np.ndarray:
+    """``count`` of ``cells`` (in row-major order) evenly spaced over them; all of them if there are no more."""
+    if count >= len(cells):
+        return cells
+    return cells[(np.arange(count) * len(cells)) // count]
 
 
 def _greedy_rows(tiles: np.ndarray, kind: LayoutKind, offset: int, shelves: int | None, agents: int) -> np.ndarray:
@@ -713,26 +777,33 @@ def _greedy_rows(tiles: np.ndarray, kind: LayoutKind, offset: int, shelves: int 
     is_shelf = np.isin(tiles, shelf_tiles)
     result = tiles.copy()
     result[area] = code(".")
-    keep = is_shelf & allowed
     if warehouse:
         want = shelves
     else:
-        want = min(int(keep.sum()), rows * cols - agents)
-        want = max(want, 3)
+        want = max(min(int((is_shelf & allowed).sum()), rows * cols - agents), 3)
+    area_columns = np.flatnonzero(area.any(axis=0))
+    aisles = area_columns[np.arange(len(area_columns)) % GREEDY_AISLE_EVERY == GREEDY_AISLE_EVERY - 1]
+    with_aisles = allowed.copy()
+    with_aisles[:, aisles] = False
+    if int(with_aisles.sum()) >= want:
+        allowed = with_aisles
     if int(allowed.sum()) < want:
         raise RepairError("not enough room")
+    keep = is_shelf & allowed
     chosen = np.zeros_like(keep)
-    kept = np.argwhere(keep)
-    chosen[tuple(kept[:want].T)] = True
+    chosen[tuple(_spread(np.argwhere(keep), want).T)] = True
     if chosen.sum() < want:  # make up the count, preferring cells next to existing endpoints
         endpoint_near = np.zeros((rows, cols), dtype=np.int16)
         e = tiles == code("e")
         endpoint_near[1:] += e[:-1]
         endpoint_near[:-1] += e[1:]
         free = np.argwhere(allowed & ~chosen)
-        order = np.argsort(-endpoint_near[tuple(free.T)], kind="stable")
-        extra = free[order[: want - int(chosen.sum())]]
-        chosen[tuple(extra.T)] = True
+        preference = endpoint_near[tuple(free.T)]
+        for level in np.unique(preference)[::-1]:
+            missing = want - int(chosen.sum())
+            if missing == 0:
+                break
+            chosen[tuple(_spread(free[preference == level], missing).T)] = True
     if warehouse:
         result[chosen] = code("@")
     else:

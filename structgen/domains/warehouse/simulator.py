@@ -82,7 +82,8 @@ class SimulationResult:
 
 
 class _WarehouseTasks:
-    """Goals alternate between a workstation (by weight) and an endpoint; no task waits."""
+    """Goals alternate between a workstation (by weight) and an endpoint; no task waits. The draws themselves are
+    :func:`._steps.queue_goals`'s; this holds its tables."""
 
     #: The planner's default restart budget: one per this many agents (see ``simulate``'s ``restarts``).
     agents_per_restart = 40
@@ -97,30 +98,23 @@ class _WarehouseTasks:
         if uneven:  # the paper's uneven setting: the left column's workstations are five times likelier
             weights[self.workstations % tiles.shape[1] < tiles.shape[1] // 2] = 5.0
         weights /= weights.sum()
-        # Generator.choice(p=...) draws one uniform and bisects this same cumulative table, but rebuilds and checks
-        # it on every call (13 us, a sixth of a 200-robot run); drawing the uniform here gives the same goals.
+        # Generator.choice(p=...) draws one uniform and bisects this same cumulative table: drawing the uniform and
+        # bisecting gives the same goals.
         self.cumulative = np.cumsum(weights)
         self.cumulative /= self.cumulative[-1]
         self.targets = np.concatenate([self.workstations, self.endpoints]).astype(np.int32)
+        self.beside, self.beside_start = np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
         self.rng = rng
 
     def first(self, positions: np.ndarray) -> tuple[np.ndarray, int]:
-        self.wants_workstation = ~np.isin(positions, self.workstations)  # the kind of goal after the first endpoint
+        # 1 where the goal after the first endpoint is a workstation (robots starting on one go to an endpoint).
+        self.toggle = (~np.isin(positions, self.workstations)).astype(np.int64)
         return self.rng.choice(self.endpoints, len(positions)), 0
-
-    def next(self, agent: int, last: int) -> tuple[int, int]:
-        while True:
-            if self.wants_workstation[agent]:
-                goal = int(self.workstations[np.searchsorted(self.cumulative, self.rng.random(), side="right")])
-            else:
-                goal = int(self.endpoints[self.rng.integers(0, len(self.endpoints))])  # what choice() draws
-            if goal != last:
-                self.wants_workstation[agent] = ~self.wants_workstation[agent]
-                return goal, 0
 
 
 class _ManufacturingTasks:
-    """Goals visit endpoints beside stations of kind 0, 1, 2, 0, ...; each task waits by its station's kind."""
+    """Goals visit endpoints beside stations of kind 0, 1, 2, 0, ...; each task waits by its station's kind. The
+    same endpoint may serve two kinds in a row: the original allows it, and so does this."""
 
     agents_per_restart = 4
 
@@ -128,26 +122,24 @@ class _ManufacturingTasks:
         from structgen.domains.warehouse.measures import neighbour_count  # loads scipy: not at command start-up
 
         endpoint = (tiles == kind.vocabulary.index("e")).ravel()
-        self.beside: list[np.ndarray] = []  # per station kind: endpoints, once per adjacent station of the kind
+        beside: list[np.ndarray] = []  # per station kind: endpoints, once per adjacent station of the kind
         for station, name in enumerate("012"):
             touching = np.where(endpoint, neighbour_count(tiles == kind.vocabulary.index(name)).ravel(), 0)
             found = np.repeat(np.arange(len(touching)), touching)
             if len(found) == 0:
                 raise InputError(f"a manufacturing simulation needs an endpoint beside a station of kind {station}")
-            self.beside.append(found)
-        self.targets = np.unique(np.concatenate(self.beside)).astype(np.int32)
+            beside.append(found)
+        self.first_goals = beside[0]
+        self.beside = np.concatenate(beside).astype(np.int64)
+        self.beside_start = np.cumsum([0] + [len(b) for b in beside]).astype(np.int64)
+        self.targets = np.unique(self.beside).astype(np.int32)
+        self.workstations = self.endpoints = np.zeros(0, dtype=np.int64)
+        self.cumulative = np.zeros(0)
         self.rng = rng
 
     def first(self, positions: np.ndarray) -> tuple[np.ndarray, int]:
-        self.station = np.zeros(len(positions), dtype=np.int64)
-        return self.rng.choice(self.beside[0], len(positions)), STATION_WAITS[0]
-
-    def next(self, agent: int, last: int) -> tuple[int, int]:
-        # The same endpoint may serve two kinds in a row: the original allows it, and so does this.
-        station = (int(self.station[agent]) + 1) % len(STATION_WAITS)
-        self.station[agent] = station
-        beside = self.beside[station]
-        return int(beside[self.rng.integers(0, len(beside))]), STATION_WAITS[station]  # as choice() draws, faster
+        self.toggle = np.zeros(len(positions), dtype=np.int64)  # the kind of station each robot heads for
+        return self.rng.choice(self.first_goals, len(positions)), STATION_WAITS[0]
 
 
 #: Bytes a simulation holds per map cell besides the distance tables, with the paper's window of 10 (``pbs``: the
@@ -229,7 +221,7 @@ def simulate(
         trace: keep every agent's cell at every step (``result.positions``, ``(steps + 1, agents)`` flat cells) and
             the tasks finished (``result.finished``).
     """
-    from structgen.domains.warehouse import _mapf, _pbs
+    from structgen.domains.warehouse import _mapf, _pbs, _steps
 
     if planner not in PLANNERS:
         raise InputError(f"unknown planner {planner!r}; choose from {', '.join(PLANNERS)}")
@@ -246,9 +238,9 @@ def simulate(
         raise InputError(f"{agents} agents do not fit on {len(free)} free cells")
     rng = np.random.default_rng(seed)
     if kind.name == MANUFACTURING.name:
-        tasks_of = _ManufacturingTasks(tiles, kind, rng)
+        tasks_of, task_model = _ManufacturingTasks(tiles, kind, rng), _steps.MANUFACTURING_TASKS
     else:
-        tasks_of = _WarehouseTasks(tiles, kind, uneven, rng)
+        tasks_of, task_model = _WarehouseTasks(tiles, kind, uneven, rng), _steps.WAREHOUSE_TASKS
     if restarts is None:
         restarts = max(5, agents // tasks_of.agents_per_restart)
     if node_budget is None:
@@ -285,31 +277,20 @@ def simulate(
     goals[:, 0], waits[:, 0] = tasks_of.first(positions)
     served = np.full(agents, -1, dtype=np.int64)  # steps stood on the first goal (-1: not on it)
 
-    def manhattan(a: int, b: int) -> int:
-        return abs(a // cols - b // cols) + abs(a % cols - b % cols)
-
     tasks = restarts_used = held_total = nodes_total = fallbacks = failed_total = 0
     trail = [positions.copy()] if trace else None
-    finished: list[tuple[int, int, int]] = []
+    finished: list[np.ndarray] = []
+    finished_now = np.zeros((agents * replan, 3), dtype=np.int64)
     last_done = np.zeros(agents, dtype=np.int64)
+    station_waits = np.array(STATION_WAITS, dtype=np.int64)
     congested = False
     t = 0
     while t < steps:
-        # Queue goals until the route through them, task waits included, is longer than the goal horizon. The
-        # routes are measured for all agents at once; goals are drawn agent by agent, in order, for those short.
-        queued = np.arange(MAX_GOALS) < n_goals[:, None]
-        stops = np.concatenate([positions[:, None], goals], axis=1)
-        legs = np.abs(np.diff(stops // cols, axis=1)) + np.abs(np.diff(stops % cols, axis=1)) + waits
-        lengths = np.where(queued, legs, 0).sum(axis=1)
-        for a in np.flatnonzero((lengths <= goal_horizon) & (n_goals < MAX_GOALS)).tolist():
-            length = int(lengths[a])
-            last = int(goals[a, n_goals[a] - 1]) if n_goals[a] > 0 else int(positions[a])
-            while length <= goal_horizon and n_goals[a] < MAX_GOALS:
-                goal, wait = tasks_of.next(a, last)
-                goals[a, n_goals[a]], waits[a, n_goals[a]] = goal, wait
-                n_goals[a] += 1
-                length += manhattan(last, goal) + wait
-                last = goal
+        _steps.queue_goals(
+            positions, goals, waits, n_goals, goal_horizon, cols, rng, task_model, tasks_of.toggle,
+            tasks_of.workstations, tasks_of.cumulative, tasks_of.endpoints, tasks_of.beside, tasks_of.beside_start,
+            station_waits,
+        )  # fmt: skip
         order = rng.permutation(agents)
         if priority == "waiting":  # longest since its last goal first; ties in random order
             order = order[np.argsort(last_done[order], kind="stable")]
@@ -348,28 +329,14 @@ def simulate(
         restarts_used += used
         held_total += held
         todo = min(replan, steps - t)
-        working = np.zeros(agents, dtype=bool)  # stood on a goal for its task during this interval
-        for step in range(1, todo + 1):
-            here = paths[:, step]
-            on_goal = (here == goals[:, 0]) & (n_goals > 0)
-            stood = on_goal & (here == paths[:, step - 1]) & (served >= 0)
-            served = np.where(on_goal, np.where(stood, served + 1, 0), -1)
-            working |= stood
-            done = on_goal & (served >= waits[:, 0])
-            for a in np.flatnonzero(done):
-                last_done[a] = t + step
-                goals[a, :-1] = goals[a, 1:]
-                waits[a, :-1] = waits[a, 1:]
-                n_goals[a] -= 1
-                served[a] = 0 if n_goals[a] > 0 and goals[a, 0] == here[a] else -1
-            tasks += int(done.sum())
-            if trail is not None:
-                trail.append(here.copy())
-                finished.extend((t + step, int(a), int(here[a])) for a in np.flatnonzero(done))
-        still = (paths[:, :replan] == paths[:, :1]).all(axis=1) & ~working
+        done, still = _steps.carry_out(paths, goals, waits, n_goals, served, last_done, t, todo, replan, finished_now)
+        tasks += done
+        if trail is not None:
+            trail.extend(paths[:, 1 : todo + 1].T.copy())
+            finished.append(finished_now[:done].copy())
         positions = paths[:, todo].copy()
         t += todo
-        if todo == replan and int(still.sum()) > agents // 2:
+        if todo == replan and still > agents // 2:
             congested = True
             break
     return SimulationResult(
@@ -384,7 +351,7 @@ def simulate(
         restarts=restarts_used,
         held=held_total,
         positions=None if trail is None else np.stack(trail),
-        finished=None if trail is None else np.array(finished, dtype=np.int64).reshape(-1, 3),
+        finished=None if trail is None else np.concatenate(finished or [np.zeros((0, 3), dtype=np.int64)]),
         nodes=nodes_total,
         fallbacks=fallbacks,
         failed_children=failed_total,
