@@ -311,6 +311,7 @@ def test_when_highs_finds_nothing_in_time_the_greedy_repair_answers():
     tiles = WAREHOUSE.complete(nca.grow(genome, WAREHOUSE.seed(WAREHOUSE.size("33x36").grown), 50))
     result = repair(tiles, WAREHOUSE, shelves=240, time_limit=1.0, greedy_first=False)
     assert result.method == "greedy" and not result.optimal and result.gap == np.inf
+    assert result.searched and result.timed_out  # HiGHS ran and the clock stopped it: this answer may not repeat
     assert violations(result.tiles, WAREHOUSE, shelves=240, fixed=tiles) == []
 
 
@@ -551,7 +552,8 @@ def test_layouts_far_from_valid_skip_highs_and_near_ones_get_it():
 
     empty = WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8))
     far = repair(empty, WAREHOUSE, shelves=240, greedy_beyond=100)
-    assert far.method == "greedy" and not far.optimal and far.seconds < 1  # HiGHS spent its whole minute on this
+    assert far.method == "greedy" and not far.optimal and not far.searched  # HiGHS spent its whole minute on this
+    assert far.seconds < 1 and not far.timed_out
     full = WAREHOUSE.complete(np.full((33, 32), SHELF_TILE, dtype=np.uint8))
     bound = int((full == SHELF_TILE).sum()) - 240
     answered = repair(full, WAREHOUSE, shelves=240, greedy_beyond=100)
@@ -563,6 +565,7 @@ def test_layouts_far_from_valid_skip_highs_and_near_ones_get_it():
     assert (greedy_repair(near, WAREHOUSE, shelves=240) != near).any()
     searched = repair(near, WAREHOUSE, shelves=240, greedy_beyond=100, time_limit=30)
     assert searched.method != "greedy" and searched.optimal and searched.hamming == 0
+    assert searched.searched and not searched.timed_out
     with pytest.raises(ValueError, match="greedy_beyond"):
         repair(near, WAREHOUSE, shelves=240, greedy_beyond=-1)
 

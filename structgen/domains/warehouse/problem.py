@@ -26,6 +26,11 @@ from structgen.domains.warehouse.repair import REPAIR_BYTES_PER_CELL, REPAIR_GRE
 from structgen.domains.warehouse.simulator import PLANNERS
 from structgen.errors import InputError
 
+#: What each warehouse or manufacturing evaluation records beside its objective and measures: ``highs`` is 1 where
+#: HiGHS repaired the layout (0: the greedy repair alone, see ``repair_greedy_beyond``), ``timed_out`` 1 where a
+#: HiGHS solve stopped at its time limit.
+REPAIRED_FIELDS = ("throughput", "congested", "similarity", "hamming", "optimal", "failed", "highs", "timed_out")
+
 __all__ = ["LayoutProblem", "ManufacturingSettings", "MazeSettings", "WarehouseSettings"]
 
 
@@ -181,14 +186,18 @@ class LayoutProblem(Problem):
             low, high = (140.0, 240.0) if settings.size == "33x36" and self.shelves == 240 else (0.0, float(max(self.shelves, 1)))
             self.measure_names = ("shelf_components", "entropy")
             self.measure_ranges = ((low, high), (0.0, 1.0))
-            self.field_names = ("throughput", "congested", "similarity", "hamming", "optimal", "failed")
+            self.field_names = REPAIRED_FIELDS
             # The original's result archive keeps each cell's best throughput, without the similarity term.
             self.result_objective = "throughput" if settings.simulations else None
         elif self.kind.name == "manufacturing":
             self.measure_names = ("stations", "entropy")
             self.measure_ranges = ((0.0, 600.0 if settings.size == "33x36" else float(full[0] * full[1])), (0.0, 1.0))
-            self.field_names = ("throughput", "congested", "similarity", "hamming", "optimal", "failed")
+            self.field_names = REPAIRED_FIELDS
             self.result_objective = "throughput" if settings.simulations else None
+        if self.kind.name != "maze":
+            # Each generation's share of layouts HiGHS repaired, and of repairs stopped by the clock (a run repeats
+            # exactly only while that stays 0).
+            self.mean_fields = ("highs", "timed_out")
         else:
             horizon = float(2 * full[0] * full[1])
             if settings.measures == "walls":
@@ -295,6 +304,8 @@ class LayoutProblem(Problem):
             "hamming": hamming,
             "optimal": float(result.optimal),
             "failed": 0.0,
+            "highs": float(result.searched),
+            "timed_out": float(result.timed_out),
         }
         throughput, congested = self._simulate(result.tiles, seed)
         fields.update(throughput=throughput, congested=congested)

@@ -96,6 +96,9 @@ class RepairResult:
             nothing, or nothing better, in time; random NCAs' 33x36 layouts, nearly all shelves, can leave HiGHS
             without a layout after 60 s).
         status: HiGHS's model status, in its words.
+        searched: whether HiGHS ran (False: ``greedy_beyond`` answered with the greedy repair alone).
+        timed_out: whether a HiGHS solve stopped at its time limit, so that the answer may differ on another
+            machine or another run.
     """
 
     tiles: np.ndarray
@@ -105,6 +108,8 @@ class RepairResult:
     seconds: float
     method: str
     status: str
+    searched: bool = True
+    timed_out: bool = False
 
     @property
     def gap_text(self) -> str:
@@ -135,6 +140,8 @@ class _Model:
         self.row_lower: list[np.ndarray] = []
         self.row_upper: list[np.ndarray] = []
         self.n_rows = 0
+        # Whether any solve so far stopped at its time limit: then the answer depends on the machine's speed.
+        self.timed_out = False
         self.cost: np.ndarray | None = None
         self.changes_offset = 0.0  # changed cells = cost @ values + changes_offset
         self.tile_columns: np.ndarray | None = None  # (tiles, storage cells) column numbers, warehouses only
@@ -210,6 +217,7 @@ class _Model:
             h.setSolution(solution)
         h.run()
         status = h.getModelStatus()
+        self.timed_out |= status == highspy.HighsModelStatus.kTimeLimit
         info = h.getInfo()
         values = np.asarray(h.getSolution().col_value) if info.primal_solution_status == 2 else None
         return _Solution(
@@ -381,6 +389,7 @@ def repair(
         time.perf_counter() - began,
         method,
         solution.status,
+        timed_out=model.timed_out,
     )
 
 
@@ -413,7 +422,8 @@ def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> Re
         raise RepairError(f"the greedy {kind.name} layout is invalid: {'; '.join(broken)}")
     status = "optimal: as many changes as the shelf count needs" if optimal else "far from valid: not searched"
     gap = 0.0 if optimal else float("inf")
-    return RepairResult(greedy.astype(np.uint8), hamming, optimal, gap, time.perf_counter() - began, "greedy", status)
+    seconds = time.perf_counter() - began
+    return RepairResult(greedy.astype(np.uint8), hamming, optimal, gap, seconds, "greedy", status, searched=False)
 
 
 #: Share of the time left that the linear relaxation, and then the rounding's smaller MILP, may use.
