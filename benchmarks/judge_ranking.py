@@ -1,0 +1,95 @@
+"""Does training's judge rank layouts as the paper's planner does? The elites of a warehouse or manufacturing run,
+grown, repaired as the run repaired them and simulated by the run's judge (its ``planner``, ``simulations`` and
+``simulation_steps``) and again by ``pbs`` with the same seeds.
+
+    python benchmarks/judge_ranking.py RUN_DIR [--layouts 200] [--workers 2] [--json OUT.json]
+
+Prints the rank agreement of the two judges over the layouts, by throughput and by the objective the run maximises
+(throughput + alpha x similarity): Spearman's rho and how many of each judge's ten best are the other's ten best.
+The issue's bar for a cheaper judge: rho at least 0.95 and 8 of the top 10 shared over at least 200 layouts.
+Layouts are the archive's elites (all of them, or ``--layouts`` drawn at random with seed 0), the layouts training
+compares.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from structgen.domains.warehouse.measures import similarity as similarity_of
+from structgen.domains.warehouse.problem import LayoutProblem
+from structgen.experiment import load_experiment
+
+_PROBLEMS: dict[str, LayoutProblem] = {}
+
+
+def _problem(run: str, planner: str | None) -> LayoutProblem:
+    key = f"{run}:{planner}"
+    if key not in _PROBLEMS:
+        problem = load_experiment(Path(run) / "config.toml").make_problem()
+        settings = problem.settings if planner is None else dataclasses.replace(problem.settings, planner=planner)
+        _PROBLEMS[key] = LayoutProblem(settings)
+    return _PROBLEMS[key]
+
+
+def _judge_both(run: str, genome: np.ndarray, seed: int) -> dict:
+    trained, paper = _problem(run, None), _problem(run, "pbs")
+    tiles = trained.grow(genome[None])[0]
+    repaired = trained._repair(tiles, seed)
+    _, similarity = similarity_of(tiles, repaired.tiles, trained.kind)
+    row = {"similarity": similarity, "hamming": repaired.hamming}
+    for name, problem in (("judge", trained), ("pbs", paper)):
+        began = time.process_time()
+        throughput, congested = problem._simulate(repaired.tiles, seed)
+        row[name] = {"throughput": throughput, "congested": congested, "cpu_s": time.process_time() - began}
+    return row
+
+
+def top_shared(a: np.ndarray, b: np.ndarray, k: int = 10) -> int:
+    """How many of the ``k`` largest of ``a`` are among the ``k`` largest of ``b`` (ties broken by index)."""
+    first = set(np.argsort(-a, kind="stable")[:k].tolist())
+    return len(first & set(np.argsort(-b, kind="stable")[:k].tolist()))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", help="a warehouse or manufacturing run folder (with archive_solutions.npy)")
+    parser.add_argument("--layouts", type=int, default=200, help="elites to judge (default 200; all if fewer)")
+    parser.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    parser.add_argument("--json", help="also write every layout's numbers here")
+    args = parser.parse_args()
+    genomes = np.load(Path(args.run) / "archive_solutions.npy")
+    rng = np.random.default_rng(0)
+    chosen = np.sort(rng.choice(len(genomes), min(args.layouts, len(genomes)), replace=False))
+    alpha = _problem(args.run, None).settings.alpha
+    judge = _problem(args.run, None).settings.planner
+    with ProcessPoolExecutor(args.workers) as pool:
+        rows = list(pool.map(_judge_both, [args.run] * len(chosen), genomes[chosen], chosen.tolist()))
+    table = {}
+    for name in ("judge", "pbs"):
+        throughput = np.array([r[name]["throughput"] for r in rows])
+        table[name] = {"throughput": throughput, "objective": throughput + alpha * np.array([r["similarity"] for r in rows])}
+    print(f"{len(rows)} elites of {args.run} ({len(genomes)} in its archive); training's judge: {judge}")
+    print()
+    print(f"| ranked by | Spearman rho, {judge} against pbs | top 10 shared | mean {judge} | mean pbs |")
+    print("|---|---|---|---|---|")
+    for what in ("throughput", "objective"):
+        a, b = table["judge"][what], table["pbs"][what]
+        rho = spearmanr(a, b).statistic
+        print(f"| {what} | {rho:.3f} | {top_shared(a, b)} of 10 | {a.mean():.3f} | {b.mean():.3f} |")
+    cpu = {name: np.mean([r[name]["cpu_s"] for r in rows]) for name in ("judge", "pbs")}
+    print()
+    print(f"CPU seconds per layout's simulations: {judge} {cpu['judge']:.2f}, pbs {cpu['pbs']:.2f}")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"elites": chosen.tolist(), "rows": rows}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
