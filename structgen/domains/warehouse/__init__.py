@@ -4,7 +4,8 @@
 - :mod:`.measures`: shelf components, pattern entropy, similarity, and the independent validity check;
 - :mod:`.repair`: the fewest-changes repair as a MILP solved by HiGHS, with a greedy start for large maps;
 - :mod:`.maze`: start and goal of a maze, and agents that walk it;
-- :mod:`.simulator` (with the compiled :mod:`._mapf`): robots fetching goals on a warehouse floor, its throughput;
+- :mod:`.simulator` (with the compiled :mod:`._mapf`, :mod:`._pbs` and :mod:`._steps`): robots fetching goals on a
+  warehouse floor, its throughput;
 - :mod:`.problem`: the three problems; :mod:`.commands`: ``generate``, ``repair``, ``simulate``, ``show``,
   ``measure``.
 
