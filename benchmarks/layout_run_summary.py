@@ -1,0 +1,99 @@
+"""A warehouse or manufacturing training run, summed up small enough to commit (the run folder itself is not):
+its best generator's weights, its QD score and coverage over evaluations beside the paper's Table 4, and its
+archive heatmap.
+
+    python benchmarks/layout_run_summary.py RUN_DIR --name even [-o docs/layout_runs]
+
+Writes into the output folder ``NAME_generator.npy`` (the best genome by training's objective, the NCA's weights:
+``problem.grow(genome[None])`` regrows it), ``NAME_summary.json`` (evaluations, the share of the paper's budget, QD
+score and coverage per generation, the paper's values, the best candidate's fields) and ``NAME_qd.png`` (the curves
+with the paper's end values) and ``NAME_archive.png`` (the run's result archive) and prints one table row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from evolution.files import atomic_write
+from evolution.plots import figure_png, new_figure
+
+#: The paper's Table 4 (CMA-MAE + NCA, mean and standard error over its runs of 10,000 evaluations), by domain.
+PAPER = {
+    "warehouse-even": {"qd_score": (20366.07, 653.46), "coverage": (0.33, 0.01)},
+    "warehouse-uneven": {"qd_score": (19985.23, 493.98), "coverage": (0.33, 0.01)},
+    "manufacturing": {"qd_score": (6449.56, 1106.83), "coverage": (0.18, 0.02)},
+}
+PAPER_EVALUATIONS = 10_000
+
+
+def _domain(config: str) -> str:
+    if "manufacturing" in config:
+        return "manufacturing"
+    return "warehouse-uneven" if "uneven = true" in config else "warehouse-even"
+
+
+def summarise(run: Path, name: str, out: Path) -> dict:
+    rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line.strip()]
+    if not rows or "qd_score" not in rows[-1]:
+        raise SystemExit(f"{run}: no quality-diversity metrics (is it a CMA-MAE or MAP-Elites layout run?)")
+    domain = _domain((run / "config.toml").read_text())
+    paper = PAPER[domain]
+    best = json.loads((run / "best" / "best.json").read_text())
+    out.mkdir(parents=True, exist_ok=True)
+    genome = np.load(run / "best" / "genome.npy")
+    np.save(out / f"{name}_generator.npy", genome)
+    evaluations = rows[-1]["evaluations"]
+    summary = {
+        "run": name,
+        "domain": domain,
+        "evaluations": evaluations,
+        "share_of_paper_budget": evaluations / PAPER_EVALUATIONS,
+        "qd_score": rows[-1]["qd_score"],
+        "coverage": rows[-1]["coverage"],
+        "paper": {key: {"mean": m, "standard_error": e} for key, (m, e) in paper.items()},
+        "best": best,
+        "curve": [{k: r[k] for k in ("generation", "evaluations", "qd_score", "coverage")} for r in rows],
+    }
+    atomic_write(out / f"{name}_summary.json", json.dumps(summary, indent=1) + "\n")
+    figure = new_figure(figsize=(8, 5), layout="constrained")
+    top, bottom = figure.subplots(2, 1, sharex=True)
+    x = [r["evaluations"] for r in rows]
+    for ax, key, scale, label in ((top, "qd_score", 1, "QD score"), (bottom, "coverage", 100, "coverage (% of cells)")):
+        ax.plot(x, [scale * r[key] for r in rows], lw=2, label="this run")
+        mean, error = paper[key]
+        ax.axhline(scale * mean, color="k", ls="--", lw=1, label=f"paper at {PAPER_EVALUATIONS:,} evaluations")
+        ax.axhspan(scale * (mean - error), scale * (mean + error), color="k", alpha=0.1)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    top.legend(loc="lower right", fontsize=8)
+    top.set_title(f"{domain}: {evaluations:,} evaluations ({evaluations / PAPER_EVALUATIONS:.0%} of the paper's)")
+    bottom.set_xlabel("evaluations")
+    atomic_write(out / f"{name}_qd.png", figure_png(figure))
+    shutil.copyfile(run / "archive.png", out / f"{name}_archive.png")
+    return summary
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", type=Path, help="the run folder")
+    parser.add_argument("--name", required=True, help="a short name for the files (letters, digits, - and _)")
+    parser.add_argument("-o", "--out", type=Path, default=Path("docs/layout_runs"), help="output folder")
+    args = parser.parse_args()
+    s = summarise(args.run, args.name, args.out)
+    paper = s["paper"]
+    print("| run | evaluations (share of the paper's) | QD score (paper) | coverage (paper) | best objective |")
+    print("|---|---|---|---|---|")
+    print(
+        f"| {s['run']} | {s['evaluations']:,} ({s['share_of_paper_budget']:.0%}) | {s['qd_score']:,.0f} "
+        f"({paper['qd_score']['mean']:,.0f}) | {s['coverage']:.3f} ({paper['coverage']['mean']:.2f}) | "
+        f"{s['best']['objective']:.3f} |"
+    )
+
+
+if __name__ == "__main__":
+    main()
