@@ -118,3 +118,34 @@ def test_training_sends_layouts_far_from_valid_to_the_greedy_repair_as_its_setti
     for beyond, expected in ((-1, None), (0, 0), (100, 100)):
         LayoutProblem(WarehouseSettings(**tiny, repair_greedy_beyond=beyond)).evaluate(genomes, np.arange(1))
         assert asked.pop() == expected
+
+
+@pytest.mark.slow
+def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_weights(tmp_path, capsys):
+    import runpy
+    import sys
+    from pathlib import Path
+
+    import numpy as np
+
+    from structgen.experiment import load_experiment
+
+    config = tmp_path / "warehouse.toml"
+    config.write_text(TINY_WAREHOUSE.replace("generations = 4", "generations = 2"))
+    code, _, err = cli(capsys, "evolve", config, "--run-dir", tmp_path / "run")
+    assert code == 0, err
+    script = Path(__file__).parents[2] / "benchmarks" / "layout_run_summary.py"
+    argv, sys.argv = sys.argv, [str(script), str(tmp_path / "run"), "--name", "tiny", "-o", str(tmp_path / "docs")]
+    try:
+        runpy.run_path(str(script), run_name="__main__")
+    finally:
+        sys.argv = argv
+    summary = json.loads((tmp_path / "docs" / "tiny_summary.json").read_text())
+    assert summary["evaluations"] == 12 and summary["share_of_paper_budget"] == 12 / 10_000
+    assert [row["generation"] for row in summary["curve"]] == [1, 2]
+    assert {p.name for p in (tmp_path / "docs").iterdir()} == {
+        "tiny_generator.npy", "tiny_summary.json", "tiny_qd.png", "tiny_archive.png"
+    }  # fmt: skip
+    problem = load_experiment(tmp_path / "run" / "config.toml").make_problem()
+    regrown = problem.grow(np.load(tmp_path / "docs" / "tiny_generator.npy")[None])[0]
+    assert (regrown == Grid.load(tmp_path / "run" / "best" / "unrepaired.json").tiles).all()
