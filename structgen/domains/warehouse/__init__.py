@@ -18,8 +18,8 @@ _PACKAGE = "structgen.domains.warehouse"
 
 # The main job of each: the original's CMA-MAE shape (5 emitters of 10, sigma0 0.2) for a few generations.
 _CMA_MAE = {"cma_mae": {"emitters": 5, "batch_size": 10, "sigma0": 0.2, "cells": [100, 100]}}
-# An evaluation repairs and simulates: random NCAs' layouts can hold HiGHS for its whole minute, so the main job
-# gives it 5 s (the greedy repair answers when HiGHS has nothing) and runs two generations.
+# An evaluation repairs and simulates: layouts far from valid go to the greedy repair (repair_greedy_beyond), and
+# HiGHS gets at most 5 s for the rest; two generations, about 2 minutes on 2 cores.
 _REPAIRED_MAIN = MainJob(
     run={"generations": 2, "seed": 0}, problem={"repair_time_limit": 5.0}, optimizer="cma_mae", optimizers=_CMA_MAE
 )
