@@ -3,12 +3,14 @@ grown, repaired as the run repaired them and simulated by the run's judge (its `
 ``simulation_steps``) and again by ``pbs`` with the same seeds.
 
     python benchmarks/judge_ranking.py RUN_DIR [--layouts 200] [--workers 2] [--json OUT.json]
+    python benchmarks/judge_ranking.py RUN_DIR --next 4 [--workers 2]
 
 Prints the rank agreement of the two judges over the layouts, by throughput and by the objective the run maximises
 (throughput + alpha x similarity): Spearman's rho and how many of each judge's ten best are the other's ten best.
 The issue's bar for a cheaper judge: rho at least 0.95 and 8 of the top 10 shared over at least 200 layouts.
 Layouts are the archive's elites (all of them, or ``--layouts`` drawn at random with seed 0), the layouts training
-compares.
+compares; with ``--next N``, the layouts of the N generations the run draws after its last checkpoint (asked of its
+optimiser and told the training judge's results, as the run itself does; the run folder is only read).
 """
 
 from __future__ import annotations
@@ -52,6 +54,65 @@ def _judge_both(run: str, genome: np.ndarray, seed: int) -> dict:
     return row
 
 
+def _judge_evaluated(run: str, repaired: np.ndarray, seed: int) -> dict:
+    paper = _problem(run, "pbs")
+    began = time.process_time()
+    throughput, congested = paper._simulate(repaired, seed)
+    return {"throughput": throughput, "congested": congested, "cpu_s": time.process_time() - began}
+
+
+def _next_generations(run: str, generations: int, workers: int) -> list[dict]:
+    """The run's next ``generations`` batches from its checkpoint, each judged by training's judge (told to the
+    optimiser, so the next batch is the run's) and by ``pbs``."""
+    from evolution.runfolder import RunFolder
+
+    trained = _problem(run, None)
+    state = RunFolder(Path(run)).load_checkpoint(trained.genome_types, trained)
+    optimizer = state.optimizer
+    optimizer.attach(trained)
+    rows = []
+    with ProcessPoolExecutor(workers) as pool:
+        for generation in range(state.generation + 1, state.generation + 1 + generations):
+            genomes = np.asarray(optimizer.ask())
+            seeds = np.random.SeedSequence(generation).generate_state(len(genomes))
+            chunks = np.array_split(np.arange(len(genomes)), workers)
+            parts = list(pool.map(_evaluate_part, [run] * len(chunks), [genomes[c] for c in chunks], [seeds[c] for c in chunks]))
+            evaluation = _joined([part for part, _ in parts])
+            judge_cpu = sum(cpu for _, cpu in parts) / len(genomes)  # growth and repair included
+            optimizer.tell(evaluation.objective, evaluation.measures, **evaluation.fields)
+            kept = [i for i, extra in enumerate(evaluation.extras) if extra is not None]
+            paper = list(pool.map(_judge_evaluated, [run] * len(kept), [evaluation.extras[i][0] for i in kept],
+                                  [int(seeds[i]) for i in kept]))  # fmt: skip
+            for i, judged in zip(kept, paper):
+                fields = evaluation.fields
+                rows.append({
+                    "similarity": float(fields["similarity"][i]),
+                    "hamming": float(fields["hamming"][i]),
+                    "judge": {"throughput": float(fields["throughput"][i]), "congested": float(fields["congested"][i]),
+                              "cpu_s": judge_cpu},
+                    "pbs": judged,
+                })  # fmt: skip
+            print(f"generation {generation}: {len(kept)} layouts judged", flush=True)
+    return rows
+
+
+def _evaluate_part(run: str, genomes: np.ndarray, seeds: np.ndarray):
+    began = time.process_time()
+    evaluation = _problem(run, None).evaluate(genomes, seeds)
+    return evaluation, time.process_time() - began
+
+
+def _joined(parts):
+    from evolution.problem import Evaluation
+
+    return Evaluation(
+        np.concatenate([p.objective for p in parts]),
+        np.concatenate([p.measures for p in parts]),
+        {name: np.concatenate([p.fields[name] for p in parts]) for name in parts[0].fields},
+        extras=[extra for p in parts for extra in p.extras],
+    )
+
+
 def top_shared(a: np.ndarray, b: np.ndarray, k: int = 10) -> int:
     """How many of the ``k`` largest of ``a`` are among the ``k`` largest of ``b`` (ties broken by index)."""
     first = set(np.argsort(-a, kind="stable")[:k].tolist())
@@ -63,20 +124,27 @@ def main() -> None:
     parser.add_argument("run", help="a warehouse or manufacturing run folder (with archive_solutions.npy)")
     parser.add_argument("--layouts", type=int, default=200, help="elites to judge (default 200; all if fewer)")
     parser.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    parser.add_argument("--next", type=int, default=0, metavar="N", help="judge the run's next N generations instead")
     parser.add_argument("--json", help="also write every layout's numbers here")
     args = parser.parse_args()
-    genomes = np.load(Path(args.run) / "archive_solutions.npy")
-    rng = np.random.default_rng(0)
-    chosen = np.sort(rng.choice(len(genomes), min(args.layouts, len(genomes)), replace=False))
     alpha = _problem(args.run, None).settings.alpha
     judge = _problem(args.run, None).settings.planner
-    with ProcessPoolExecutor(args.workers) as pool:
-        rows = list(pool.map(_judge_both, [args.run] * len(chosen), genomes[chosen], chosen.tolist()))
+    if args.next:
+        rows = _next_generations(args.run, args.next, args.workers)
+        chosen = np.arange(len(rows))
+        source = f"the next {args.next} generations of {args.run} after its checkpoint"
+    else:
+        genomes = np.load(Path(args.run) / "archive_solutions.npy")
+        rng = np.random.default_rng(0)
+        chosen = np.sort(rng.choice(len(genomes), min(args.layouts, len(genomes)), replace=False))
+        with ProcessPoolExecutor(args.workers) as pool:
+            rows = list(pool.map(_judge_both, [args.run] * len(chosen), genomes[chosen], chosen.tolist()))
+        source = f"elites of {args.run} ({len(genomes)} in its archive)"
     table = {}
     for name in ("judge", "pbs"):
         throughput = np.array([r[name]["throughput"] for r in rows])
         table[name] = {"throughput": throughput, "objective": throughput + alpha * np.array([r["similarity"] for r in rows])}
-    print(f"{len(rows)} elites of {args.run} ({len(genomes)} in its archive); training's judge: {judge}")
+    print(f"{len(rows)} layouts, {source}; training's judge: {judge}")
     print()
     print(f"| ranked by | Spearman rho, {judge} against pbs | top 10 shared | mean {judge} | mean pbs |")
     print("|---|---|---|---|---|")
