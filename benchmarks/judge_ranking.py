@@ -55,10 +55,14 @@ def _judge_both(run: str, genome: np.ndarray, seed: int) -> dict:
 
 
 def _judge_evaluated(run: str, repaired: np.ndarray, seed: int) -> dict:
-    paper = _problem(run, "pbs")
-    began = time.process_time()
-    throughput, congested = paper._simulate(repaired, seed)
-    return {"throughput": throughput, "congested": congested, "cpu_s": time.process_time() - began}
+    """``pbs`` on a layout training judged with ``seed``; and, for how far simulations' luck alone moves a ranking,
+    both judges again with other simulation seeds."""
+    judged = {}
+    for name, planner, seeded in (("pbs", "pbs", seed), ("pbs_again", "pbs", seed + 1), ("judge_again", None, seed + 1)):
+        began = time.process_time()
+        throughput, congested = _problem(run, planner)._simulate(repaired, seeded)
+        judged[name] = {"throughput": throughput, "congested": congested, "cpu_s": time.process_time() - began}
+    return judged
 
 
 def _next_generations(run: str, generations: int, workers: int) -> list[dict]:
@@ -90,7 +94,7 @@ def _next_generations(run: str, generations: int, workers: int) -> list[dict]:
                     "hamming": float(fields["hamming"][i]),
                     "judge": {"throughput": float(fields["throughput"][i]), "congested": float(fields["congested"][i]),
                               "cpu_s": judge_cpu},
-                    "pbs": judged,
+                    **judged,
                 })  # fmt: skip
             print(f"generation {generation}: {len(kept)} layouts judged", flush=True)
     return rows
@@ -141,18 +145,27 @@ def main() -> None:
             rows = list(pool.map(_judge_both, [args.run] * len(chosen), genomes[chosen], chosen.tolist()))
         source = f"elites of {args.run} ({len(genomes)} in its archive)"
     table = {}
-    for name in ("judge", "pbs"):
+    for name in ("judge", "pbs", "pbs_again", "judge_again"):
+        if name not in rows[0]:
+            continue
         throughput = np.array([r[name]["throughput"] for r in rows])
         table[name] = {"throughput": throughput, "objective": throughput + alpha * np.array([r["similarity"] for r in rows])}
     print(f"{len(rows)} layouts, {source}; training's judge: {judge}")
     print()
-    print(f"| ranked by | Spearman rho, {judge} against pbs | top 10 shared | mean {judge} | mean pbs |")
+    print("| ranked by | judges compared | Spearman rho | top 10 shared | means |")
     print("|---|---|---|---|---|")
+    pairs = [("judge", "pbs", f"{judge} against pbs, same seeds")]
+    if "pbs_again" in table:
+        pairs += [
+            ("pbs_again", "pbs", "pbs against pbs, other seeds"),
+            ("judge_again", "judge", f"{judge} against {judge}, other seeds"),
+        ]
     for what in ("throughput", "objective"):
-        a, b = table["judge"][what], table["pbs"][what]
-        rho = spearmanr(a, b).statistic
-        print(f"| {what} | {rho:.3f} | {top_shared(a, b)} of 10 | {a.mean():.3f} | {b.mean():.3f} |")
-    cpu = {name: np.mean([r[name]["cpu_s"] for r in rows]) for name in ("judge", "pbs")}
+        for first, second, words in pairs:
+            a, b = table[first][what], table[second][what]
+            rho = spearmanr(a, b).statistic
+            print(f"| {what} | {words} | {rho:.3f} | {top_shared(a, b)} of 10 | {a.mean():.3f}, {b.mean():.3f} |")
+    cpu = {name: np.mean([r[name]["cpu_s"] for r in rows]) for name in ("judge", "pbs")}  # the judge's: growth, repair too
     print()
     print(f"CPU seconds per layout's simulations: {judge} {cpu['judge']:.2f}, pbs {cpu['pbs']:.2f}")
     if args.json:
