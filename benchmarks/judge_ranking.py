@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import spearmanr
 
+from evolution.problem import Evaluation
 from structgen.domains.warehouse.measures import similarity as similarity_of
 from structgen.domains.warehouse.problem import LayoutProblem
 from structgen.experiment import load_experiment
@@ -81,7 +82,7 @@ def _next_generations(run: str, generations: int, workers: int) -> list[dict]:
             seeds = np.random.SeedSequence(generation).generate_state(len(genomes))
             chunks = np.array_split(np.arange(len(genomes)), workers)
             parts = list(pool.map(_evaluate_part, [run] * len(chunks), [genomes[c] for c in chunks], [seeds[c] for c in chunks]))
-            evaluation = _joined([part for part, _ in parts])
+            evaluation = Evaluation.concatenate([part for part, _ in parts])
             judge_cpu = sum(cpu for _, cpu in parts) / len(genomes)  # growth and repair included
             optimizer.tell(evaluation.objective, evaluation.measures, **evaluation.fields)
             kept = [i for i, extra in enumerate(evaluation.extras) if extra is not None]
@@ -104,17 +105,6 @@ def _evaluate_part(run: str, genomes: np.ndarray, seeds: np.ndarray):
     began = time.process_time()
     evaluation = _problem(run, None).evaluate(genomes, seeds)
     return evaluation, time.process_time() - began
-
-
-def _joined(parts):
-    from evolution.problem import Evaluation
-
-    return Evaluation(
-        np.concatenate([p.objective for p in parts]),
-        np.concatenate([p.measures for p in parts]),
-        {name: np.concatenate([p.fields[name] for p in parts]) for name in parts[0].fields},
-        extras=[extra for p in parts for extra in p.extras],
-    )
 
 
 def top_shared(a: np.ndarray, b: np.ndarray, k: int = 10) -> int:

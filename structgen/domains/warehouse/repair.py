@@ -398,10 +398,14 @@ def distance_from_valid(tiles: np.ndarray, kind: LayoutKind = WAREHOUSE, *, shel
     the cells that break a rule of their own (:func:`~structgen.domains.warehouse.measures.broken_cells`). The first
     term is a lower bound on any repair's changes; the second says how much of the layout needs rearranging."""
     tiles = np.asarray(tiles)
-    distance = int(broken_cells(tiles, kind).sum())
-    if kind.name == "warehouse" and shelves is not None:
-        distance += abs(int((tiles == kind.vocabulary.index("@")).sum()) - shelves)
-    return distance
+    return int(broken_cells(tiles, kind).sum()) + _shelves_off(tiles, kind, shelves)
+
+
+def _shelves_off(tiles: np.ndarray, kind: LayoutKind, shelves: int | None) -> int:
+    """Shelves too many or too few (warehouse, with a shelf count): every repair changes at least this many cells."""
+    if kind.name != "warehouse" or shelves is None:
+        return 0
+    return abs(int((tiles == kind.vocabulary.index("@")).sum()) - shelves)
 
 
 def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> RepairResult | None:
@@ -413,8 +417,7 @@ def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> Re
     except RepairError:
         return None
     hamming = int((greedy != tiles).sum())
-    bound = abs(int((tiles == kind.vocabulary.index("@")).sum()) - shelves) if kind.name == "warehouse" else 0
-    optimal = hamming <= bound
+    optimal = hamming <= _shelves_off(tiles, kind, shelves)
     if not optimal and distance_from_valid(tiles, kind, shelves=shelves) <= beyond:
         return None
     broken = violations(greedy, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
