@@ -14,7 +14,7 @@ from structgen.conv_nca import ConvNCA, parameter_count
 from structgen.domains.warehouse.layouts import MANUFACTURING, MAZE, WAREHOUSE
 from structgen.domains.warehouse.maze import AGENTS, diameter, run_episodes
 from structgen.domains.warehouse.measures import broken_cells, pattern_entropy, shelf_components, similarity, violations
-from structgen.domains.warehouse.repair import RepairError, greedy_repair, repair
+from structgen.domains.warehouse.repair import RepairError, distance_from_valid, greedy_repair, repair
 from structgen.grid import Grid, GridError
 from tests import reference
 from tests.layouts.reference_conv_nca import reference_grow
@@ -548,11 +548,10 @@ def test_the_greedy_repair_spreads_shelves_over_the_map_with_aisles_across_the_r
 
 
 def test_layouts_far_from_valid_skip_highs_and_near_ones_get_it():
-    from structgen.domains.warehouse.repair import distance_from_valid
 
     empty = WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8))
     far = repair(empty, WAREHOUSE, shelves=240, greedy_beyond=100)
-    assert far.method == "greedy" and not far.optimal and not far.searched  # HiGHS spent its whole minute on this
+    assert far.method in ("greedy", "patch") and not far.optimal and not far.searched  # HiGHS spent a minute here
     assert far.seconds < 1 and not far.timed_out
     full = WAREHOUSE.complete(np.full((33, 32), SHELF_TILE, dtype=np.uint8))
     bound = int((full == SHELF_TILE).sum()) - 240
@@ -564,10 +563,38 @@ def test_layouts_far_from_valid_skip_highs_and_near_ones_get_it():
     assert distance_from_valid(near, WAREHOUSE, shelves=240) == 0
     assert (greedy_repair(near, WAREHOUSE, shelves=240) != near).any()
     searched = repair(near, WAREHOUSE, shelves=240, greedy_beyond=100, time_limit=30)
-    assert searched.method != "greedy" and searched.optimal and searched.hamming == 0
+    assert searched.method not in ("greedy", "patch") and searched.optimal and searched.hamming == 0
     assert searched.searched and not searched.timed_out
     with pytest.raises(ValueError, match="greedy_beyond"):
         repair(near, WAREHOUSE, shelves=240, greedy_beyond=-1)
+
+
+def test_the_patch_repair_keeps_a_damaged_layout_and_is_valid_on_random_growths():
+    # The router's cheap answer for layouts far from valid must keep what the growth got right (the archive's
+    # measures come from it) and never hand out an invalid layout.
+    from structgen.domains.warehouse.patch import patch_repair
+
+    rng = np.random.default_rng(3)
+    valid = greedy_repair(WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8)), WAREHOUSE, shelves=240)
+    damaged = valid.copy()
+    storage = damaged[:, WAREHOUSE.border : -WAREHOUSE.border]
+    cells = rng.choice(storage.size, size=250, replace=False)
+    storage.flat[cells] = rng.integers(0, 3, size=250)  # floor, shelf or endpoint at random
+    assert distance_from_valid(damaged, WAREHOUSE, shelves=240) > 100
+    patched = patch_repair(damaged, shelves=240)
+    assert patched is not None and violations(patched, WAREHOUSE, shelves=240, fixed=damaged) == []
+    changes = int((patched != damaged).sum())
+    assert changes < 250, f"the patch changed {changes} cells of a layout 250 cells from a valid one"
+    assert changes < int((greedy_repair(damaged, WAREHOUSE, shelves=240) != damaged).sum())
+    routed = repair(damaged, WAREHOUSE, shelves=240, greedy_beyond=100)
+    assert routed.method == "patch" and routed.hamming == changes and not routed.searched
+    for density in (0.05, 0.2, 0.4, 0.6, 0.9):
+        for _ in range(4):
+            grown = WAREHOUSE.complete(rng.choice(3, size=(33, 32), p=[1 - density, density * 0.7, density * 0.3]))
+            patched = patch_repair(grown, shelves=240)
+            assert patched is not None, f"no patch at shelf density {density}"
+            assert violations(patched, WAREHOUSE, shelves=240, fixed=grown) == []
+            assert np.array_equal(patched, patch_repair(grown, shelves=240))  # deterministic
 
 
 def _valid_with_one_shelf_moved(tiles: np.ndarray):

@@ -37,6 +37,7 @@ from scipy import ndimage, sparse
 from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, REPAIR_TIME_LIMIT, WAREHOUSE, LayoutKind
 from structgen.domains.warehouse.measures import broken_cells, neighbour_count, violations
+from structgen.domains.warehouse.patch import patch_repair
 from structgen.errors import InputError
 
 log = logging.getLogger(__name__)
@@ -94,9 +95,10 @@ class RepairResult:
         method: ``"rounded relaxation"`` (optimal without the full search), ``"milp"``, ``"milp from rounded
             relaxation"``, ``"milp from greedy"`` (the full search from that start) or ``"greedy"`` (the MILP found
             nothing, or nothing better, in time; random NCAs' 33x36 layouts, nearly all shelves, can leave HiGHS
-            without a layout after 60 s).
+            without a layout after 60 s), or ``"patch"`` (``greedy_beyond``'s answer from
+            :func:`~structgen.domains.warehouse.patch.patch_repair`).
         status: HiGHS's model status, in its words.
-        searched: whether HiGHS ran (False: ``greedy_beyond`` answered with the greedy repair alone).
+        searched: whether HiGHS ran (False: ``greedy_beyond`` answered without it).
         timed_out: whether a HiGHS solve stopped at its time limit, so that the answer may differ on another
             machine or another run.
     """
@@ -292,9 +294,11 @@ def repair(
             None: for warehouses above :data:`GREEDY_FIRST_CELLS` cells, where the full search keeps little of a
             large layout's pattern (a tiled 101x102 warehouse: 255 changes in 14 s locally, as many as the
             original's CPLEX made, against 5,528 from the full search in 120 s).
-        greedy_beyond: answer a layout more than this many cells from valid (:func:`distance_from_valid`) with the
-            greedy repair alone, without HiGHS (``method`` "greedy"); a greedy answer that changes no more cells than
-            the shelf count must change is the fewest changes and ends any repair (``method`` "greedy", optimal).
+        greedy_beyond: answer a layout more than this many cells from valid (:func:`distance_from_valid`) without
+            HiGHS: with the row repair (``method`` "greedy") or, for warehouses, the patch repair
+            (:func:`~structgen.domains.warehouse.patch.patch_repair`, ``method`` "patch", which keeps the growth's
+            pattern), whichever changes fewer cells; a row answer that changes no more cells than the shelf count
+            must change is the fewest changes and ends any repair (``method`` "greedy", optimal).
             HiGHS spends its whole time limit on layouts far from valid (random NCAs' 33x36 layouts with no shelves:
             a minute, then the greedy answer anyway), so a training run repeats exactly and costs little only if
             they never reach it. None: every layout goes to HiGHS.
@@ -415,10 +419,19 @@ def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> Re
     try:
         greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
     except RepairError:
-        return None
-    hamming = int((greedy != tiles).sum())
+        greedy = None
+    hamming = np.inf if greedy is None else int((greedy != tiles).sum())
     optimal = hamming <= _shelves_off(tiles, kind, shelves)
     if not optimal and distance_from_valid(tiles, kind, shelves=shelves) <= beyond:
+        return None
+    method = "greedy"
+    if not optimal and kind.name == "warehouse":
+        # The patch repair keeps the growth's pattern where the row repair replaces it; the fewer changes wins
+        # (ties to the rows, which carry robots well), as the paper's repair takes the fewest.
+        patched = patch_repair(tiles, shelves=shelves, row_offset=_row_offset(greedy, kind))
+        if patched is not None and int((patched != tiles).sum()) < hamming:
+            greedy, hamming, method = patched, int((patched != tiles).sum()), "patch"
+    if greedy is None:
         return None
     broken = violations(greedy, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
     if broken:  # as for HiGHS's answers: never hand out an invalid layout
@@ -426,7 +439,15 @@ def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> Re
     status = "optimal: as many changes as the shelf count needs" if optimal else "far from valid: not searched"
     gap = 0.0 if optimal else float("inf")
     seconds = time.perf_counter() - began
-    return RepairResult(greedy.astype(np.uint8), hamming, optimal, gap, seconds, "greedy", status, searched=False)
+    return RepairResult(greedy.astype(np.uint8), hamming, optimal, gap, seconds, method, status, searched=False)
+
+
+def _row_offset(greedy: np.ndarray | None, kind: LayoutKind) -> int:
+    """Which rows (``r % 3``) the row repair chose for ``greedy``'s shelves: the patch repair adds on the same."""
+    if greedy is None:
+        return 0
+    rows = np.flatnonzero((greedy == kind.vocabulary.index("@")).any(axis=1))
+    return int(rows[0] % 3) if len(rows) else 0
 
 
 #: Share of the time left that the linear relaxation, and then the rounding's smaller MILP, may use.
