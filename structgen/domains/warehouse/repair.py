@@ -93,10 +93,11 @@ class RepairResult:
             repair stood in for HiGHS).
         seconds: wall time of the whole repair.
         method: ``"rounded relaxation"`` (optimal without the full search), ``"milp"``, ``"milp from rounded
-            relaxation"``, ``"milp from greedy"`` (the full search from that start) or ``"greedy"`` (the MILP found
-            nothing, or nothing better, in time; random NCAs' 33x36 layouts, nearly all shelves, can leave HiGHS
-            without a layout after 60 s), or ``"patch"`` (``greedy_beyond``'s answer from
-            :func:`~structgen.domains.warehouse.patch.patch_repair`).
+            relaxation"``, ``"milp from greedy"`` or ``"milp from patch"`` (the full search from that start), or
+            ``"greedy"`` or ``"patch"``: the row repair's or the patch repair's layout
+            (:func:`~structgen.domains.warehouse.patch.patch_repair`), answering for ``greedy_beyond`` or where the
+            MILP found nothing, or nothing better, in time (random NCAs' 33x36 layouts, nearly all shelves, can
+            leave HiGHS without a layout after 60 s).
         status: HiGHS's model status, in its words.
         searched: whether HiGHS ran (False: ``greedy_beyond`` answered without it).
         timed_out: whether a HiGHS solve stopped at its time limit, so that the answer may differ on another
@@ -274,7 +275,8 @@ def repair(
             since one of its presolve steps can overrun its limit by a second or two on a 101x102 map.
         seed: HiGHS's random seed.
         threads: HiGHS's threads.
-        greedy_first: run the greedy repair first and start HiGHS from it; None: above :data:`GREEDY_FIRST_CELLS`.
+        greedy_first: run the cheap repairs first (the row repair and, for warehouses, the patch repair) and start
+            HiGHS from the one with fewer changes; None: above :data:`GREEDY_FIRST_CELLS`.
         node_limit: stop HiGHS after this many branch-and-bound nodes. A repair stopped by the time limit depends
             on the machine's speed; one stopped by a node limit does not. HiGHS has no such limit for its work
             before the first branching, where layouts far from valid can keep it for the whole time limit, so
@@ -342,12 +344,14 @@ def repair(
         if kind.name != "warehouse":
             raise ValueError("the local repair is for warehouses")
         solution = _repair_locally(model, encode, tiles, kind, shelves, seconds_left(LOCAL_SHARE), seed, threads, node_limit)
-    greedy = None
+    greedy, greedy_method = None, ""
     if solution is None and (greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS):
-        greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
+        greedy, greedy_method = _cheap_repair(tiles, kind, shelves, agents)
+        if greedy is None:
+            raise RepairError(f"the greedy repair cannot place the {kind.name} layout's shelves")
     start = None if greedy is None else encode(greedy)
     if solution is None:
-        method = "milp" if greedy is None else "milp from greedy"
+        method = "milp" if greedy is None else f"milp from {greedy_method}"
     if round_relaxation is None:
         round_relaxation = (
             kind.name == "warehouse"
@@ -368,13 +372,12 @@ def repair(
         solution = model.solve(seconds_left(), seed, threads, start, node_limit, target=target)
     if solution.values is None:
         if greedy is not None:
-            result, method = greedy, "greedy"
+            result, method = greedy, greedy_method
         elif solution.status == "Infeasible":
             raise RepairError(f"no {kind.name} layout of this size satisfies the rules ({_rules(kind, shelves, agents)})")
-        else:  # HiGHS ran out of time without a layout: the greedy repair still gives a valid one
-            try:
-                result, method = greedy_repair(tiles, kind, shelves=shelves, agents=agents), "greedy"
-            except RepairError:
+        else:  # HiGHS ran out of time without a layout: a cheap repair still gives a valid one
+            result, method = _cheap_repair(tiles, kind, shelves, agents)
+            if result is None:
                 raise RepairError(
                     f"the repair found no valid layout within {time_limit:g} s ({solution.status}); allow more time"
                 ) from None
@@ -416,38 +419,45 @@ def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> Re
     """:func:`repair`'s answer without HiGHS (see its ``greedy_beyond``), or None where HiGHS should search."""
     if not (isinstance(beyond, (int, np.integer)) and beyond >= 0):
         raise ValueError(f"greedy_beyond must be a whole number of cells, 0 or more, got {beyond!r}")
-    try:
-        greedy = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
-    except RepairError:
-        greedy = None
-    hamming = np.inf if greedy is None else int((greedy != tiles).sum())
+    cheap, method = _cheap_repair(tiles, kind, shelves, agents)
+    if cheap is None:
+        return None
+    hamming = int((cheap != tiles).sum())
     optimal = hamming <= _shelves_off(tiles, kind, shelves)
     if not optimal and distance_from_valid(tiles, kind, shelves=shelves) <= beyond:
         return None
-    method = "greedy"
-    if not optimal and kind.name == "warehouse":
-        # The patch repair keeps the growth's pattern where the row repair replaces it; the fewer changes wins
-        # (ties to the rows, which carry robots well), as the paper's repair takes the fewest.
-        patched = patch_repair(tiles, shelves=shelves, row_offset=_row_offset(greedy, kind))
-        if patched is not None and int((patched != tiles).sum()) < hamming:
-            greedy, hamming, method = patched, int((patched != tiles).sum()), "patch"
-    if greedy is None:
-        return None
-    broken = violations(greedy, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
+    broken = violations(cheap, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
     if broken:  # as for HiGHS's answers: never hand out an invalid layout
-        raise RepairError(f"the greedy {kind.name} layout is invalid: {'; '.join(broken)}")
+        raise RepairError(f"the {method} {kind.name} layout is invalid: {'; '.join(broken)}")
     status = "optimal: as many changes as the shelf count needs" if optimal else "far from valid: not searched"
     gap = 0.0 if optimal else float("inf")
     seconds = time.perf_counter() - began
-    return RepairResult(greedy.astype(np.uint8), hamming, optimal, gap, seconds, method, status, searched=False)
+    return RepairResult(cheap.astype(np.uint8), hamming, optimal, gap, seconds, method, status, searched=False)
 
 
-def _row_offset(greedy: np.ndarray | None, kind: LayoutKind) -> int:
-    """Which rows (``r % 3``) the row repair chose for ``greedy``'s shelves: the patch repair adds on the same."""
-    if greedy is None:
+def _cheap_repair(tiles, kind, shelves, agents) -> tuple[np.ndarray | None, str]:
+    """The row repair's layout or, for warehouses, the patch repair's (which keeps the growth's pattern where the
+    rows replace it), whichever changes fewer cells (ties to the rows, which carry robots well), with its method
+    name; ``(None, "")`` where neither finds a layout. The paper's repair takes the fewest changes; so does this,
+    between the two."""
+    try:
+        rows = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
+    except RepairError:
+        rows = None
+    if kind.name != "warehouse":
+        return rows, "greedy"
+    patched = patch_repair(tiles, shelves=shelves, row_offset=_row_offset(rows, kind))
+    if patched is not None and (rows is None or (patched != tiles).sum() < (rows != tiles).sum()):
+        return patched, "patch"
+    return rows, "greedy" if rows is not None else ""
+
+
+def _row_offset(rows: np.ndarray | None, kind: LayoutKind) -> int:
+    """Which rows (``r % 3``) the row repair chose for its shelves: the patch repair adds on the same ones."""
+    if rows is None:
         return 0
-    rows = np.flatnonzero((greedy == kind.vocabulary.index("@")).any(axis=1))
-    return int(rows[0] % 3) if len(rows) else 0
+    shelf_rows = np.flatnonzero((rows == kind.vocabulary.index("@")).any(axis=1))
+    return int(shelf_rows[0] % 3) if len(shelf_rows) else 0
 
 
 #: Share of the time left that the linear relaxation, and then the rounding's smaller MILP, may use.
