@@ -218,6 +218,12 @@ def test_evaluate_reports_the_success_rate_and_the_throughput_of_successful_runs
     )
     printed = json.loads(capsys.readouterr().out)
     assert code == 0 and printed["planner"] == "pbs" and printed["throughputs"] == [round(t, 6) for t in expected]
+    # Shared among worker processes, the runs are the same runs.
+    code = main(
+        ["warehouse", "evaluate", str(layout), "--agents", "10", "--steps", "100", "--simulations", "4", "--seed", "5"]
+        + ["--json", "--workers", "2"]
+    )
+    assert code == 0 and json.loads(capsys.readouterr().out)["throughputs"] == printed["throughputs"]
     assert printed["success_rate"] == 1 and printed["throughput_mean"] == pytest.approx(expected.mean())
     code = main(["warehouse", "evaluate", str(layout), "--agents", str(free - 2), "--steps", "200", "--simulations", "2"])
     assert code == 0 and "success 0 of 2 (0 %), throughput N/A" in capsys.readouterr().out

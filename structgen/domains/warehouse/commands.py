@@ -319,6 +319,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             kind=kind,
             planner=args.planner,
             uneven=getattr(args, "uneven", False),
+            workers=args.workers,
         )
     except InputError as error:
         raise InputError(f"{args.file}: {error}") from None
@@ -590,6 +591,13 @@ def _add_evaluate(subparsers: Any, kind: LayoutKind) -> None:
         "shorter runs (the problem's simulations and simulation_steps).",
     )
     p.add_argument("--simulations", type=whole_number(1, 10**5), default=50, metavar="K", help="runs (default 50, as the paper)")
+    p.add_argument(
+        "--workers",
+        type=whole_number(0, 1024),
+        default=0,
+        metavar="N",
+        help="processes that share the runs (default 0: this one); the result is the same with any number",
+    )
     _add_robot_arguments(p, kind, steps=5000, planner="pbs", seed_help="seed the runs' seeds are drawn from")
     p.add_argument("--json", action="store_true", help="print one JSON object, with every run's throughput")
     p.set_defaults(handler=cmd_evaluate, kind=kind.name)

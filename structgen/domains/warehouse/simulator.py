@@ -24,11 +24,13 @@ with more restarts at 200 agents the human layout no longer congests, as it does
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from evolution.pool import Lost, WorkerPool
 from structgen.budget import check_memory
 from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, LayoutKind
 from structgen.errors import InputError
@@ -375,22 +377,41 @@ class LayoutEvaluation:
 
 
 def evaluate_layout(
-    tiles: np.ndarray, agents: int, simulations: int = 50, steps: int = 5000, *, seed: int = 0, progress: bool = False, **options
+    tiles: np.ndarray,
+    agents: int,
+    simulations: int = 50,
+    steps: int = 5000,
+    *,
+    seed: int = 0,
+    progress: bool = False,
+    workers: int = 0,
+    **options,
 ) -> LayoutEvaluation:
     """Run ``simulations`` simulations of ``steps`` steps (seeds drawn from ``seed``, as training's are) and sum
     them up as :class:`LayoutEvaluation`; ``options`` go to :func:`simulate` (``kind``, ``planner``, ``uneven``,
-    ...). ``progress`` shows a bar on the terminal."""
+    ...). ``progress`` shows a bar on the terminal. ``workers`` processes share the runs (0: this process); each
+    run depends on its seed alone, so the result is the same with any number."""
     if not isinstance(simulations, int) or simulations < 1:
         raise InputError(f"simulations must be a positive integer, got {simulations!r}")
+    if not isinstance(workers, int) or workers < 0:
+        raise InputError(f"workers must be a whole number, 0 or more, got {workers!r}")
     began = time.perf_counter()
-    seeds = np.random.SeedSequence(seed).generate_state(simulations)
+    seeds = [int(s) for s in np.random.SeedSequence(seed).generate_state(simulations)]
+    bar = None
     if progress:
         from tqdm import tqdm
 
-        seeds = tqdm(seeds, desc="simulations", unit="run", leave=False)
-    runs = [simulate(tiles, agents, steps, seed=int(s), **options) for s in seeds]
-    throughputs = np.array([r.throughput for r in runs])
-    congested = np.array([r.congested for r in runs])
+        bar = tqdm(total=simulations, desc="simulations", unit="run", leave=False)
+    job = functools.partial(_throughput_of_run, np.asarray(tiles), agents, steps, options)
+    with WorkerPool(min(workers, simulations)) as pool:
+        runs = pool.map(job, seeds, done=None if bar is None else lambda _: bar.update())
+    if bar is not None:
+        bar.close()
+    lost = [f"seed {s}: {run.reason}" for s, run in zip(seeds, runs) if isinstance(run, Lost)]
+    if lost:
+        raise RuntimeError(f"{len(lost)} simulation(s) lost with their worker: {'; '.join(lost)}")
+    throughputs = np.array([throughput for throughput, _ in runs])
+    congested = np.array([jammed for _, jammed in runs])
     good = throughputs[~congested]
     mean = float(good.mean()) if len(good) else None
     error = float(good.std(ddof=1) / np.sqrt(len(good))) if len(good) > 1 else (0.0 if len(good) else None)
@@ -404,6 +425,11 @@ def evaluate_layout(
         congested=congested,
         seconds=time.perf_counter() - began,
     )
+
+
+def _throughput_of_run(tiles: np.ndarray, agents: int, steps: int, options: dict, seed: int) -> tuple[float, bool]:
+    run = simulate(tiles, agents, steps, seed=seed, **options)
+    return run.throughput, run.congested
 
 
 def compile_kernels() -> None:
