@@ -603,6 +603,14 @@ def test_the_patch_repair_keeps_a_damaged_layout_and_is_valid_on_random_growths(
             assert patched is not None, f"no patch at shelf density {density}"
             assert violations(patched, WAREHOUSE, shelves=240, fixed=grown) == []
             assert np.array_equal(patched, patch_repair(grown, shelves=240))  # deterministic
+    # Manufacturing: no shelf count, but one station of each kind and room for the robots.
+    for density in (0.0, 0.1, 0.5, 0.95):
+        for _ in range(3):
+            grown = rng.choice(5, size=(33, 36), p=[1 - density, *([density * 0.8 / 3] * 3), density * 0.2])
+            patched = patch_repair(grown, MANUFACTURING, agents=200)
+            assert patched is not None, f"no patch at station density {density}"
+            assert violations(patched, MANUFACTURING, agents=200) == []
+            assert (patched != grown).sum() <= (greedy_repair(grown, MANUFACTURING, agents=200) != grown).sum() + 3
 
 
 def _valid_with_one_shelf_moved(tiles: np.ndarray):

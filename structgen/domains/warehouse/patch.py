@@ -1,18 +1,20 @@
-"""The patch repair: a valid warehouse that keeps what a growth got right, in milliseconds and without a solver.
+"""The patch repair: a valid layout that keeps what a growth got right, in milliseconds and without a solver.
 
 The paper repairs every grown layout with the fewest changes (a MILP), so that what the NCA grew, and with it the
 archive's measures, survives the repair. HiGHS does that in about a second for layouts near valid but can spend its
 whole minute on layouts far from it; the row repair (:func:`~structgen.domains.warehouse.repair.greedy_repair`)
 answers those at once but throws the growth's pattern away, so every far layout lands in the same few archive cells
-(measured on the even run: 38 cells in 2,000 evaluations). This repair changes cells only where a rule asks:
+(measured on the even run: 38 cells in 2,000 evaluations). This repair changes cells only where a rule asks (shelves
+below stand for manufacturing's stations too):
 
-1. a shelf surplus is removed, first shelves boxed in by others, then shelves with no endpoint, then those in the
-   thickest blocks;
+1. a surplus (a warehouse's shelf count; more stations than leave room for the robots) is removed: first shelves off
+   the row repair's rows (what is kept of a dense growth then stands in rows, not in a maze that jams), and among
+   those first the ones boxed in by others, then those with no endpoint, then the thickest blocks;
 2. every pocket of floor the workstations cannot reach gets the shortest way out, through as few shelves as possible
    (one breadth-first search over all pockets at once);
-3. a shelf deficit is made up on floor cells whose filling cannot cut any floor off (the free cells around them stay
-   joined: a local test that needs no search), first beside endpoints already there, then on the row pattern of the
-   row repair, then anywhere;
+3. a deficit (the shelf count; one station of each kind) is made up on floor cells whose filling cannot cut any
+   floor off (the free cells around them stay joined: a local test that needs no search), first beside endpoints
+   already there, then on the row repair's rows, then anywhere;
 4. each shelf without an endpoint gets one on a free neighbour (a boxed-in one is removed and step 3 replaces it),
    and endpoints beside no shelf become floor.
 
@@ -25,11 +27,12 @@ repair changes fewer cells.
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
 
-from structgen.domains.warehouse.layouts import WAREHOUSE
+from structgen.domains.warehouse.layouts import WAREHOUSE, LayoutKind
 from structgen.domains.warehouse.measures import neighbour_count, violations
 
 __all__ = ["PATCH_ROUNDS", "patch_repair"]
@@ -44,36 +47,80 @@ _RING = ((-1, -1), (-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1))
 _GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 
 
-def patch_repair(tiles: np.ndarray, *, shelves: int, row_offset: int = 0, aisle_every: int = 11) -> np.ndarray | None:
-    """A valid warehouse with ``shelves`` shelves that changes ``tiles`` only where a rule asks (module doc), or None
-    where the steps do not settle within :data:`PATCH_ROUNDS` rounds. ``row_offset`` and ``aisle_every`` give the
-    row pattern preferred for shelves added where the growth has no endpoints (rows ``r % 3 == row_offset``, no
-    shelf in every ``aisle_every``-th column of the storage area)."""
-    code = WAREHOUSE.vocabulary.index
-    floor, shelf, endpoint = code("."), code("@"), code("e")
+@dataclass
+class _Rules:
+    """What the steps need to know of a layout kind, for one map."""
+
+    floor: int
+    blocking: list[int]  # shelves, or the three kinds of station
+    endpoints: list[int]  # tiles that serve as endpoints ("s", the source, is one for manufacturing)
+    endpoint: int  # the tile new endpoints get
+    area: np.ndarray  # cells the repair may change
+    fixed: np.ndarray  # cells that block and are never changed (workstations), where reachability starts
+    addable: np.ndarray  # cells a new shelf or station may take
+    row_pattern: np.ndarray  # preferred cells for new shelves, after those beside endpoints
+    most: int  # at most this many blocking cells
+    wanted: list[tuple[int, int]]  # (tile, at least this many), made up in this order
+
+
+def patch_repair(
+    tiles: np.ndarray,
+    kind: LayoutKind = WAREHOUSE,
+    *,
+    shelves: int | None = None,
+    agents: int = 0,
+    row_offset: int = 0,
+    aisle_every: int = 11,
+) -> np.ndarray | None:
+    """A valid layout that changes ``tiles`` only where a rule asks (module doc), or None where the steps do not
+    settle within :data:`PATCH_ROUNDS` rounds. Warehouses take ``shelves`` (exactly that many); manufacturing floors
+    ``agents`` (at least that many cells free of stations) and keep one station of each kind. ``row_offset`` and
+    ``aisle_every`` give the row pattern preferred for shelves added where the growth has no endpoints (rows
+    ``r % 3 == row_offset``, no shelf in every ``aisle_every``-th column of the storage area)."""
     tiles = np.asarray(tiles)
-    result = tiles.astype(np.int64)
-    area = np.zeros(tiles.shape, dtype=bool)
-    area[:, WAREHOUSE.border : -WAREHOUSE.border] = True
-    station = np.isin(tiles, [code("w"), code("r"), code("s")])
-    if not station.any():
+    rules = _rules_for(tiles, kind, shelves, agents, row_offset, aisle_every)
+    if rules is None:
         return None
-    # Cells beside a workstation stay floor: the workstations reach the map through them.
-    addable = area & ~(neighbour_count(station) > 0)
-    rows, cols = tiles.shape
-    storage_columns = np.flatnonzero(area.any(axis=0))
-    row_pattern = np.zeros(tiles.shape, dtype=bool)
-    row_pattern[[r for r in range(rows) if r % 3 == row_offset]] = True
-    row_pattern[:, storage_columns[np.arange(len(storage_columns)) % aisle_every == aisle_every - 1]] = False
-    row_pattern &= area
+    result = tiles.astype(np.int64)
+    check = {"shelves": shelves, "fixed": tiles} if kind.name == "warehouse" else {"agents": agents}
     for _ in range(PATCH_ROUNDS):
-        _remove_surplus(result, area, row_pattern, shelves, floor, shelf, endpoint)
-        _open_pockets(result, area, station, floor, shelf)
-        _add_shelves(result, addable, row_pattern, shelves, floor, shelf, endpoint)
-        _give_endpoints(result, area, floor, shelf, endpoint)
-        if not violations(result, WAREHOUSE, shelves=shelves, fixed=tiles):
+        _remove_surplus(result, rules)
+        _open_pockets(result, rules)
+        _add_blocking(result, rules)
+        _give_endpoints(result, rules)
+        if not violations(result, kind, **check):
             return result.astype(tiles.dtype)
     return None
+
+
+def _rules_for(tiles, kind: LayoutKind, shelves, agents: int, row_offset: int, aisle_every: int) -> _Rules | None:
+    code = kind.vocabulary.index
+    rows, cols = tiles.shape
+    area = np.zeros(tiles.shape, dtype=bool)
+    if kind.name == "warehouse":
+        if shelves is None:
+            raise ValueError("a warehouse patch needs the shelf count")
+        area[:, WAREHOUSE.border : -WAREHOUSE.border] = True
+        fixed = np.isin(tiles, [code("w"), code("r"), code("s")])
+        if not fixed.any():
+            return None
+        blocking, endpoints, most = [code("@")], [code("e")], shelves
+        wanted = [(code("@"), shelves)]
+    elif kind.name == "manufacturing":
+        area[:] = True
+        fixed = np.zeros(tiles.shape, dtype=bool)
+        blocking, endpoints, most = [code(c) for c in "012"], [code("e"), code("s")], tiles.size - agents
+        wanted = [(code(c), 1) for c in "012"]
+    else:
+        raise ValueError(f"{kind.name} layouts have no patch repair")
+    # Cells beside a workstation stay floor: the workstations reach the map through them.
+    addable = area & ~(neighbour_count(fixed) > 0)
+    columns = np.flatnonzero(area.any(axis=0))
+    row_pattern = np.zeros(tiles.shape, dtype=bool)
+    row_pattern[[r for r in range(rows) if r % 3 == row_offset]] = True
+    row_pattern[:, columns[np.arange(len(columns)) % aisle_every == aisle_every - 1]] = False
+    row_pattern &= area
+    return _Rules(code("."), blocking, endpoints, code("e"), area, fixed, addable, row_pattern, most, wanted)
 
 
 def _spread_order(cells: np.ndarray) -> np.ndarray:
@@ -84,33 +131,37 @@ def _spread_order(cells: np.ndarray) -> np.ndarray:
     return cells[np.argsort((np.arange(len(cells)) * _GOLDEN) % 1.0, kind="stable")]
 
 
-def _remove_surplus(result, area, row_pattern, shelves, floor, shelf, endpoint) -> None:
-    is_shelf = result == shelf
-    surplus = int(is_shelf.sum()) - shelves
+def _remove_surplus(result, rules: _Rules) -> None:
+    is_blocking = np.isin(result, rules.blocking)
+    surplus = int(is_blocking.sum()) - rules.most
     if surplus <= 0:
         return
-    free_next = neighbour_count(area & ~is_shelf)
-    endpoint_next = neighbour_count(result == endpoint)
-    shelf_next = neighbour_count(is_shelf)
-    # Lower rank goes first: shelves off the row pattern (what is kept of a dense growth then stands in rows, not in
+    free_next = neighbour_count(rules.area & ~is_blocking)
+    endpoint_next = neighbour_count(np.isin(result, rules.endpoints))
+    blocking_next = neighbour_count(is_blocking)
+    # Lower rank goes first: cells off the row pattern (what is kept of a dense growth then stands in rows, not in
     # a maze that jams: measured), and among those boxed in, then without an endpoint, then the thickest blocks.
-    rank = row_pattern * 32 + np.where(free_next == 0, 0, np.where(endpoint_next == 0, 1, 2)) * 8 + (4 - shelf_next)
-    candidates = np.argwhere(is_shelf & area)
+    lonely_rank = np.where(free_next == 0, 0, np.where(endpoint_next == 0, 1, 2))
+    rank = rules.row_pattern * 32 + lonely_rank * 8 + (4 - blocking_next)
+    candidates = np.argwhere(is_blocking & rules.area)
     removed = 0
     for level in np.unique(rank[tuple(candidates.T)]):
         for r, c in _spread_order(candidates[rank[tuple(candidates.T)] == level]):
             if removed == surplus:
                 return
-            result[r, c] = floor
+            result[r, c] = rules.floor
             removed += 1
 
 
-def _open_pockets(result, area, station, floor, shelf) -> None:
+def _open_pockets(result, rules: _Rules) -> None:
     """Give every floor cell the workstations cannot reach a way out through the fewest shelves, all pockets in one
     0-1 breadth-first search from the reached floor."""
-    passable = (result != shelf) & ~station
-    start = tuple(np.argwhere(station)[0])
-    roots = [cell for cell in _neighbours(*start, result.shape) if passable[cell]]
+    is_blocking = np.isin(result, rules.blocking)
+    passable = ~is_blocking & ~rules.fixed
+    if rules.fixed.any():  # warehouses: the floor the first workstation opens onto
+        roots = [cell for cell in _neighbours(*np.argwhere(rules.fixed)[0], result.shape) if passable[cell]]
+    else:  # manufacturing: the first free cell, as the validity check starts
+        roots = [tuple(np.argwhere(passable)[0])] if passable.any() else []
     if not roots:
         return
     reached = _flood(passable, roots)
@@ -126,11 +177,9 @@ def _open_pockets(result, area, station, floor, shelf) -> None:
     while queue:
         r, c = queue.popleft()
         for nr, nc in _neighbours(r, c, result.shape):
-            if station[nr, nc]:
+            if rules.fixed[nr, nc] or (is_blocking[nr, nc] and not rules.area[nr, nc]):
                 continue
-            if result[nr, nc] == shelf and not area[nr, nc]:
-                continue
-            step = 1 if result[nr, nc] == shelf else 0
+            step = 1 if is_blocking[nr, nc] else 0
             if distance[r, c] + step < distance[nr, nc]:
                 distance[nr, nc] = distance[r, c] + step
                 previous[nr, nc] = (r, c)
@@ -140,8 +189,8 @@ def _open_pockets(result, area, station, floor, shelf) -> None:
         cells = np.argwhere(labels == label)
         r, c = cells[np.argmin(distance[tuple(cells.T)])]
         while previous[r, c, 0] >= 0:
-            if result[r, c] == shelf:
-                result[r, c] = floor
+            if is_blocking[r, c]:
+                result[r, c] = rules.floor
             r, c = previous[r, c]
 
 
@@ -184,39 +233,39 @@ def _keeps_floor_joined(free: np.ndarray, r: int, c: int) -> bool:
     return runs_with_neighbour <= 1
 
 
-def _add_shelves(result, addable, row_pattern, shelves, floor, shelf, endpoint) -> None:
-    missing = shelves - int((result == shelf).sum())
-    if missing <= 0:
-        return
-    free = result != shelf
-    free &= ~np.isin(result, [WAREHOUSE.vocabulary.index(t) for t in "wrs"])
-    candidates = np.argwhere(addable & (result == floor))
-    beside_endpoint = (neighbour_count(result == endpoint) > 0)[tuple(candidates.T)]
-    on_pattern = row_pattern[tuple(candidates.T)]
-    rank = np.where(beside_endpoint, 0, np.where(on_pattern, 1, 2))
-    for level in range(3):
-        for r, c in _spread_order(candidates[rank == level]):
-            if missing == 0:
-                return
-            if _keeps_floor_joined(free, r, c):
-                result[r, c] = shelf
-                free[r, c] = False
-                missing -= 1
+def _add_blocking(result, rules: _Rules) -> None:
+    """Make up each wanted tile's count on floor cells whose filling cuts no floor off: first beside endpoints, then
+    on the row pattern, then anywhere, spread over the map."""
+    free = ~np.isin(result, rules.blocking) & ~rules.fixed
+    for tile, least in rules.wanted:
+        missing = min(least - int((result == tile).sum()), rules.most - int((~free & ~rules.fixed).sum()))
+        if missing <= 0:
+            continue
+        candidates = np.argwhere(rules.addable & (result == rules.floor))
+        beside_endpoint = (neighbour_count(np.isin(result, rules.endpoints)) > 0)[tuple(candidates.T)]
+        rank = np.where(beside_endpoint, 0, np.where(rules.row_pattern[tuple(candidates.T)], 1, 2))
+        for level in range(3):
+            for r, c in _spread_order(candidates[rank == level]):
+                if missing == 0:
+                    break
+                if _keeps_floor_joined(free, r, c):
+                    result[r, c] = tile
+                    free[r, c] = False
+                    missing -= 1
 
 
-def _give_endpoints(result, area, floor, shelf, endpoint) -> None:
-    is_shelf = result == shelf
-    lonely = np.argwhere(is_shelf & (neighbour_count(result == endpoint) == 0))
+def _give_endpoints(result, rules: _Rules) -> None:
+    is_blocking = np.isin(result, rules.blocking)
+    lonely = np.argwhere(is_blocking & (neighbour_count(np.isin(result, rules.endpoints)) == 0))
     for r, c in lonely:
-        if any(result[cell] == endpoint for cell in _neighbours(r, c, result.shape)):
+        if any(result[cell] in rules.endpoints for cell in _neighbours(r, c, result.shape)):
             continue  # an endpoint given to a neighbouring shelf serves this one too
-        spots = [cell for cell in _neighbours(r, c, result.shape) if area[cell] and result[cell] == floor]
+        spots = [cell for cell in _neighbours(r, c, result.shape) if rules.area[cell] and result[cell] == rules.floor]
         if not spots:
-            result[r, c] = floor  # boxed in: the next round's steps put a shelf elsewhere
+            result[r, c] = rules.floor  # boxed in: the next round's steps put a shelf elsewhere
             continue
         # The spot beside the most shelves serves the most of them.
-        shelf_next = neighbour_count(result == shelf)
-        best = max(spots, key=lambda spot: shelf_next[spot])
-        result[best] = endpoint
-    orphans = (result == endpoint) & (neighbour_count(result == shelf) == 0) & area
-    result[orphans] = floor
+        blocking_next = neighbour_count(np.isin(result, rules.blocking))
+        result[max(spots, key=lambda spot: blocking_next[spot])] = rules.endpoint
+    orphans = np.isin(result, rules.endpoints) & (neighbour_count(np.isin(result, rules.blocking)) == 0) & rules.area
+    result[orphans] = rules.floor

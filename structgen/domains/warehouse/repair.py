@@ -275,7 +275,7 @@ def repair(
             since one of its presolve steps can overrun its limit by a second or two on a 101x102 map.
         seed: HiGHS's random seed.
         threads: HiGHS's threads.
-        greedy_first: run the cheap repairs first (the row repair and, for warehouses, the patch repair) and start
+        greedy_first: run the cheap repairs first (the row repair and the patch repair) and start
             HiGHS from the one with fewer changes; None: above :data:`GREEDY_FIRST_CELLS`.
         node_limit: stop HiGHS after this many branch-and-bound nodes. A repair stopped by the time limit depends
             on the machine's speed; one stopped by a node limit does not. HiGHS has no such limit for its work
@@ -297,7 +297,7 @@ def repair(
             large layout's pattern (a tiled 101x102 warehouse: 255 changes in 14 s locally, as many as the
             original's CPLEX made, against 5,528 from the full search in 120 s).
         greedy_beyond: answer a layout more than this many cells from valid (:func:`distance_from_valid`) without
-            HiGHS: with the row repair (``method`` "greedy") or, for warehouses, the patch repair
+            HiGHS: with the row repair (``method`` "greedy") or the patch repair
             (:func:`~structgen.domains.warehouse.patch.patch_repair`, ``method`` "patch", which keeps the growth's
             pattern), whichever changes fewer cells; a row answer that changes no more cells than the shelf count
             must change is the fewest changes and ends any repair (``method`` "greedy", optimal).
@@ -436,17 +436,15 @@ def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> Re
 
 
 def _cheap_repair(tiles, kind, shelves, agents) -> tuple[np.ndarray | None, str]:
-    """The row repair's layout or, for warehouses, the patch repair's (which keeps the growth's pattern where the
-    rows replace it), whichever changes fewer cells (ties to the rows, which carry robots well), with its method
+    """The row repair's layout or the patch repair's (which keeps the growth's pattern where the rows replace it),
+    whichever changes fewer cells (ties to the rows, which carry robots well), with its method
     name; ``(None, "")`` where neither finds a layout. The paper's repair takes the fewest changes; so does this,
     between the two."""
     try:
         rows = greedy_repair(tiles, kind, shelves=shelves, agents=agents)
     except RepairError:
         rows = None
-    if kind.name != "warehouse":
-        return rows, "greedy"
-    patched = patch_repair(tiles, shelves=shelves, row_offset=_row_offset(rows, kind))
+    patched = patch_repair(tiles, kind, shelves=shelves, agents=agents, row_offset=_row_offset(rows, kind))
     if patched is not None and (rows is None or (patched != tiles).sum() < (rows != tiles).sum()):
         return patched, "patch"
     return rows, "greedy" if rows is not None else ""
@@ -456,7 +454,7 @@ def _row_offset(rows: np.ndarray | None, kind: LayoutKind) -> int:
     """Which rows (``r % 3``) the row repair chose for its shelves: the patch repair adds on the same ones."""
     if rows is None:
         return 0
-    shelf_rows = np.flatnonzero((rows == kind.vocabulary.index("@")).any(axis=1))
+    shelf_rows = np.flatnonzero(np.isin(rows, kind.blocking_tiles()).any(axis=1))
     return int(shelf_rows[0] % 3) if len(shelf_rows) else 0
 
 
