@@ -2,12 +2,13 @@
 101x102 with the paper's robot count, judged with `pbs` as the paper's tables are, beside the paper's numbers.
 
     python benchmarks/table2.py WEIGHTS.npy [--kind even|uneven|manufacturing] [--simulations 10] [--steps 5000]
-        [--repair-time-limit 120] [--workers 2] [--papers] [--output DIR]
+        [--repair-time-limit 120] [--workers 2] [--papers] [--tiling] [--output DIR]
 
 WEIGHTS is a generator's NCA weights (a run's `best/genome.npy`, or `docs/layout_runs/even_generator.npy`). It grows
 50 NCA steps at 33x36 and 200 at 101x102 (the paper's rule), is repaired (at 33x36 as training repairs it; at
 101x102 with `--repair-time-limit` seconds of the default repair) and simulated `--simulations` times for `--steps`
-steps with `pbs`. `--papers` also re-simulates the paper's own trained layouts the same way (needs the original's
+steps with `pbs`. `--tiling` adds the paper's tiling baseline (our 33x36 layout repeated to fill 101x102, repaired
+the same way). `--papers` also re-simulates the paper's own trained layouts the same way (needs the original's
 maps: $STRUCTGEN_REFERENCE_DATA). `--output` keeps our repaired layouts and the table as JSON.
 """
 
@@ -101,6 +102,27 @@ def grow_and_repair(weights: np.ndarray, row: Row, size: str, robots: int, time_
     }
 
 
+def tile_and_repair(small: np.ndarray, row: Row, robots: int, time_limit: float) -> dict:
+    """The paper's tiling baseline: our trained 33x36 layout repeated to fill 101x102, then repaired."""
+    problem = LayoutProblem(row.settings(size="101x102", agents=robots))
+    tiled = problem.kind.tiled(small, "101x102")
+    began = time.perf_counter()
+    result = repair(
+        tiled,
+        problem.kind,
+        shelves=problem.shelves if problem.kind is WAREHOUSE else None,
+        agents=robots if problem.kind is MANUFACTURING else 0,
+        time_limit=time_limit,
+    )
+    return {
+        "kind": problem.kind,
+        "tiles": result.tiles,
+        "changed": result.hamming,
+        "method": result.method,
+        "repair_seconds": round(time.perf_counter() - began, 1),
+    }
+
+
 def judge(tiles: np.ndarray, kind, robots: int, row: Row, args) -> dict:
     result = evaluate_layout(
         tiles,
@@ -138,6 +160,9 @@ def main() -> None:
     parser.add_argument("--repair-time-limit", type=float, default=120.0, help="seconds for the 101x102 repair (default 120)")
     parser.add_argument("--workers", type=int, default=2, help="processes that share the runs (default 2)")
     parser.add_argument("--papers", action="store_true", help="also re-simulate the paper's own layouts the same way")
+    parser.add_argument(
+        "--tiling", action="store_true", help="add the tiling baseline: our 33x36 layout tiled to 101x102 and repaired"
+    )
     parser.add_argument("--output", type=Path, default=None, metavar="DIR", help="keep our layouts and the table here")
     args = parser.parse_args()
     row = ROWS[args.kind]
@@ -145,23 +170,30 @@ def main() -> None:
     maps = reference_maps()
     if args.papers and maps is None:
         parser.error("--papers needs the original's maps: set $STRUCTGEN_REFERENCE_DATA")
-    sizes = (("33x36", 200, row.paper_small, None), ("101x102", row.large_robots, row.paper_large[1], row.paper_large[0]))
+    sizes = [("33x36", 200, row.paper_small, None), ("101x102", row.large_robots, row.paper_large[1], row.paper_large[0])]
+    if args.tiling:
+        sizes.append(("101x102 tiled", row.large_robots, row.paper_large[1], row.paper_large[0]))
     table = []
+    small = None
     for size, robots, paper_throughput, paper_success in sizes:
-        ours = grow_and_repair(weights, row, size, robots, args.repair_time_limit)
+        if size.endswith("tiled"):
+            ours = tile_and_repair(small, row, robots, args.repair_time_limit)
+        else:
+            ours = grow_and_repair(weights, row, size, robots, args.repair_time_limit)
+            small = ours["tiles"] if small is None else small
         entry = {
             "size": size,
             "repair": {k: ours[k] for k in ("changed", "method", "repair_seconds")},
             "ours": judge(ours["tiles"], ours["kind"], robots, row, args),
             "paper": {"success_rate": paper_success, "throughput": paper_throughput},
         }
-        if args.papers:
+        if args.papers and not size.endswith("tiled"):
             path = maps / (row.paper_small_map if size == "33x36" else row.paper_large_map)
             entry["papers_layout_here"] = judge(Grid.load(path, ours["kind"].vocabulary).tiles, ours["kind"], robots, row, args)
         if args.output is not None:
             args.output.mkdir(parents=True, exist_ok=True)
             Grid(ours["tiles"], ours["kind"].vocabulary, {"size": size, "weights": str(args.weights)}).save(
-                args.output / f"{args.kind}_{size}.json"
+                args.output / f"{args.kind}_{size.replace(' ', '_')}.json"
             )
         table.append(entry)
         print(f"{size} done: {cell(entry['ours'])}", flush=True)
@@ -182,7 +214,7 @@ def main() -> None:
         ) + f"{paper['throughput']:.2f}"
         ours = entry["ours"]
         ratio = "" if ours["throughput"] is None else f"{ours['throughput'] / paper['throughput']:.3f}"
-        papers = f" {cell(entry['papers_layout_here'])} |" if args.papers else ""
+        papers = f" {cell(entry['papers_layout_here'])} |" if "papers_layout_here" in entry else (" |" if args.papers else "")
         repair_text = f"{entry['repair']['changed']:,} ({entry['repair']['method']}, {entry['repair']['repair_seconds']} s)"
         print(f"| {entry['size']} | {ours['robots']:,} | {repair_text} | {cell(ours)} |{papers} {paper_text} | {ratio} |")
     if args.output is not None:
