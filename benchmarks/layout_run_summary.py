@@ -5,9 +5,10 @@ archive heatmap.
     python benchmarks/layout_run_summary.py RUN_DIR --name even [-o docs/layout_runs]
 
 Writes into the output folder ``NAME_generator.npy`` (the best genome by training's objective, the NCA's weights:
-``problem.grow(genome[None])`` regrows it), ``NAME_summary.json`` (evaluations, the share of the paper's budget, QD
-score and coverage per generation, the paper's values, the best candidate's fields) and ``NAME_qd.png`` (the curves
-with the paper's end values) and ``NAME_archive.png`` (the run's result archive) and prints one table row.
+``problem.grow(genome[None])`` regrows it), ``NAME_throughput_generator.npy`` (the result archive's elite of highest
+throughput, the objective without its similarity term), ``NAME_summary.json`` (evaluations, the share of the paper's
+budget, QD score and coverage per generation, the paper's values, both candidates' fields) and ``NAME_qd.png`` (the
+curves with the paper's end values) and ``NAME_archive.png`` (the run's result archive) and prints one table row.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
+from structgen.runs import open_run
 
 #: The paper's Table 4 (CMA-MAE + NCA, mean and standard error over its runs of 10,000 evaluations), by domain.
 PAPER = {
@@ -47,6 +49,11 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     genome = np.load(run / "best" / "genome.npy")
     np.save(out / f"{name}_generator.npy", genome)
+    folder, experiment = open_run(run)
+    archive = folder.load_archive(experiment.make_problem())
+    top = int(np.argmax(archive.objective))
+    np.save(out / f"{name}_throughput_generator.npy", archive.genomes[top])
+    top_throughput = {column: float(values[top]) for column, values in archive.columns.items()}
     evaluations = rows[-1]["evaluations"]
     summary = {
         "run": name,
@@ -57,6 +64,7 @@ def summarise(run: Path, name: str, out: Path) -> dict:
         "coverage": rows[-1]["coverage"],
         "paper": {key: {"mean": m, "standard_error": e} for key, (m, e) in paper.items()},
         "best": best,
+        "top_throughput": top_throughput,
         "curve": [{k: r[k] for k in ("generation", "evaluations", "qd_score", "coverage")} for r in rows],
     }
     atomic_write(out / f"{name}_summary.json", json.dumps(summary, indent=1) + "\n")

@@ -144,8 +144,14 @@ def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_wei
     assert summary["evaluations"] == 6 and summary["share_of_paper_budget"] == 6 / 10_000
     assert [row["generation"] for row in summary["curve"]] == [1]
     assert {p.name for p in (tmp_path / "docs").iterdir()} == {
-        "tiny_generator.npy", "tiny_summary.json", "tiny_qd.png", "tiny_archive.png"
+        "tiny_generator.npy", "tiny_throughput_generator.npy", "tiny_summary.json", "tiny_qd.png", "tiny_archive.png"
     }  # fmt: skip
+    # The result archive's highest throughput, kept beside the best by the objective.
+    archive = (tmp_path / "run" / "archive.csv").read_text().splitlines()
+    objective = [float(line.split(",")[1]) for line in archive[1:]]
+    assert summary["top_throughput"]["objective"] == max(objective)
+    solutions = np.load(tmp_path / "run" / "archive_solutions.npy")
+    np.testing.assert_array_equal(np.load(tmp_path / "docs" / "tiny_throughput_generator.npy"), solutions[np.argmax(objective)])
     problem = load_experiment(tmp_path / "run" / "config.toml").make_problem()
     regrown = problem.grow(np.load(tmp_path / "docs" / "tiny_generator.npy")[None])[0]
     assert (regrown == Grid.load(tmp_path / "run" / "best" / "unrepaired.json").tiles).all()
