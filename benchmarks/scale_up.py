@@ -1,140 +1,162 @@
-"""Train small, grow large: a warehouse NCA trained at 33x36 grown at every larger size of the paper, repaired and
-simulated beside the human layout of the same size.
+"""Train small, grow large, as the paper's Appendix E.3 measures it: generators trained at 33x36 grown at each of the
+paper's sizes, repaired, and swept over robot counts beside the paper's grown layouts, the human ones and the tiling
+baseline; per size and layout, the highest mean throughput and the robot count where it is reached.
 
-    python benchmarks/scale_up.py RUN_DIR [--seeds 3] [--repair-time-limit 120] [--sizes 33x36,101x102]
-        [--layouts DIR] [--output docs/scale_up.png]
+    python benchmarks/scale_up.py [NAME=]WEIGHTS.npy ... [--kind even|uneven] [--sizes 33x36,...,101x102]
+        [--planner pbs] [--steps 1000] [--seeds 3] [--workers 2] [--repair-time-limit 120] [--no-tiling]
+        [--layouts DIR] [--json OUT.json] [--output docs/scale_up.png]
 
-RUN_DIR is a warehouse training run (configs/warehouse_cma_mae.toml); its best genome grows 50 steps at 33x36 (as
-trained) and 200 steps at 45x47 ... 101x102 (the paper's rule for the large maps), and each layout is repaired to
-the paper's shelf count for its size. Prints two tables: per size, the repair and the throughput of ours and the
-human layout with robots at the density of 150 robots on 33x36 (at most 800); and throughput against robot count
-at 33x36 and 101x102, with the paper's own CMA-MAE layouts for reference. Draws both (planner pp, 1,000 steps).
+Each WEIGHTS is a generator's NCA weights (`docs/layout_runs/even_generator.npy`; a CMA-ES baseline's beside it, as
+`cma-es=FILE.npy`). It grows the size's NCA steps (50, 200 at 101x102) and is repaired (at 33x36 as training
+repairs it, above with `--repair-time-limit` seconds of the default repair). The first generator's 33x36 layout,
+tiled to each larger size and repaired, is the tiling baseline. Robot counts go up in steps of 50 per 33x36's area
+(50, 100, ... at 33x36; 450, 900, ... at 101x102) until the mean throughput (over `--seeds` runs, congested ones
+counted with what they reached) has fallen below its best twice or every run congests. Needs the original's maps
+($STRUCTGEN_REFERENCE_DATA) for the paper's and the human layouts. Prints one table, draws the paper's two panels
+(highest mean throughput, and the robot count there, against size) and, with `--json`, keeps every point.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
+import json
 import platform
+import time
 from pathlib import Path
 
 import numpy as np
-from throughput_vs_agents import sweep  # the script beside this one
+from table2 import ROWS, grow_and_repair, tile_and_repair  # the script beside this one
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
-from structgen.domains.warehouse.commands import AUTO_YES_NO
 from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
-from structgen.domains.warehouse.measures import similarity
-from structgen.domains.warehouse.repair import repair
-from structgen.domains.warehouse.simulator import simulate
+from structgen.domains.warehouse.simulator import PLANNERS, evaluate_layout
 from structgen.grid import Grid
-from structgen.runs import open_run
 
-MAPS = reference_maps() or Path("no reference maps")
-HUMAN = {
-    "33x36": "warehouse/human/kiva_large_w_mode.json",
-    **{
-        size: f"warehouse/human/additional_eval/kiva_human_{size}_w_mode.json"
-        for size in ("45x47", "57x58", "69x69", "81x80", "93x91")
-    },
-    "101x102": "warehouse/human/kiva_xxlarge_w_mode.json",
-}
-PAPER = {
-    "33x36": "warehouse/ours/nca_to_show/cma_mae/kiva_large_200_agents_cma-mae_opt_entropy_throughput_hamming_a=5.json",
-    "101x102": "warehouse/ours/nca_to_show/xxlarge_maps/iter=200/"
-    "kiva_xxlarge_cma-mae_global_opt_repaired_one_endpt_throughput-hamming_a=5.json",
-}
-SWEEPS = {"33x36": (50, 100, 150, 200, 250), "101x102": (200, 400, 600, 800, 1000, 1200)}
-STEPS = 1000
+SIZES = ("33x36", "45x47", "57x58", "69x69", "81x80", "93x91", "101x102")
+OURS = "warehouse/ours/nca_to_show/cma_mae"
 
 
-def robots_for(tiles: np.ndarray) -> int:
-    """150 robots on 33x36 (the most the human layout takes without congesting), the same density elsewhere, at
-    most 800 (the most its 101x102 layout takes)."""
-    return min(800, int(round(150 * tiles.size / (33 * 36) / 50)) * 50)
+def papers_layout(size: str, uneven: bool) -> str:
+    """The paper's CMA-MAE (alpha 5) layout of ``size``, relative to the original's maps."""
+    variant = "entropy_uneven_throughput_hamming_a=5" if uneven else "entropy_throughput_hamming_a=5"
+    if size == "33x36":
+        return f"{OURS}/kiva_large_200_agents_cma-mae_opt_{variant}.json"
+    if size == "101x102":
+        return ROWS["uneven" if uneven else "even"].paper_large_map
+    return f"{OURS}/additional_eval/kiva_{size}_cma-mae_opt_{variant}.json"
 
 
-def mean_throughput(tiles: np.ndarray, agents: int, seeds: int) -> tuple[float, int]:
-    runs = [simulate(tiles, agents, STEPS, seed=seed) for seed in range(seeds)]
-    return float(np.mean([r.throughput for r in runs])), sum(r.congested for r in runs)
+def human_layout(size: str) -> str:
+    if size == "33x36":
+        return "warehouse/human/kiva_large_w_mode.json"
+    if size == "101x102":
+        return "warehouse/human/kiva_xxlarge_w_mode.json"
+    return f"warehouse/human/additional_eval/kiva_human_{size}_w_mode.json"
+
+
+def robot_step(size: str) -> int:
+    """50 robots per 33x36's storage area, rounded to 50."""
+    rows, cols = WAREHOUSE.size(size).grown
+    return max(50, int(round(50 * rows * cols / (33 * 32) / 50)) * 50)
+
+
+def sweep(tiles: np.ndarray, size: str, uneven: bool, args) -> list[dict]:
+    """Robot counts up in :func:`robot_step`s until the mean has fallen below its best twice or every run jams."""
+    points: list[dict] = []
+    best, falls, robots = -1.0, 0, 0
+    free = int((~np.isin(tiles, WAREHOUSE.blocking_tiles())).sum())
+    while falls < 2:
+        robots += robot_step(size)
+        if robots > free // 2:
+            break
+        result = evaluate_layout(tiles, robots, args.seeds, args.steps, planner=args.planner, uneven=uneven, workers=args.workers)
+        mean = float(result.throughputs.mean())
+        points.append({"robots": robots, "mean": mean, "successes": result.successes, "runs": result.simulations})
+        if result.successes == 0:
+            break
+        falls = 0 if mean > best else falls + 1
+        best = max(best, mean)
+    return points
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a warehouse training run")
-    parser.add_argument("--seeds", type=int, default=3, help="simulations per point (seeds 0, 1, ...; default 3)")
-    parser.add_argument("--repair-time-limit", type=float, default=120.0, help="seconds per repair (default 120)")
-    parser.add_argument(
-        "--round-relaxation",
-        choices=tuple(AUTO_YES_NO),
-        default="auto",
-        help="round the linear relaxation before each repair's full search: auto (the repair's default), yes, no",
-    )
-    parser.add_argument("--sizes", default=",".join(HUMAN), help="comma-separated sizes (default: all seven)")
-    parser.add_argument("--layouts", type=Path, default=None, metavar="DIR", help="also save every layout here")
+    parser.add_argument("generators", nargs="+", metavar="[NAME=]WEIGHTS.npy", help="generators' NCA weights")
+    parser.add_argument("--kind", choices=("even", "uneven"), default="even", help="which warehouse (default even)")
+    parser.add_argument("--sizes", default=",".join(SIZES), help="comma-separated sizes (default: the paper's seven)")
+    parser.add_argument("--planner", choices=PLANNERS, default="pbs", help="the simulator's planner (default pbs)")
+    parser.add_argument("--steps", type=int, default=1000, help="steps a simulation (default 1000)")
+    parser.add_argument("--seeds", type=int, default=3, help="simulations per robot count (default 3)")
+    parser.add_argument("--workers", type=int, default=2, help="processes that share the simulations (default 2)")
+    parser.add_argument("--repair-time-limit", type=float, default=120.0, help="seconds per repair above 33x36")
+    parser.add_argument("--no-tiling", action="store_true", help="leave out the tiling baseline")
+    parser.add_argument("--layouts", type=Path, default=None, metavar="DIR", help="also save our layouts here")
+    parser.add_argument("--json", type=Path, default=None, metavar="OUT.json", help="keep every point here")
     parser.add_argument("--output", type=Path, default=Path("docs/scale_up.png"), help="the plot to write")
     args = parser.parse_args()
-    if not MAPS.is_dir():
-        parser.error("needs the original's maps: set $STRUCTGEN_REFERENCE_MAPS to their folder")
-    folder, experiment = open_run(args.run_dir)
-    problem = experiment.make_problem()
-    if problem.kind.name != "warehouse":
-        parser.error(f"{args.run_dir} trained {problem.kind.name} layouts, not warehouses")
-    genome = np.asarray(folder.best_genome(problem))
-    print(f"machine: {os.cpu_count()} cores, {platform.processor() or platform.machine()}; Python {platform.python_version()}")
-    print(f"run: {args.run_dir} (best of {folder.metrics()[-1]['evaluations']} evaluations)\n")
-
-    ours: dict[str, np.ndarray] = {}
-    print("| size | NCA steps | cells changed by the repair | repair s | robots | ours | human | congested (ours, human) |")
-    print("|---|---|---|---|---|---|---|---|")
+    maps = reference_maps()
+    if maps is None:
+        parser.error("needs the original's maps for the paper's and the human layouts: set $STRUCTGEN_REFERENCE_DATA")
     sizes = args.sizes.split(",")
-    if unknown := [size for size in sizes if size not in HUMAN]:
-        parser.error(f"--sizes: {', '.join(unknown)} not among {', '.join(HUMAN)}")
+    if unknown := [size for size in sizes if size not in SIZES]:
+        parser.error(f"--sizes: {', '.join(unknown)} not among {', '.join(SIZES)}")
+    generators = {}
+    for entry in args.generators:
+        name, _, path = entry.rpartition("=")
+        generators[name or ("ours" if not generators else Path(path).stem)] = np.load(path)
+    row = ROWS[args.kind]
+    print(
+        f"{platform.processor() or platform.machine()}, {time.strftime('%Y-%m-%d')}; planner {args.planner}, "
+        f"{args.seeds} runs of {args.steps} steps a point\n"
+    )
+    print("| size | layout | cells the repair changed | highest mean throughput | at robots | runs that jammed there |")
+    print("|---|---|---:|---:|---:|---|")
+    results: dict[str, dict[str, dict]] = {}
+    first_small = None
     for size in sizes:
-        human_file = HUMAN[size]
-        shape = WAREHOUSE.size(size)
-        steps = problem.iterations if size == experiment.problem_settings.size else 200
-        grown = WAREHOUSE.complete(problem.nca.grow(genome, WAREHOUSE.seed(shape.grown), steps))
-        fixed = repair(
-            grown,
-            WAREHOUSE,
-            shelves=shape.shelves,
-            time_limit=args.repair_time_limit,
-            seed=0,
-            round_relaxation=AUTO_YES_NO[args.round_relaxation],
-        )
-        changed, score = similarity(grown, fixed.tiles, WAREHOUSE)
-        ours[size] = fixed.tiles
-        if args.layouts is not None:
-            args.layouts.mkdir(parents=True, exist_ok=True)
-            name = f"ours_{size}"
-            WAREHOUSE.grid(fixed.tiles, name=name, iterations=steps, hamming=changed, sim_score=score).save(
-                args.layouts / f"{name}.json"
+        layouts: dict[str, tuple[np.ndarray, int | None]] = {}
+        for name, weights in generators.items():
+            ours = grow_and_repair(weights, row, size, robot_step(size), args.repair_time_limit)
+            layouts[name] = (ours["tiles"], ours["changed"])
+            if size == "33x36" and first_small is None:
+                first_small = ours["tiles"]
+        if not args.no_tiling and size != "33x36":
+            if first_small is None:
+                first_small = grow_and_repair(next(iter(generators.values())), row, "33x36", 50, 60.0)["tiles"]
+            tiled = tile_and_repair(first_small, row, robot_step(size), args.repair_time_limit, size=size)
+            layouts["tiling"] = (tiled["tiles"], tiled["changed"])
+        layouts["paper's CMA-MAE"] = (Grid.load(maps / papers_layout(size, row.uneven), WAREHOUSE.vocabulary).tiles, None)
+        layouts["human"] = (Grid.load(maps / human_layout(size), WAREHOUSE.vocabulary).tiles, None)
+        results[size] = {}
+        for label, (tiles, changed) in layouts.items():
+            if args.layouts is not None and changed is not None:
+                args.layouts.mkdir(parents=True, exist_ok=True)
+                WAREHOUSE.grid(tiles, name=f"{label}_{size}").save(args.layouts / f"{label}_{size}.json")
+            points = sweep(tiles, size, row.uneven, args)
+            top = max(points, key=lambda p: p["mean"])
+            results[size][label] = {"changed": changed, "points": points, "best": top}
+            print(
+                f"| {size} | {label} | {'' if changed is None else f'{changed:,}'} | {top['mean']:.3f} | "
+                f"{top['robots']:,} | {top['runs'] - top['successes']} of {top['runs']} |",
+                flush=True,
             )
-        human = Grid.load(MAPS / human_file, WAREHOUSE.vocabulary).tiles
-        robots = robots_for(fixed.tiles)
-        (mine, my_jams), (theirs, their_jams) = (mean_throughput(t, robots, args.seeds) for t in (fixed.tiles, human))
-        print(
-            f"| {size} | {steps} | {changed:,} | {fixed.seconds:.0f} | {robots} | {mine:.3f} | {theirs:.3f} | "
-            f"{my_jams}, {their_jams} of {args.seeds} |",
-            flush=True,
-        )
-
-    swept = {size: counts for size, counts in SWEEPS.items() if size in ours}
-    if not swept:
-        return
-    figure = new_figure(figsize=(5.5 * len(swept), 4.2), layout="constrained")
-    axes = figure.subplots(1, len(swept), squeeze=False)[0]
-    print("\n| size | layout | robots | throughput (mean over seeds) | congested |")
-    print("|---|---|---|---|---|")
-    for ax, (size, counts) in zip(axes, swept.items()):
-        layouts = {
-            "ours (trained at 33x36)": ours[size],
-            "paper's CMA-MAE": Grid.load(MAPS / PAPER[size], WAREHOUSE.vocabulary).tiles,
-            "human": Grid.load(MAPS / HUMAN[size], WAREHOUSE.vocabulary).tiles,
-        }
-        sweep(ax, size, layouts, counts, args.seeds)
+    if args.json is not None:
+        atomic_write(args.json, json.dumps({"kind": args.kind, "planner": args.planner, "results": results}, indent=1))
+    figure = new_figure(figsize=(11, 4.2), layout="constrained")
+    left, right = figure.subplots(1, 2)
+    labels = list(results[sizes[0]])
+    for label in labels:
+        xs = [size for size in sizes if label in results[size]]
+        left.plot(xs, [results[s][label]["best"]["mean"] for s in xs], marker="o", label=label)
+        right.plot(xs, [results[s][label]["best"]["robots"] for s in xs], marker="o", label=label)
+    for ax, what in ((left, "highest mean throughput"), (right, "robots at the highest throughput")):
+        ax.set_xlabel("map size")
+        ax.set_ylabel(what)
+        ax.grid(alpha=0.3)
+        ax.tick_params(axis="x", rotation=30)
+    left.legend(fontsize=8)
+    figure.suptitle(f"warehouse ({args.kind}): trained at 33x36, grown larger; {args.planner}, {args.steps:,} steps")
     atomic_write(args.output, figure_png(figure, 110))
     print(f"{args.output}: written")
 

@@ -102,10 +102,10 @@ def grow_and_repair(weights: np.ndarray, row: Row, size: str, robots: int, time_
     }
 
 
-def tile_and_repair(small: np.ndarray, row: Row, robots: int, time_limit: float) -> dict:
-    """The paper's tiling baseline: our trained 33x36 layout repeated to fill 101x102, then repaired."""
-    problem = LayoutProblem(row.settings(size="101x102", agents=robots))
-    tiled = problem.kind.tiled(small, "101x102")
+def tile_and_repair(small: np.ndarray, row: Row, robots: int, time_limit: float, size: str = "101x102") -> dict:
+    """The paper's tiling baseline: our trained 33x36 layout repeated to fill ``size``, then repaired."""
+    problem = LayoutProblem(row.settings(size=size, agents=robots))
+    tiled = problem.kind.tiled(small, size)
     began = time.perf_counter()
     result = repair(
         tiled,
