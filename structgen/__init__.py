@@ -1,7 +1,7 @@
 """structgen: grow 3D lattice structures with neural cellular automata and judge them in rigid-body physics.
 
-``import structgen`` is light: the Structure type eagerly, the NCA (which needs torch) on first use. It never imports
-the ``physics`` or ``evolution`` packages.
+``import structgen`` is light: the Structure type eagerly, the NCA (which needs torch) and the domain checker
+(:func:`check_domain`) on first use. It never imports the ``physics`` or ``evolution`` packages itself.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ __all__ = [
     "Structure",
     "StructureError",
     "__version__",
+    "check_domain",
     "grow",
     "grow_population",
     "random_weights",
@@ -29,6 +30,7 @@ __all__ = [
 _NCA_NAMES = {"LocalNCA", "NCAConfig", "grow", "grow_population", "random_weights"}
 
 if TYPE_CHECKING:
+    from structgen.domain_check import check_domain
     from structgen.nca import LocalNCA, NCAConfig, grow, grow_population, random_weights
 
 
@@ -38,4 +40,8 @@ def __getattr__(name: str) -> Any:
         from structgen import nca
 
         return getattr(nca, name)
+    if name == "check_domain":  # it reaches the engine (evolution) and the run commands: load them only when asked
+        from structgen.domain_check import check_domain
+
+        return check_domain
     raise AttributeError(f"module 'structgen' has no attribute {name!r}")

@@ -6,12 +6,14 @@ Layers, lowest first; a module may import from its own layer's modules and from 
    ``physics`` uses only evolution's worker pool (``evolution.pool``, the one pool every parallel step runs on).
 2. structgen's core: the data types, generators, export and settings (``structure``, ``nca``, ``mesh``, ``config``...).
 3. ``structgen.domains.registry`` and ``structgen.commands``: how domains are described and how they add verbs.
-4. ``structgen.experiment``, ``structgen.runs`` and ``structgen.seed_runs``: configurations and runs, for any domain.
+4. ``structgen.experiment``, ``structgen.runs``, ``structgen.seed_runs`` and ``structgen.domain_check``: configurations,
+   runs and the domain contract's checker, for any domain.
 5. the domains (``structgen.domains.<name>``): none imports another domain.
 6. ``structgen.cli``: knows domains only through the registry.
 
 Imports inside functions count (they are edges all the same); those under ``if TYPE_CHECKING:`` do not (they never
-run).
+run), nor those in a module's ``__getattr__``, which only offers users a name from a higher layer on first use
+(``structgen.check_domain``).
 ``import structgen`` stays light (so its thread policy is set before torch or numba can start): no physics, pybullet,
 ribs, trimesh, torch or numba until they are needed, and of evolution only the file gate (``evolution.files``), which
 every file structgen reads and writes goes through.
@@ -39,12 +41,15 @@ MODULES = {module_name(path): path for package in PACKAGES for path in (ROOT / p
 
 
 def _runtime_nodes(tree: ast.AST) -> list[ast.AST]:
-    """Every node of ``tree`` except those inside ``if TYPE_CHECKING:`` blocks."""
+    """Every node of ``tree`` except those inside ``if TYPE_CHECKING:`` blocks and a module's own ``__getattr__``
+    (PEP 562): the lazy names a package offers its users (``structgen.check_domain``) are not what its code uses."""
     nodes, stack = [], [tree]
     while stack:
         node = stack.pop()
         if isinstance(node, ast.If) and ast.unparse(node.test) in ("TYPE_CHECKING", "typing.TYPE_CHECKING"):
             stack.extend(node.orelse)
+            continue
+        if isinstance(node, ast.FunctionDef) and node.name == "__getattr__" and node in getattr(tree, "body", []):
             continue
         nodes.append(node)
         stack.extend(ast.iter_child_nodes(node))
@@ -106,7 +111,13 @@ def layer(name: str) -> int:
         return 2
     if name in ("structgen.domains", "structgen.domains.registry", "structgen.commands"):
         return 3
-    if name in ("structgen.experiment", "structgen.runs", "structgen.seed_runs", "structgen.training_folder"):
+    if name in (
+        "structgen.experiment",
+        "structgen.runs",
+        "structgen.seed_runs",
+        "structgen.training_folder",
+        "structgen.domain_check",
+    ):
         return 4
     if name.startswith("structgen.domains."):
         return 5

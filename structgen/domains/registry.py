@@ -44,6 +44,7 @@ __all__ = [
     "register",
     "spec",
     "specs",
+    "unregister",
 ]
 
 log = logging.getLogger(__name__)
@@ -181,6 +182,16 @@ def register(domain: DomainSpec) -> DomainSpec:
     """Add a domain; an id or alias already taken is an error."""
     _load()
     return _add(domain)
+
+
+def unregister(name: str) -> DomainSpec:
+    """Remove the domain registered as ``name`` (an id or an alias) and return it: for a plugin's tests, and for
+    :func:`structgen.check_domain`, which registers a spec for the length of its check."""
+    found = spec(name)
+    del _registry[found.id]
+    for alias in found.aliases:
+        _aliases.pop(alias, None)
+    return found
 
 
 def _add(domain: DomainSpec) -> DomainSpec:
