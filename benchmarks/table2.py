@@ -2,7 +2,7 @@
 101x102 with the paper's robot count, judged with `pbs` as the paper's tables are, beside the paper's numbers.
 
     python benchmarks/table2.py WEIGHTS.npy [--kind even|uneven|manufacturing] [--simulations 10] [--steps 5000]
-        [--repair-time-limit 120] [--workers 2] [--papers] [--tiling] [--output DIR]
+        [--sizes 33x36,101x102] [--repair-time-limit 120] [--workers 2] [--papers] [--tiling] [--output DIR]
 
 WEIGHTS is a generator's NCA weights (a run's `best/genome.npy`, or `docs/layout_runs/even_generator.npy`). It grows
 50 NCA steps at 33x36 and 200 at 101x102 (the paper's rule), is repaired (at 33x36 as training repairs it; at
@@ -159,6 +159,9 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=5000, help="steps per run (default 5000, as the paper)")
     parser.add_argument("--repair-time-limit", type=float, default=120.0, help="seconds for the 101x102 repair (default 120)")
     parser.add_argument("--workers", type=int, default=2, help="processes that share the runs (default 2)")
+    parser.add_argument(
+        "--sizes", default="33x36,101x102", help="which of the two sizes, comma-separated (default 33x36,101x102)"
+    )
     parser.add_argument("--papers", action="store_true", help="also re-simulate the paper's own layouts the same way")
     parser.add_argument(
         "--tiling", action="store_true", help="add the tiling baseline: our 33x36 layout tiled to 101x102 and repaired"
@@ -170,17 +173,23 @@ def main() -> None:
     maps = reference_maps()
     if args.papers and maps is None:
         parser.error("--papers needs the original's maps: set $STRUCTGEN_REFERENCE_DATA")
+    wanted = args.sizes.split(",")
+    if unknown := [size for size in wanted if size not in ("33x36", "101x102")]:
+        parser.error(f"--sizes: {', '.join(unknown)}: Table 2 has 33x36 and 101x102")
     sizes = [("33x36", 200, row.paper_small, None), ("101x102", row.large_robots, row.paper_large[1], row.paper_large[0])]
+    sizes = [entry for entry in sizes if entry[0] in wanted]
     if args.tiling:
         sizes.append(("101x102 tiled", row.large_robots, row.paper_large[1], row.paper_large[0]))
     table = []
     small = None
     for size, robots, paper_throughput, paper_success in sizes:
         if size.endswith("tiled"):
+            if small is None:  # the tiling repeats our 33x36 layout even where its row was not asked for
+                small = grow_and_repair(weights, row, "33x36", 200, args.repair_time_limit)["tiles"]
             ours = tile_and_repair(small, row, robots, args.repair_time_limit)
         else:
             ours = grow_and_repair(weights, row, size, robots, args.repair_time_limit)
-            small = ours["tiles"] if small is None else small
+            small = ours["tiles"] if size == "33x36" else small
         entry = {
             "size": size,
             "repair": {k: ours[k] for k in ("changed", "method", "repair_seconds")},
