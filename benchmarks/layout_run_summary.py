@@ -8,7 +8,8 @@ Writes into the output folder ``NAME_generator.npy`` (the best genome by trainin
 ``problem.grow(genome[None])`` regrows it), ``NAME_throughput_generator.npy`` (the result archive's elite of highest
 throughput, the objective without its similarity term), ``NAME_summary.json`` (evaluations, the share of the paper's
 budget, QD score and coverage per generation, the paper's values, both candidates' fields) and ``NAME_qd.png`` (the
-curves with the paper's end values) and ``NAME_archive.png`` (the run's result archive) and prints one table row.
+curves with the paper's end values), ``NAME_archive.png`` (the run's result archive) and ``NAME_layout.png`` (the best
+layout, grown and repaired) and prints one table row.
 """
 
 from __future__ import annotations
@@ -83,6 +84,7 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     bottom.set_xlabel("evaluations")
     atomic_write(out / f"{name}_qd.png", figure_png(figure))
     shutil.copyfile(run / "archive.png", out / f"{name}_archive.png")
+    shutil.copyfile(run / "best" / "layout.png", out / f"{name}_layout.png")
     return summary
 
 

@@ -144,7 +144,8 @@ def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_wei
     assert summary["evaluations"] == 6 and summary["share_of_paper_budget"] == 6 / 10_000
     assert [row["generation"] for row in summary["curve"]] == [1]
     assert {p.name for p in (tmp_path / "docs").iterdir()} == {
-        "tiny_generator.npy", "tiny_throughput_generator.npy", "tiny_summary.json", "tiny_qd.png", "tiny_archive.png"
+        "tiny_generator.npy", "tiny_throughput_generator.npy", "tiny_summary.json", "tiny_qd.png", "tiny_archive.png",
+        "tiny_layout.png",
     }  # fmt: skip
     # The result archive's highest throughput, kept beside the best by the objective.
     archive = (tmp_path / "run" / "archive.csv").read_text().splitlines()
