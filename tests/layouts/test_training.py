@@ -118,6 +118,13 @@ def test_training_sends_layouts_far_from_valid_to_the_greedy_repair_as_its_setti
     for beyond, expected in ((-1, None), (0, 0), (100, 100)):
         LayoutProblem(WarehouseSettings(**tiny, repair_greedy_beyond=beyond)).evaluate(genomes, np.arange(1))
         assert asked.pop() == expected
+    # Which path each layout took is in its fields: HiGHS, or the cheap path's patch repair (else its row repair).
+    many = LayoutProblem(WarehouseSettings(**{**tiny, "size": "33x36", "shelves": 240, "iterations": 50, "hidden": 32}))
+    monkeypatch.setattr(layout_problem, "repair", real)
+    grown = many.initial_genomes(6, np.random.default_rng(4)) * 5  # far from valid: the cheap path
+    fields = many.evaluate(grown, np.arange(6)).fields
+    assert set(many.mean_fields) == {"highs", "patched", "timed_out"}
+    assert (fields["highs"] == 0).all() and 0 < fields["patched"].sum() < 6
 
 
 @pytest.mark.slow

@@ -29,7 +29,17 @@ from structgen.errors import InputError
 #: What each warehouse or manufacturing evaluation records beside its objective and measures: ``highs`` is 1 where
 #: HiGHS repaired the layout (0: the greedy repair alone, see ``repair_greedy_beyond``), ``timed_out`` 1 where a
 #: HiGHS solve stopped at its time limit.
-REPAIRED_FIELDS = ("throughput", "congested", "similarity", "hamming", "optimal", "failed", "highs", "timed_out")
+REPAIRED_FIELDS = (
+    "throughput",
+    "congested",
+    "similarity",
+    "hamming",
+    "optimal",
+    "failed",
+    "highs",
+    "patched",
+    "timed_out",
+)
 
 __all__ = ["LayoutProblem", "ManufacturingSettings", "MazeSettings", "WarehouseSettings"]
 
@@ -195,9 +205,10 @@ class LayoutProblem(Problem):
             self.field_names = REPAIRED_FIELDS
             self.result_objective = "throughput" if settings.simulations else None
         if self.kind.name != "maze":
-            # Each generation's share of layouts HiGHS repaired, and of repairs stopped by the clock (a run repeats
-            # exactly only while that stays 0).
-            self.mean_fields = ("highs", "timed_out")
+            # Each generation's share of layouts HiGHS repaired, of those the patch repair answered (the rest of the
+            # cheap path took the row repair), and of repairs stopped by the clock (a run repeats exactly only while
+            # that stays 0).
+            self.mean_fields = ("highs", "patched", "timed_out")
         else:
             horizon = float(2 * full[0] * full[1])
             if settings.measures == "walls":
@@ -305,6 +316,7 @@ class LayoutProblem(Problem):
             "optimal": float(result.optimal),
             "failed": 0.0,
             "highs": float(result.searched),
+            "patched": float(result.method == "patch"),
             "timed_out": float(result.timed_out),
         }
         throughput, congested = self._simulate(result.tiles, seed)
