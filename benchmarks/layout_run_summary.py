@@ -7,7 +7,8 @@ archive heatmap.
 Writes into the output folder ``NAME_generator.npy`` (the best genome by training's objective, the NCA's weights:
 ``problem.grow(genome[None])`` regrows it), ``NAME_throughput_generator.npy`` (the result archive's elite of highest
 throughput, the objective without its similarity term), ``NAME_summary.json`` (evaluations, the share of the paper's
-budget, QD score and coverage per generation, the paper's values, both candidates' fields) and ``NAME_qd.png`` (the
+budget, QD score and coverage per generation, the paper's values, both candidates' fields, and how many of the
+archive's elites HiGHS, the patch repair and the row repair repaired) and ``NAME_qd.png`` (the
 curves with the paper's end values), ``NAME_archive.png`` (the run's result archive) and ``NAME_layout.png`` (the best
 layout, grown and repaired) and prints one table row.
 """
@@ -23,6 +24,7 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
+from structgen.domains.warehouse.repair import cheap_repair
 from structgen.runs import open_run
 
 #: The paper's Table 4 (CMA-MAE + NCA, mean and standard error over its runs of 10,000 evaluations), by domain.
@@ -40,6 +42,20 @@ def _domain(config: str) -> str:
     return "warehouse-uneven" if "uneven = true" in config else "warehouse-even"
 
 
+def repair_paths(problem, archive) -> dict[str, int]:
+    """How the result archive's elites were repaired: by HiGHS (the run's own ``highs`` field), or on the cheap path
+    by the patch repair or the row repair (found again by growing each elite: the cheap repairs are deterministic)."""
+    highs = archive.columns["highs"] == 1
+    paths = {"highs": int(highs.sum()), "patch": 0, "greedy": 0}
+    cheap = np.flatnonzero(~highs)
+    for start in range(0, len(cheap), 256):
+        chunk = cheap[start : start + 256]
+        for tiles in problem.grow(archive.genomes[chunk]):
+            _, method = cheap_repair(tiles, problem.kind, shelves=problem.shelves, agents=problem.settings.agents)
+            paths[method or "greedy"] += 1
+    return paths
+
+
 def summarise(run: Path, name: str, out: Path) -> dict:
     rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line.strip()]
     if not rows or "qd_score" not in rows[-1]:
@@ -55,6 +71,7 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     top = int(np.argmax(archive.objective))
     np.save(out / f"{name}_throughput_generator.npy", archive.genomes[top])
     top_throughput = {column: float(values[top]) for column, values in archive.columns.items()}
+    paths = repair_paths(experiment.make_problem(), archive)
     evaluations = rows[-1]["evaluations"]
     summary = {
         "run": name,
@@ -66,6 +83,7 @@ def summarise(run: Path, name: str, out: Path) -> dict:
         "paper": {key: {"mean": m, "standard_error": e} for key, (m, e) in paper.items()},
         "best": best,
         "top_throughput": top_throughput,
+        "elite_repair_paths": paths,
         "curve": [{k: r[k] for k in ("generation", "evaluations", "qd_score", "coverage")} for r in rows],
     }
     atomic_write(out / f"{name}_summary.json", json.dumps(summary, indent=1) + "\n")

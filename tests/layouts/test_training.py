@@ -158,6 +158,7 @@ def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_wei
     archive = (tmp_path / "run" / "archive.csv").read_text().splitlines()
     objective = [float(line.split(",")[1]) for line in archive[1:]]
     assert summary["top_throughput"]["objective"] == max(objective)
+    assert sum(summary["elite_repair_paths"].values()) == len(objective)  # each elite's repair, by its path
     solutions = np.load(tmp_path / "run" / "archive_solutions.npy")
     np.testing.assert_array_equal(np.load(tmp_path / "docs" / "tiny_throughput_generator.npy"), solutions[np.argmax(objective)])
     problem = load_experiment(tmp_path / "run" / "config.toml").make_problem()
