@@ -67,11 +67,12 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     genome = np.load(run / "best" / "genome.npy")
     np.save(out / f"{name}_generator.npy", genome)
     folder, experiment = open_run(run)
-    archive = folder.load_archive(experiment.make_problem())
+    problem = experiment.make_problem()
+    archive = folder.load_archive(problem)
     top = int(np.argmax(archive.objective))
     np.save(out / f"{name}_throughput_generator.npy", archive.genomes[top])
     top_throughput = {column: float(values[top]) for column, values in archive.columns.items()}
-    paths = repair_paths(experiment.make_problem(), archive)
+    paths = repair_paths(problem, archive)
     evaluations = rows[-1]["evaluations"]
     summary = {
         "run": name,

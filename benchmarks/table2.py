@@ -81,38 +81,26 @@ ROWS = {
 def grow_and_repair(weights: np.ndarray, row: Row, size: str, robots: int, time_limit: float) -> dict:
     """Our layout at ``size``: grown for the paper's steps there and repaired; at 33x36 as training repairs it."""
     problem = LayoutProblem(row.settings(size=size, agents=robots))
-    grown = problem.grow(weights[None])[0]
-    began = time.perf_counter()
-    training_like = size == "33x36"
-    result = repair(
-        grown,
-        problem.kind,
-        shelves=problem.shelves if problem.kind is WAREHOUSE else None,
-        agents=robots if problem.kind is MANUFACTURING else 0,
-        time_limit=60.0 if training_like else time_limit,
-        greedy_beyond=REPAIR_GREEDY_BEYOND if training_like else None,
-    )
-    return {
-        "kind": problem.kind,
-        "grown": grown,
-        "tiles": result.tiles,
-        "changed": result.hamming,
-        "method": result.method,
-        "repair_seconds": round(time.perf_counter() - began, 1),
-    }
+    if size == "33x36":
+        return _repaired(problem, problem.grow(weights[None])[0], robots, 60.0, REPAIR_GREEDY_BEYOND)
+    return _repaired(problem, problem.grow(weights[None])[0], robots, time_limit)
 
 
 def tile_and_repair(small: np.ndarray, row: Row, robots: int, time_limit: float, size: str = "101x102") -> dict:
     """The paper's tiling baseline: our trained 33x36 layout repeated to fill ``size``, then repaired."""
     problem = LayoutProblem(row.settings(size=size, agents=robots))
-    tiled = problem.kind.tiled(small, size)
+    return _repaired(problem, problem.kind.tiled(small, size), robots, time_limit)
+
+
+def _repaired(problem: LayoutProblem, tiles: np.ndarray, robots: int, time_limit: float, greedy_beyond=None) -> dict:
     began = time.perf_counter()
     result = repair(
-        tiled,
+        tiles,
         problem.kind,
         shelves=problem.shelves if problem.kind is WAREHOUSE else None,
         agents=robots if problem.kind is MANUFACTURING else 0,
         time_limit=time_limit,
+        greedy_beyond=greedy_beyond,
     )
     return {
         "kind": problem.kind,

@@ -15,7 +15,7 @@ import math
 import signal
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,6 +34,7 @@ __all__ = [
     "Best",
     "RunFolder",
     "RUN_CONDITIONS",
+    "comparable_metrics",
     "RunFolderError",
     "RunSettings",
     "RunState",
@@ -47,6 +48,11 @@ log = logging.getLogger(__name__)
 #: Fields of a metrics row that say how a generation ran (its wall time, its local evaluation processes), not what it
 #: found: runs of the same seed and configuration agree on everything else.
 RUN_CONDITIONS = ("wall_s", "workers")
+
+
+def comparable_metrics(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Metrics rows without the :data:`RUN_CONDITIONS`: what two runs of one seed and configuration must agree on."""
+    return [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in rows]
 
 
 @dataclass(frozen=True)

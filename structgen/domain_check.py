@@ -221,26 +221,20 @@ def _check_round_trip(problem, genomes, seeds, result, folder: Path) -> None:
     _same(first, problem.evaluate(genomes[:1], seeds[:1]), "the genome through a run folder's best/")
 
 
-def _flat_keys(table: dict[str, Any], prefix: str = "problem.") -> list[tuple[str, Any]]:
-    pairs = []
-    for key, value in table.items():
-        pairs += _flat_keys(value, f"{prefix}{key}.") if isinstance(value, dict) else [(prefix + key, value)]
-    return pairs
-
-
 def _check_resume(spec: registry.DomainSpec, folder: Path) -> None:
-    from evolution.run import RUN_CONDITIONS
+    from evolution.run import comparable_metrics
+    from structgen.config import flatten
     from structgen.experiment import load_experiment
     from structgen.runs import evolve, resume
 
-    overrides = [*_flat_keys(dict(spec.test_settings)), ("optimizer.population", 4), ("optimizer.parents", 2)]
+    overrides = [*flatten(spec.test_settings, "problem.").items(), ("optimizer.population", 4), ("optimizer.parents", 2)]
     experiment = load_experiment(domain=spec.id, optimizer="ga", overrides=overrides, run_changes={"workers": 0, "seed": 5})
     straight, _ = evolve(experiment.with_run(generations=2), folder / "straight", progress=False)
     split, _ = evolve(experiment.with_run(generations=1), folder / "split", progress=False)
     resume(split.path, generations=2, progress=False)
 
     def outcome(run) -> tuple[list, bytes, bytes]:
-        metrics = [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in run.metrics()]
+        metrics = comparable_metrics(run.metrics())
         genome = next(p for p in (run / "best").iterdir() if p.name.startswith("genome."))
         return metrics, genome.read_bytes(), (run / "best" / "best.json").read_bytes()
 

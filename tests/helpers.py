@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from evolution.run import RUN_CONDITIONS
+from evolution.run import comparable_metrics as comparable
 from structgen.cli import main
 
 
@@ -18,11 +18,6 @@ def cli(capsys, *argv) -> tuple[int, str, str]:
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
-
-
-def comparable(rows) -> list[dict]:
-    """Metrics rows without the fields that say how each generation ran (see RUN_CONDITIONS)."""
-    return [{k: v for k, v in row.items() if k not in RUN_CONDITIONS} for row in rows]
 
 
 def findings(metrics_file: Path) -> list[dict]:

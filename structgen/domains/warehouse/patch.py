@@ -144,9 +144,10 @@ def _remove_surplus(result, rules: _Rules) -> None:
     lonely_rank = np.where(free_next == 0, 0, np.where(endpoint_next == 0, 1, 2))
     rank = rules.row_pattern * 32 + lonely_rank * 8 + (4 - blocking_next)
     candidates = np.argwhere(is_blocking & rules.area)
+    ranks = rank[tuple(candidates.T)]
     removed = 0
-    for level in np.unique(rank[tuple(candidates.T)]):
-        for r, c in _spread_order(candidates[rank[tuple(candidates.T)] == level]):
+    for level in np.unique(ranks):
+        for r, c in _spread_order(candidates[ranks == level]):
             if removed == surplus:
                 return
             result[r, c] = rules.floor
@@ -257,15 +258,16 @@ def _add_blocking(result, rules: _Rules) -> None:
 def _give_endpoints(result, rules: _Rules) -> None:
     is_blocking = np.isin(result, rules.blocking)
     lonely = np.argwhere(is_blocking & (neighbour_count(np.isin(result, rules.endpoints)) == 0))
+    blocking_next = neighbour_count(is_blocking)  # changes only where a boxed-in shelf is removed below
     for r, c in lonely:
         if any(result[cell] in rules.endpoints for cell in _neighbours(r, c, result.shape)):
             continue  # an endpoint given to a neighbouring shelf serves this one too
         spots = [cell for cell in _neighbours(r, c, result.shape) if rules.area[cell] and result[cell] == rules.floor]
         if not spots:
             result[r, c] = rules.floor  # boxed in: the next round's steps put a shelf elsewhere
+            blocking_next = neighbour_count(np.isin(result, rules.blocking))
             continue
         # The spot beside the most shelves serves the most of them.
-        blocking_next = neighbour_count(np.isin(result, rules.blocking))
         result[max(spots, key=lambda spot: blocking_next[spot])] = rules.endpoint
     orphans = np.isin(result, rules.endpoints) & (neighbour_count(np.isin(result, rules.blocking)) == 0) & rules.area
     result[orphans] = rules.floor

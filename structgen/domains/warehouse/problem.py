@@ -27,8 +27,9 @@ from structgen.domains.warehouse.simulator import PLANNERS
 from structgen.errors import InputError
 
 #: What each warehouse or manufacturing evaluation records beside its objective and measures: ``highs`` is 1 where
-#: HiGHS repaired the layout (0: the greedy repair alone, see ``repair_greedy_beyond``), ``timed_out`` 1 where a
-#: HiGHS solve stopped at its time limit.
+#: HiGHS repaired the layout (0: a cheap repair alone, see ``repair_greedy_beyond``), ``patched`` 1 where that cheap
+#: repair was the patch repair (0 with ``highs`` 0: the row repair), ``timed_out`` 1 where a HiGHS solve stopped at
+#: its time limit.
 REPAIRED_FIELDS = (
     "throughput",
     "congested",
