@@ -19,7 +19,7 @@ import os
 import struct
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -30,7 +30,29 @@ from structgen.errors import StructureError
 if TYPE_CHECKING:
     import trimesh
 
-    from structgen.structure import Structure
+
+class Meshable(Protocol):
+    """What a mesh needs of a :class:`structgen.structure.Structure` (named by shape, not imported: the structure
+    module offers ``to_mesh`` and ``export`` through this one, so importing it back would make a circle)."""
+
+    @property
+    def vertices(self) -> np.ndarray: ...
+
+    @property
+    def edges(self) -> np.ndarray: ...
+
+    @property
+    def metadata(self) -> dict[str, Any]: ...
+
+    @property
+    def n_vertices(self) -> int: ...
+
+    @property
+    def n_edges(self) -> int: ...
+
+    @property
+    def height(self) -> int: ...
+
 
 __all__ = ["EXPORT_FORMATS", "MeshStyle", "export_structure", "structure_mesh"]
 
@@ -75,7 +97,7 @@ class MeshStyle:
 _BYTES_PER_TRIANGLE = 200
 
 
-def triangles(structure: Structure, style: MeshStyle) -> int:
+def triangles(structure: Meshable, style: MeshStyle) -> int:
     """How many triangles the parts have: 20 * 4**subdivisions per sphere, 4 * sections per cylinder."""
     return structure.n_vertices * 20 * 4**style.sphere_subdivisions + structure.n_edges * 4 * style.cylinder_sections
 
@@ -146,7 +168,7 @@ class _Parts:
         return [(step, t, self.middles[self.axis_of_edge == a]) for a, (step, t) in enumerate(zip(self.steps, self.cylinders))]
 
 
-def _parts(structure: Structure, style: MeshStyle) -> _Parts:
+def _parts(structure: Meshable, style: MeshStyle) -> _Parts:
     count = triangles(structure, style)
     check_memory(
         count * _BYTES_PER_TRIANGLE,
@@ -178,7 +200,7 @@ def _placed(template: _Template, offsets: np.ndarray) -> tuple[np.ndarray, np.nd
     return positions, normals, faces
 
 
-def _soup(structure: Structure, style: MeshStyle) -> tuple[trimesh.Trimesh, trimesh.Trimesh | None]:
+def _soup(structure: Meshable, style: MeshStyle) -> tuple[trimesh.Trimesh, trimesh.Trimesh | None]:
     """Spheres and cylinders as two meshes with vertex normals (cylinders None without edges), z-up."""
     import trimesh
 
@@ -200,7 +222,7 @@ def _soup(structure: Structure, style: MeshStyle) -> tuple[trimesh.Trimesh, trim
     return spheres, cylinders
 
 
-def _solid(structure: Structure, style: MeshStyle) -> trimesh.Trimesh:
+def _solid(structure: Meshable, style: MeshStyle) -> trimesh.Trimesh:
     """Every part unioned into one closed shell: each cylinder reaches into its two spheres, so every joint fuses."""
     import trimesh
 
@@ -240,7 +262,7 @@ def _solid(structure: Structure, style: MeshStyle) -> trimesh.Trimesh:
     return result
 
 
-def structure_mesh(structure: Structure, style: MeshStyle | None = None, *, solid: bool = False) -> trimesh.Trimesh:
+def structure_mesh(structure: Meshable, style: MeshStyle | None = None, *, solid: bool = False) -> trimesh.Trimesh:
     """One z-up triangle mesh of the structure standing on the ground (spheres first, then cylinders), coloured per
     face, with vertex normals; ``solid=True``: the parts unioned into one watertight shell."""
     import trimesh
@@ -321,7 +343,7 @@ def _y_up(points: np.ndarray) -> np.ndarray:
     return points @ Z_UP_TO_Y_UP.T
 
 
-def _glb_bytes(structure: Structure, style: MeshStyle, solid: bool) -> bytes:
+def _glb_bytes(structure: Meshable, style: MeshStyle, solid: bool) -> bytes:
     from structgen._version import __version__
 
     writer = _GlbWriter()
@@ -380,7 +402,7 @@ def _glb_bytes(structure: Structure, style: MeshStyle, solid: bool) -> bytes:
 
 
 def export_structure(
-    structure: Structure, path: str | os.PathLike, style: MeshStyle | None = None, *, solid: bool = False
+    structure: Meshable, path: str | os.PathLike, style: MeshStyle | None = None, *, solid: bool = False
 ) -> Path:
     """Write a mesh of ``structure`` to ``path`` in the format its suffix names (``.glb``, ``.obj``, ``.stl``,
     ``.ply``); ``solid=True`` writes one watertight shell instead of separate parts."""

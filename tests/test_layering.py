@@ -11,8 +11,9 @@ Layers, lowest first; a module may import from its own layer's modules and from 
 5. the domains (``structgen.domains.<name>``): none imports another domain.
 6. ``structgen.cli``: knows domains only through the registry.
 
-Imports inside functions count (they are edges all the same); those under ``if TYPE_CHECKING:`` do not (they never
-run), nor those in a module's ``__getattr__``, which only offers users a name from a higher layer on first use
+Imports inside functions count (they are edges all the same); those under ``if TYPE_CHECKING:`` do not place a module
+(they never run) but do count as circles (a reader follows them all the same), and those in a module's ``__getattr__``
+do not count, which only offers users a name from a higher layer on first use
 (``structgen.check_domain``).
 ``import structgen`` stays light (so its thread policy is set before torch or numba can start): no physics, pybullet,
 ribs, trimesh, torch or numba until they are needed, and of evolution only the file gate (``evolution.files``), which
@@ -40,13 +41,15 @@ def module_name(path: Path) -> str:
 MODULES = {module_name(path): path for package in PACKAGES for path in (ROOT / package).rglob("*.py")}
 
 
-def _runtime_nodes(tree: ast.AST) -> list[ast.AST]:
-    """Every node of ``tree`` except those inside ``if TYPE_CHECKING:`` blocks and a module's own ``__getattr__``
-    (PEP 562): the lazy names a package offers its users (``structgen.check_domain``) are not what its code uses."""
+def _runtime_nodes(tree: ast.AST, *, type_only: bool = False) -> list[ast.AST]:
+    """Every node of ``tree`` except those inside ``if TYPE_CHECKING:`` blocks (kept with ``type_only``) and a
+    module's own ``__getattr__`` (PEP 562): the lazy names a package offers its users (``structgen.check_domain``)
+    are not what its code uses."""
     nodes, stack = [], [tree]
     while stack:
         node = stack.pop()
-        if isinstance(node, ast.If) and ast.unparse(node.test) in ("TYPE_CHECKING", "typing.TYPE_CHECKING"):
+        checking = ast.unparse(node.test) in ("TYPE_CHECKING", "typing.TYPE_CHECKING") if isinstance(node, ast.If) else False
+        if checking and not type_only:
             stack.extend(node.orelse)
             continue
         if isinstance(node, ast.FunctionDef) and node.name == "__getattr__" and node in getattr(tree, "body", []):
@@ -56,24 +59,33 @@ def _runtime_nodes(tree: ast.AST) -> list[ast.AST]:
     return nodes
 
 
-def imports_of(name: str) -> set[str]:
-    """The project modules ``name`` imports at run time, anywhere in its source."""
+def imports_of(name: str, *, type_only: bool = False) -> set[str]:
+    """The project modules ``name`` imports at run time, anywhere in its source (and for type checkers only, with
+    ``type_only``)."""
     found = set()
-    for node in _runtime_nodes(ast.parse(MODULES[name].read_text(), filename=str(MODULES[name]))):
+    tree = ast.parse(MODULES[name].read_text(), filename=str(MODULES[name]))
+    # A package's own type-only imports type the names its __getattr__ offers users lazily: not its code's either.
+    type_only = type_only and MODULES[name].name != "__init__.py"
+    for node in _runtime_nodes(tree, type_only=type_only):
         if isinstance(node, ast.Import):
             targets = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom) and node.module:
             assert node.level == 0, f"{name}: relative import"
-            targets = [f"{node.module}.{alias.name}" for alias in node.names] + [node.module]
+            targets = [
+                f"{node.module}.{alias.name}" if f"{node.module}.{alias.name}" in MODULES else node.module for alias in node.names
+            ]
         else:
             continue
-        # `from a import b` imports the module a.b if there is one, else the name b from a.
+        # `from a import b` imports the module a.b if there is one (its package a runs first, as for any module of
+        # a: not an edge of its own), else the name b from a.
         found.update(t for t in targets if t in MODULES)
     found.discard(name)
     return found
 
 
 GRAPH = {name: imports_of(name) for name in MODULES}
+#: GRAPH with the imports made for type checkers only: no circle in it either.
+TYPED_GRAPH = {name: imports_of(name, type_only=True) for name in MODULES}
 
 
 #: structgen's core (layer 2), by name: what more than one domain or the product shares. A new module of structgen
@@ -139,12 +151,12 @@ def test_the_graph_covers_the_project():
     assert "structgen.mesh" in GRAPH["structgen.structure"]  # imported inside a method: an edge all the same
 
 
-def test_the_import_graph_has_no_circles():
+def test_the_import_graph_has_no_circles_type_only_imports_included():
     state: dict[str, int] = {}  # 1: on the current path, 2: done
 
     def visit(name: str, path: list[str]) -> None:
         state[name] = 1
-        for target in sorted(GRAPH[name]):
+        for target in sorted(TYPED_GRAPH[name]):
             if state.get(target) == 1:
                 circle = path[path.index(target) :] + [target]
                 raise AssertionError("import circle: " + " -> ".join(circle))
@@ -152,7 +164,7 @@ def test_the_import_graph_has_no_circles():
                 visit(target, [*path, target])
         state[name] = 2
 
-    for name in sorted(GRAPH):
+    for name in sorted(TYPED_GRAPH):
         if name not in state:
             visit(name, [name])
 
