@@ -19,7 +19,7 @@ $(VENV)/.installed: $(BIN)/python pyproject.toml constraints.txt
 	@echo "installing structgen, its test and docs tools into $(VENV) (a few minutes the first time)"
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,docs]'
 	@echo "compiling the domains' numba kernels (numba keeps them; a few minutes the first time)"
-	$(BIN)/python -c "from structgen.domains.registry import compile_kernels; compile_kernels()"
+	$(BIN)/python -c "from structgen.registry import compile_kernels; compile_kernels()"
 	@touch $@
 
 install: $(VENV)/.installed

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from structgen.errors import InputError
 
 if TYPE_CHECKING:
-    from structgen.domains import DomainSpec
+    from structgen.registry import DomainSpec
 
 __all__ = [
     "EXIT_BAD_INPUT",

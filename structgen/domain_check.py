@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from structgen.domains import registry
+from structgen import registry
 
 __all__ = ["CHECKS", "DomainCheck", "DomainContractError", "check_domain"]
 
@@ -77,7 +77,7 @@ def check_domain(
     skip: Iterable[str] = (),
     folder: str | Path | None = None,
 ) -> DomainCheck:
-    """Check a domain (a :class:`~structgen.domains.registry.DomainSpec`, registered or not, or a registered id)
+    """Check a domain (a :class:`~structgen.registry.DomainSpec`, registered or not, or a registered id)
     against the contract (module doc). ``batch`` candidates are evaluated; ``skip`` names checks to leave out (of
     :data:`CHECKS`); the round trip and the resume write small run folders into a new folder inside ``folder``,
     kept there (default: a temporary folder, removed after).

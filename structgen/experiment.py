@@ -23,7 +23,7 @@ from typing import Any
 
 from evolution import DEFAULT_OPTIMIZER, OPTIMIZERS, Optimizer, Problem, RunSettings, make_optimizer
 from evolution.files import InputFileError, MiB, read_text
-from structgen import domains
+from structgen import registry
 from structgen.config import ConfigError, build, parse_assignment, resolve_key, set_path, setting_paths, to_table
 
 if sys.version_info >= (3, 11):
@@ -47,8 +47,8 @@ class Experiment:
     optimizer_settings: Any
 
     @property
-    def spec(self) -> domains.DomainSpec:
-        return domains.spec(self.domain)
+    def spec(self) -> registry.DomainSpec:
+        return registry.spec(self.domain)
 
     def make_problem(self) -> Problem:
         """The domain's problem with these settings (close it when done)."""
@@ -101,10 +101,10 @@ def _cpus() -> int:
 
 def main_job_tables(domain: str) -> dict[str, Any]:
     """The tables of a domain's main job, before its per-optimiser sizes (which follow the optimiser chosen)."""
-    job = domains.spec(domain).main_job
+    job = registry.spec(domain).main_job
     return {
         "run": {"workers": min(_cpus(), 8), **copy.deepcopy(dict(job.run))},
-        "problem": {"name": domains.spec(domain).id, **copy.deepcopy(dict(job.problem))},
+        "problem": {"name": registry.spec(domain).id, **copy.deepcopy(dict(job.problem))},
         "optimizer": {"name": job.optimizer},
     }
 
@@ -207,8 +207,8 @@ def _source_tables(path: str | os.PathLike | None, domain: str | None, source: s
     """The tables of the configuration file, or of the main job of ``domain`` when there is no file."""
     if path is None:
         try:
-            tables = main_job_tables(domain or domains.DEFAULT_DOMAIN)
-        except domains.UnknownDomainError as err:
+            tables = main_job_tables(domain or registry.DEFAULT_DOMAIN)
+        except registry.UnknownDomainError as err:
             raise ConfigError(str(err)) from None
     else:
         tables = _read_file(path)
@@ -220,22 +220,22 @@ def _source_tables(path: str | os.PathLike | None, domain: str | None, source: s
 
 def _check_domain(tables: dict[str, Any], domain: str, source: str) -> None:
     """A file run as a domain's (``structgen <group> evolve FILE``) must be that domain's configuration."""
-    named_in_file = _table(tables, "problem", source).get("name", domains.DEFAULT_DOMAIN)
+    named_in_file = _table(tables, "problem", source).get("name", registry.DEFAULT_DOMAIN)
     try:
-        same = domains.spec(str(named_in_file)).id == domains.spec(domain).id
-    except domains.UnknownDomainError:
+        same = registry.spec(str(named_in_file)).id == registry.spec(domain).id
+    except registry.UnknownDomainError:
         same = False
     if not same:
         raise ConfigError(f"{source}a configuration of the {named_in_file} domain, not of {domain}")
 
 
-def _choose(tables: dict[str, Any], names: list[tuple[str, Any]], source: str) -> tuple[domains.DomainSpec, str]:
+def _choose(tables: dict[str, Any], names: list[tuple[str, Any]], source: str) -> tuple[registry.DomainSpec, str]:
     """The domain and the optimiser, with the names given (options, then ``--set``) written into ``tables``."""
     for key, value in names:
         set_path(tables, key, value)
     try:
-        spec = domains.spec(_name(_table(tables, "problem", source), domains.DEFAULT_DOMAIN, "problem"))
-    except domains.UnknownDomainError as err:
+        spec = registry.spec(_name(_table(tables, "problem", source), registry.DEFAULT_DOMAIN, "problem"))
+    except registry.UnknownDomainError as err:
         raise ConfigError(f"{source}problem.name: {err}") from None
     optimizer_name = _name(_table(tables, "optimizer", source), DEFAULT_OPTIMIZER, "optimizer")
     if optimizer_name not in OPTIMIZERS:

@@ -10,7 +10,7 @@ Domains import neither each other nor the command line; what two domains share s
 >>> problem = domains.make("structures-v0")      # the problem with default settings
 """
 
-from structgen.domains import registry as _registry
-from structgen.domains.registry import *  # noqa: F403  (the registry's public names are this package's)
+from structgen import registry as _registry
+from structgen.registry import *  # noqa: F403  (the registry's public names are this package's)
 
 __all__ = list(_registry.__all__)

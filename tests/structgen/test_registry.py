@@ -14,7 +14,7 @@ def compile_for_test() -> None:
 
 
 def test_install_compiles_each_domains_kernels_once_even_when_domains_share_them(monkeypatch):
-    from structgen.domains import registry
+    from structgen import registry
 
     # The built-in domains with numba code: warehouse and manufacturing share the planners' kernels.
     built_in = {spec.id: spec.kernels for spec in domains.specs()}

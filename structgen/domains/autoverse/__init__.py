@@ -10,7 +10,7 @@ many iterations to find their best play (Earle and Togelius).
 This file only describes the domain; torch loads on first use.
 """
 
-from structgen.domains.registry import DomainSpec, MainJob
+from structgen.registry import DomainSpec, MainJob
 
 AUTOVERSE = DomainSpec(
     id="autoverse-v0",

@@ -518,7 +518,7 @@ class Engine:
 def compile_kernels() -> None:
     """Compile the numba backend's step functions (or load them from numba's cache in ``__pycache__``) by stepping a
     batch of random games: the engine tries its serial and, with several threads, its parallel kernel on the first
-    steps. ``make install`` calls it (see :func:`structgen.domains.registry.compile_kernels`)."""
+    steps. ``make install`` calls it (see :func:`structgen.registry.compile_kernels`)."""
     from structgen.domains.autoverse.game import random_game
 
     rng = np.random.default_rng(0)

@@ -11,7 +11,7 @@ worlds whose machines are well explored (Charity, Rajesh, Earle, Togelius; QD fo
 This file only describes the domain; numba loads on first use.
 """
 
-from structgen.domains.registry import DomainSpec, MainJob
+from structgen.registry import DomainSpec, MainJob
 
 _PACKAGE = "structgen.domains.fortress"
 

@@ -11,7 +11,7 @@ This file only describes the domain (:data:`DOMAIN`); the problem loads, with to
 
 from typing import TYPE_CHECKING, Any
 
-from structgen.domains.registry import DomainSpec, MainJob
+from structgen.registry import DomainSpec, MainJob
 
 if TYPE_CHECKING:
     from structgen.domains.structures.problem import EVALUATORS, StableStructures, StructuresSettings

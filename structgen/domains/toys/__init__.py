@@ -5,7 +5,7 @@ mutation and crossover (``ga`` and ``map_elites`` run it), the way rule sets and
 are for trying optimisers and settings in seconds. The problems themselves are in :mod:`evolution.toys`.
 """
 
-from structgen.domains.registry import DomainSpec, MainJob
+from structgen.registry import DomainSpec, MainJob
 
 SPHERE = DomainSpec(
     id="sphere-v0",

@@ -12,7 +12,7 @@
 This file only describes the domains; torch, HiGHS and numba load on first use.
 """
 
-from structgen.domains.registry import DomainSpec, MainJob
+from structgen.registry import DomainSpec, MainJob
 
 _PACKAGE = "structgen.domains.warehouse"
 

@@ -435,7 +435,7 @@ def _throughput_of_run(tiles: np.ndarray, agents: int, steps: int, options: dict
 def compile_kernels() -> None:
     """Compile the planners' numba functions (or load them from numba's cache in ``__pycache__``) by running each
     planner for a few steps on a small warehouse: a first simulation after an install otherwise spends most of a
-    minute compiling. ``make install`` calls it (see :func:`structgen.domains.registry.compile_kernels`)."""
+    minute compiling. ``make install`` calls it (see :func:`structgen.registry.compile_kernels`)."""
     storage = np.zeros((9, 12), dtype=np.uint8)
     shelf, endpoint = WAREHOUSE.vocabulary.index("@"), WAREHOUSE.vocabulary.index("e")
     for row in (2, 6):
