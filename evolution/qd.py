@@ -230,7 +230,7 @@ def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:
 def compile_kernels() -> None:
     """Compile pyribs's kernels into numba's cache (:func:`_cache_ribs_kernels`) with two generations of a small
     CMA-MAE on each evolution strategy the optimisers use, so that a first quality-diversity run does not spend 7-9 s
-    compiling; ``make install`` calls it (through ``structgen.domains.registry.compile_kernels``)."""
+    compiling; ``make install`` calls it (through ``structgen.registry.compile_kernels``)."""
     from evolution.toys import Sphere
 
     problem = Sphere()
