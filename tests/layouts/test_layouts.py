@@ -577,6 +577,22 @@ def test_layouts_far_from_valid_skip_highs_and_near_ones_get_it():
         repair(near, WAREHOUSE, shelves=240, greedy_beyond=-1)
 
 
+def test_a_manufacturing_floor_with_no_station_takes_the_cheap_way_and_one_station_is_searched():
+    # An all-floor floor breaks no cell's rule (0 cells from valid by the measure) but gives HiGHS nothing to keep:
+    # it spent its whole time limit there, with or without a node limit, and a training run that reaches it repeats
+    # only by the clock. One station is enough for HiGHS to prove the fewest changes in about a second.
+    floor = np.zeros((33, 36), dtype=np.uint8)
+    assert distance_from_valid(floor, MANUFACTURING) == 0
+    cheap = repair(floor, MANUFACTURING, agents=200, greedy_beyond=100)
+    assert cheap.method in ("greedy", "patch") and not cheap.searched and cheap.seconds < 1
+    assert violations(cheap.tiles, MANUFACTURING, agents=200) == []
+    code = MANUFACTURING.vocabulary.index
+    one = floor.copy()
+    one[10, 10], one[10, 11] = code("0"), code("e")
+    searched = repair(one, MANUFACTURING, agents=200, greedy_beyond=100, time_limit=30)
+    assert searched.searched and searched.optimal and searched.hamming == 2 and not searched.timed_out
+
+
 def test_the_patch_repair_keeps_a_damaged_layout_and_is_valid_on_random_growths():
     # The router's cheap answer for layouts far from valid must keep what the growth got right (the archive's
     # measures come from it) and never hand out an invalid layout.

@@ -303,8 +303,9 @@ def repair(
             pattern), whichever changes fewer cells; a row answer that changes no more cells than the shelf count
             must change is the fewest changes and ends any repair (``method`` "greedy", optimal).
             HiGHS spends its whole time limit on layouts far from valid (random NCAs' 33x36 layouts with no shelves:
-            a minute, then the greedy answer anyway), so a training run repeats exactly and costs little only if
-            they never reach it. None: every layout goes to HiGHS.
+            a minute, then the greedy answer anyway), and on a layout with no shelf or station at all however near
+            it counts (a manufacturing floor of floor cells only), so those take the cheap way too: a training run
+            repeats exactly and costs little only if they never reach it. None: every layout goes to HiGHS.
 
     Raises:
         RepairError: no valid layout exists under the rules, or neither HiGHS within the time limit nor the greedy
@@ -425,7 +426,11 @@ def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> Re
         return None
     hamming = int((cheap != tiles).sum())
     optimal = hamming <= _shelves_off(tiles, kind, shelves)
-    if not optimal and distance_from_valid(tiles, kind, shelves=shelves) <= beyond:
+    # A layout with no shelf or station at all gives HiGHS nothing to keep, and it stalls before branching (an
+    # all-floor 33x36 manufacturing floor, 0 cells from valid by the measure: the whole time limit, no answer of its
+    # own; measured with and without node limits), so it takes the cheap way however near it counts.
+    keeps_something = bool(np.isin(tiles, kind.blocking_tiles()).any())
+    if not optimal and keeps_something and distance_from_valid(tiles, kind, shelves=shelves) <= beyond:
         return None
     broken = violations(cheap, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
     if broken:  # as for HiGHS's answers: never hand out an invalid layout
