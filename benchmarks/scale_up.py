@@ -141,8 +141,8 @@ def main() -> None:
                 f"{top['robots']:,} | {top['runs'] - top['successes']} of {top['runs']} |",
                 flush=True,
             )
-    if args.json is not None:
-        atomic_write(args.json, json.dumps({"kind": args.kind, "planner": args.planner, "results": results}, indent=1))
+        if args.json is not None:  # after every size: an hour's sweep stopped part way keeps what it measured
+            atomic_write(args.json, json.dumps({"kind": args.kind, "planner": args.planner, "results": results}, indent=1))
     figure = new_figure(figsize=(11, 4.2), layout="constrained")
     left, right = figure.subplots(1, 2)
     labels = list(results[sizes[0]])
