@@ -5,6 +5,7 @@ baseline; per size and layout, the highest mean throughput and the robot count w
     python benchmarks/scale_up.py [NAME=]WEIGHTS.npy ... [--kind even|uneven] [--sizes 33x36,...,101x102]
         [--planner pbs] [--steps 1000] [--seeds 3] [--workers 2] [--repair-time-limit 120] [--no-tiling]
         [--layouts DIR] [--json OUT.json] [--output docs/scale_up.png]
+    python benchmarks/scale_up.py --redraw OUT.json [--output docs/scale_up.png]
 
 Each WEIGHTS is a generator's NCA weights (`docs/layout_runs/even_generator.npy`; a CMA-ES baseline's beside it, as
 `cma-es=FILE.npy`). It grows the size's NCA steps (50, 200 at 101x102) and is repaired (at 33x36 as training
@@ -13,7 +14,8 @@ tiled to each larger size and repaired, is the tiling baseline. Robot counts go 
 (50, 100, ... at 33x36; 450, 900, ... at 101x102) until the mean throughput (over `--seeds` runs, congested ones
 counted with what they reached) has fallen below its best twice or every run congests. Needs the original's maps
 ($STRUCTGEN_REFERENCE_DATA) for the paper's and the human layouts. Prints one table, draws the paper's two panels
-(highest mean throughput, and the robot count there, against size) and, with `--json`, keeps every point.
+(highest mean throughput, and the robot count there, against size) and, with `--json`, keeps every point (after
+each size, so a sweep stopped part way keeps what it measured; `--redraw` draws the panels from it).
 """
 
 from __future__ import annotations
@@ -80,9 +82,29 @@ def sweep(tiles: np.ndarray, size: str, uneven: bool, args) -> list[dict]:
     return points
 
 
+def draw(results: dict[str, dict[str, dict]], kind: str, planner: str, steps: int, output: Path) -> None:
+    """The paper's two panels: per size, each layout's highest mean throughput and the robot count there."""
+    sizes = [size for size in SIZES if size in results]
+    figure = new_figure(figsize=(11, 4.2), layout="constrained")
+    left, right = figure.subplots(1, 2)
+    labels = list(dict.fromkeys(label for size in sizes for label in results[size]))
+    for label in labels:
+        xs = [size for size in sizes if label in results[size]]
+        left.plot(xs, [results[s][label]["best"]["mean"] for s in xs], marker="o", label=label)
+        right.plot(xs, [results[s][label]["best"]["robots"] for s in xs], marker="o", label=label)
+    for ax, what in ((left, "highest mean throughput"), (right, "robots at the highest throughput")):
+        ax.set_xlabel("map size")
+        ax.set_ylabel(what)
+        ax.grid(alpha=0.3)
+        ax.tick_params(axis="x", rotation=30)
+    left.legend(fontsize=8)
+    figure.suptitle(f"warehouse ({kind}): trained at 33x36, grown larger; {planner}, {steps:,} steps")
+    atomic_write(output, figure_png(figure, 110))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("generators", nargs="+", metavar="[NAME=]WEIGHTS.npy", help="generators' NCA weights")
+    parser.add_argument("generators", nargs="*", metavar="[NAME=]WEIGHTS.npy", help="generators' NCA weights")
     parser.add_argument("--kind", choices=("even", "uneven"), default="even", help="which warehouse (default even)")
     parser.add_argument("--sizes", default=",".join(SIZES), help="comma-separated sizes (default: the paper's seven)")
     parser.add_argument("--planner", choices=PLANNERS, default="pbs", help="the simulator's planner (default pbs)")
@@ -94,7 +116,18 @@ def main() -> None:
     parser.add_argument("--layouts", type=Path, default=None, metavar="DIR", help="also save our layouts here")
     parser.add_argument("--json", type=Path, default=None, metavar="OUT.json", help="keep every point here")
     parser.add_argument("--output", type=Path, default=Path("docs/scale_up.png"), help="the plot to write")
+    parser.add_argument(
+        "--redraw", type=Path, default=None, metavar="IN.json", help="draw the plot from a --json file, measure nothing"
+    )
     args = parser.parse_args()
+    if args.redraw is not None:
+        kept = json.loads(args.redraw.read_text())
+        steps = kept.get("steps", args.steps)
+        draw(kept["results"], kept["kind"], kept["planner"], steps, args.output)
+        print(f"{args.output}: written")
+        return
+    if not args.generators:
+        parser.error("name at least one generator's weights (or --redraw a kept JSON)")
     maps = reference_maps()
     if maps is None:
         parser.error("needs the original's maps for the paper's and the human layouts: set $STRUCTGEN_REFERENCE_DATA")
@@ -142,22 +175,11 @@ def main() -> None:
                 flush=True,
             )
         if args.json is not None:  # after every size: an hour's sweep stopped part way keeps what it measured
-            atomic_write(args.json, json.dumps({"kind": args.kind, "planner": args.planner, "results": results}, indent=1))
-    figure = new_figure(figsize=(11, 4.2), layout="constrained")
-    left, right = figure.subplots(1, 2)
-    labels = list(results[sizes[0]])
-    for label in labels:
-        xs = [size for size in sizes if label in results[size]]
-        left.plot(xs, [results[s][label]["best"]["mean"] for s in xs], marker="o", label=label)
-        right.plot(xs, [results[s][label]["best"]["robots"] for s in xs], marker="o", label=label)
-    for ax, what in ((left, "highest mean throughput"), (right, "robots at the highest throughput")):
-        ax.set_xlabel("map size")
-        ax.set_ylabel(what)
-        ax.grid(alpha=0.3)
-        ax.tick_params(axis="x", rotation=30)
-    left.legend(fontsize=8)
-    figure.suptitle(f"warehouse ({args.kind}): trained at 33x36, grown larger; {args.planner}, {args.steps:,} steps")
-    atomic_write(args.output, figure_png(figure, 110))
+            atomic_write(
+                args.json,
+                json.dumps({"kind": args.kind, "planner": args.planner, "steps": args.steps, "results": results}, indent=1),
+            )
+    draw(results, args.kind, args.planner, args.steps, args.output)
     print(f"{args.output}: written")
 
 
