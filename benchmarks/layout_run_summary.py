@@ -25,6 +25,7 @@ import numpy as np
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
 from structgen.domains.warehouse.repair import cheap_repair
+from structgen.nca import save_weights
 from structgen.runs import open_run
 
 #: The paper's Table 4 (CMA-MAE + NCA, mean and standard error over its runs of 10,000 evaluations), by domain.
@@ -65,12 +66,12 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     best = json.loads((run / "best" / "best.json").read_text())
     out.mkdir(parents=True, exist_ok=True)
     genome = np.load(run / "best" / "genome.npy")
-    np.save(out / f"{name}_generator.npy", genome)
+    save_weights(out / f"{name}_generator.npy", genome)
     folder, experiment = open_run(run)
     problem = experiment.make_problem()
     archive = folder.load_archive(problem)
     top = int(np.argmax(archive.objective))
-    np.save(out / f"{name}_throughput_generator.npy", archive.genomes[top])
+    save_weights(out / f"{name}_throughput_generator.npy", archive.genomes[top])
     top_throughput = {column: float(values[top]) for column, values in archive.columns.items()}
     paths = repair_paths(problem, archive)
     evaluations = rows[-1]["evaluations"]

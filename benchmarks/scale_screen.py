@@ -27,7 +27,8 @@ from table2 import ROWS, grow_and_repair  # the script beside this one
 from evolution.files import atomic_write
 from evolution.pool import Lost, WorkerPool
 from structgen.domains.warehouse.problem import LayoutProblem
-from structgen.domains.warehouse.simulator import simulate
+from structgen.domains.warehouse.simulator import PLANNERS, simulate
+from structgen.nca import save_weights
 from structgen.runs import open_run
 
 BLOCK = 10  # archive cells per side of a block: one candidate per block keeps the screen spread over the archive
@@ -65,7 +66,7 @@ def main() -> None:
     parser.add_argument("--size", default="101x102", help="the size to grow at (default 101x102)")
     parser.add_argument("--robots", type=int, help="robots (default: the paper's count at 101x102 for the kind)")
     parser.add_argument("--steps", type=int, default=500, help="simulated steps of the one screening run (500)")
-    parser.add_argument("--planner", default="pp", help="the screening run's planner (default pp)")
+    parser.add_argument("--planner", choices=PLANNERS, default="pp", help="the screening run's planner (default pp)")
     parser.add_argument("--workers", type=int, default=2, help="processes that share the candidates (default 2)")
     parser.add_argument("--repair-time-limit", type=float, default=120.0, help="seconds for each repair (120)")
     parser.add_argument("--json", type=Path, help="also write every candidate's result to this file")
@@ -73,6 +74,10 @@ def main() -> None:
     args = parser.parse_args()
     if args.candidates < 1 or args.workers < 0 or args.steps < 1:
         parser.error("--candidates and --steps must be positive, --workers 0 or more")
+    if args.robots is not None and args.robots < 1:
+        parser.error(f"--robots must be positive, got {args.robots}")
+    if not args.repair_time_limit > 0:
+        parser.error(f"--repair-time-limit must be positive seconds, got {args.repair_time_limit}")
     robots = args.robots or ROWS[args.kind].large_robots
 
     folder, experiment = open_run(args.run)
@@ -119,8 +124,7 @@ def main() -> None:
         f"{args.workers} worker(s), {platform.processor() or platform.machine()}"
     )
     if args.weights_out is not None and moving:
-        args.weights_out.parent.mkdir(parents=True, exist_ok=True)
-        np.save(args.weights_out, archive.genomes[moving[0]["row"]])
+        save_weights(args.weights_out, archive.genomes[moving[0]["row"]])
         print(f"the winner (archive row {moving[0]['row']}) -> {args.weights_out}")
     if args.json is not None:
         report = {

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from table2 import ROWS, grow_and_repair, tile_and_repair  # the script beside this one
 
-from evolution.files import atomic_write
+from evolution.files import InputFileError, MiB, atomic_write, read_json
 from evolution.plots import figure_png, new_figure
 from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
 from structgen.domains.warehouse.simulator import PLANNERS, evaluate_layout
@@ -121,9 +121,14 @@ def main() -> None:
     )
     args = parser.parse_args()
     if args.redraw is not None:
-        kept = json.loads(args.redraw.read_text())
-        steps = kept.get("steps", args.steps)
-        draw(kept["results"], kept["kind"], kept["planner"], steps, args.output)
+        try:
+            kept = read_json(args.redraw, 10 * MiB, what="scale-up JSON")
+            results, kind, planner = kept["results"], kept["kind"], kept["planner"]
+        except InputFileError as err:
+            parser.error(f"--redraw: {err}")
+        except (KeyError, TypeError):
+            parser.error(f"--redraw: {args.redraw} is not a JSON this script kept (results, kind and planner)")
+        draw(results, kind, planner, kept.get("steps", args.steps), args.output)
         print(f"{args.output}: written")
         return
     if not args.generators:
