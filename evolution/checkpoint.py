@@ -127,6 +127,7 @@ CLASSES = frozenset(
         ("cma.boundary_handler", "BoundTransform"),
         ("cma.evolution_strategy", "CMAEvolutionStrategy"),
         ("cma.evolution_strategy", "_CMASolutionDict_functional"),
+        ("cma.evolution_strategy", "_CMASolutionDict_empty"),  # pycma's archive from 33 genomes a generation on
         ("cma.evolution_strategy", "_CMAStopDict"),
         ("cma.evolution_strategy", "_StopTolXStagnation"),
         ("cma.logger", "CMADataLogger"),
@@ -137,6 +138,9 @@ CLASSES = frozenset(
         ("cma.sampler", "GaussFullSampler"),
         ("cma.sampler", "GaussStandardConstant"),
         ("cma.sigma_adaptation", "CMAAdaptSigmaCSA"),
+        # pycma adapts the step size this way instead of CSA from 300 parameters on (every NCA's genome).
+        ("cma.sigma_adaptation", "CMAAdaptSigmaTPA"),
+        ("cma.sigma_adaptation", "_TPAParameters"),
         ("cma.transformations", "DiagonalDecoding"),
         ("cma.transformations", "GenoPheno"),
         ("cma.transformations", "RoundIntegerVariables"),

@@ -27,7 +27,7 @@ from evolution import (
     make_optimizer,
 )
 from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
-from evolution.toys import Ones, Sphere
+from evolution.toys import Ones, Sphere, SphereSettings
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "runs_0.1.0"
 
@@ -154,6 +154,13 @@ OPTIMIZERS = {
     "cma_mae_2obj": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, ranker="2obj")),
     "cma_es": ("cma_es", Sphere, CMAESSettings(population=6)),
     "cma_es_mirrored": ("cma_es", Sphere, CMAESSettings(population=4)),  # pycma mirrors samples and keeps a range
+    # From 300 parameters on pycma adapts its step size another way, and from 33 genomes a generation on it keeps no
+    # archive of them: the warehouse baseline's case (4,766 weights, 50 a generation).
+    "cma_es_300_parameters_34_genomes": (
+        "cma_es",
+        lambda: Sphere(SphereSettings(dimensions=300)),
+        CMAESSettings(population=34),
+    ),
     "map_elites": ("map_elites", Ones, MapElitesSettings(cells=(4, 4), batch_size=6)),
     "cma_mae": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3)),
     "cma_mae_iso_line": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, emitter="iso_line")),
