@@ -18,12 +18,12 @@ import time
 
 import numpy as np
 
-from structgen.domains.warehouse.layouts import WAREHOUSE
-from structgen.domains.warehouse.measures import shelf_components, violations
-from structgen.domains.warehouse.patch import patch_repair
-from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
-from structgen.domains.warehouse.repair import greedy_repair
-from structgen.domains.warehouse.simulator import simulate
+from structgen.domains.layouts.kinds import WAREHOUSE
+from structgen.domains.layouts.measures import shelf_components, violations
+from structgen.domains.layouts.patch import patch_repair
+from structgen.domains.layouts.problem import LayoutProblem, WarehouseSettings
+from structgen.domains.layouts.repair import greedy_repair
+from structgen.domains.layouts.warehouse.simulator import simulate
 
 STEP_SIZES = (0.05, 0.2, 0.5, 1.0)
 

@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from structgen.conv_nca import ConvNCA
-from structgen.domains.warehouse.commands import AUTO_YES_NO
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
-from structgen.domains.warehouse.measures import violations
-from structgen.domains.warehouse.repair import repair
-from structgen.grid import Grid
+from structgen.domains.layouts.commands import AUTO_YES_NO
+from structgen.domains.layouts.conv_nca import ConvNCA
+from structgen.domains.layouts.grid import Grid
+from structgen.domains.layouts.kinds import MANUFACTURING, WAREHOUSE, reference_maps
+from structgen.domains.layouts.measures import violations
+from structgen.domains.layouts.repair import repair
 
 MAPS = reference_maps() or Path("no reference maps")
 OURS = MAPS / "warehouse" / "ours"

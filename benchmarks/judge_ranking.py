@@ -26,9 +26,9 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from evolution.problem import Evaluation
-from structgen.domains.warehouse.measures import similarity as similarity_of
-from structgen.domains.warehouse.problem import LayoutProblem
-from structgen.experiment import load_experiment
+from structgen.domains.layouts.measures import similarity as similarity_of
+from structgen.domains.layouts.problem import LayoutProblem
+from structgen.runs.experiment import load_experiment
 
 _PROBLEMS: dict[str, LayoutProblem] = {}
 

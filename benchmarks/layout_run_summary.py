@@ -10,7 +10,8 @@ throughput, the objective without its similarity term), ``NAME_summary.json`` (e
 budget, QD score and coverage per generation, the paper's values, both candidates' fields, and how many of the
 archive's elites HiGHS, the patch repair and the row repair repaired) and ``NAME_qd.png`` (the
 curves with the paper's end values), ``NAME_archive.png`` (the run's result archive) and ``NAME_layout.png`` (the best
-layout, grown and repaired) and prints one table row.
+layout, grown and repaired) and prints one table row. A run with no archive (the CMA-ES baseline) gets the generator, ``NAME_summary.json``
+(its objective over evaluations), ``NAME_objective.png`` and ``NAME_layout.png``.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
-from structgen.domains.warehouse.repair import cheap_repair
+from structgen.domains.layouts.repair import cheap_repair
 from structgen.nca import save_weights
 from structgen.runs import open_run
 
@@ -59,14 +60,16 @@ def repair_paths(problem, archive) -> dict[str, int]:
 
 def summarise(run: Path, name: str, out: Path) -> dict:
     rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines() if line.strip()]
-    if not rows or "qd_score" not in rows[-1]:
-        raise SystemExit(f"{run}: no quality-diversity metrics (is it a CMA-MAE or MAP-Elites layout run?)")
+    if not rows:
+        raise SystemExit(f"{run}: no generation recorded in metrics.jsonl")
     domain = _domain((run / "config.toml").read_text())
-    paper = PAPER[domain]
     best = json.loads((run / "best" / "best.json").read_text())
     out.mkdir(parents=True, exist_ok=True)
     genome = np.load(run / "best" / "genome.npy")
     save_weights(out / f"{name}_generator.npy", genome)
+    if "qd_score" not in rows[-1]:
+        return summarise_single(run, name, out, rows, domain, best)
+    paper = PAPER[domain]
     folder, experiment = open_run(run)
     problem = experiment.make_problem()
     archive = folder.load_archive(problem)
@@ -108,6 +111,23 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     return summary
 
 
+def summarise_single(run: Path, name: str, out: Path, rows: list[dict], domain: str, best: dict) -> dict:
+    """A run with no archive (the CMA-ES baseline): its best generator, its objective over evaluations."""
+    evaluations = rows[-1]["evaluations"]
+    summary = {
+        "run": name,
+        "domain": domain,
+        "evaluations": evaluations,
+        "share_of_paper_budget": evaluations / PAPER_EVALUATIONS,
+        "best": best,
+        "curve": [{k: r[k] for k in ("generation", "evaluations", "best_objective", "mean_objective") if k in r} for r in rows],
+    }
+    atomic_write(out / f"{name}_summary.json", json.dumps(summary, indent=1) + "\n")
+    shutil.copyfile(run / "objective.png", out / f"{name}_objective.png")
+    shutil.copyfile(run / "best" / "layout.png", out / f"{name}_layout.png")
+    return summary
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run", type=Path, help="the run folder")
@@ -115,6 +135,11 @@ def main() -> None:
     parser.add_argument("-o", "--out", type=Path, default=Path("docs/layout_runs"), help="output folder")
     args = parser.parse_args()
     s = summarise(args.run, args.name, args.out)
+    if "qd_score" not in s:
+        print(
+            f"| {s['run']} | {s['evaluations']:,} ({s['share_of_paper_budget']:.0%}) | best objective {s['best']['objective']:.3f} |"
+        )
+        return
     paper = s["paper"]
     print("| run | evaluations (share of the paper's) | QD score (paper) | coverage (paper) | best objective |")
     print("|---|---|---|---|---|")

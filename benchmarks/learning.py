@@ -21,8 +21,8 @@ from pathlib import Path
 # Run as a script, this file's folder comes first on sys.path, and benchmarks/physics.py would shadow the physics package.
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
-from structgen.experiment import load_experiment  # noqa: E402
 from structgen.runs import evolve  # noqa: E402
+from structgen.runs.experiment import load_experiment  # noqa: E402
 
 # Per-generation batch sizes of the comparison: the paper's population for the GA, a CMA-ES population of 40
 # (pycma's default for 4766 parameters would be 29), and five CMA-MAE emitters of 20.

@@ -18,10 +18,10 @@ import time
 import numpy as np
 import torch
 
-from structgen.domains.warehouse.maze import WallFollower, run_episodes
-from structgen.domains.warehouse.maze_agent import MazePolicy, run_agent
-from structgen.domains.warehouse.maze_env import random_maze
-from structgen.domains.warehouse.maze_training import load_agent, shipped_agent_path
+from structgen.domains.layouts.maze.agent import MazePolicy, run_agent
+from structgen.domains.layouts.maze.env import random_maze
+from structgen.domains.layouts.maze.training import load_agent, shipped_agent_path
+from structgen.domains.layouts.maze.walkers import WallFollower, run_episodes
 
 
 def mazes_of(kind: str, count: int, size: int, seed: int) -> list[np.ndarray]:

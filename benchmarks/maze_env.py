@@ -16,7 +16,7 @@ import time
 import numpy as np
 import torch
 
-from structgen.domains.warehouse.maze_env import TorchMazes, random_maze
+from structgen.domains.layouts.maze.env import TorchMazes, random_maze
 
 
 def rate(batch: TorchMazes, actions: torch.Tensor) -> float:

@@ -19,9 +19,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.anchors.rhcr import LARGE  # noqa: E402
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps  # noqa: E402
-from structgen.domains.warehouse.simulator import PBS_RULES, simulate  # noqa: E402
-from structgen.grid import Grid  # noqa: E402
+from structgen.domains.layouts.grid import Grid  # noqa: E402
+from structgen.domains.layouts.kinds import MANUFACTURING, WAREHOUSE, reference_maps  # noqa: E402
+from structgen.domains.layouts.warehouse.simulator import PBS_RULES, simulate  # noqa: E402
 
 #: Each row: its label and the settings it changes (rule 4 is the cap, rule 6 the fall-back).
 SETTINGS = [

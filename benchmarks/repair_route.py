@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from structgen.domains.warehouse.measures import similarity
-from structgen.domains.warehouse.problem import LayoutProblem
-from structgen.domains.warehouse.repair import distance_from_valid
-from structgen.experiment import load_experiment
+from structgen.domains.layouts.measures import similarity
+from structgen.domains.layouts.problem import LayoutProblem
+from structgen.domains.layouts.repair import distance_from_valid
+from structgen.runs.experiment import load_experiment
 
 
 def _compare(run: str, genome: np.ndarray, seed: int) -> dict:

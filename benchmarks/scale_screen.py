@@ -26,8 +26,8 @@ from table2 import ROWS, grow_and_repair  # the script beside this one
 
 from evolution.files import atomic_write
 from evolution.pool import Lost, WorkerPool
-from structgen.domains.warehouse.problem import LayoutProblem
-from structgen.domains.warehouse.simulator import PLANNERS, simulate
+from structgen.domains.layouts.problem import LayoutProblem
+from structgen.domains.layouts.warehouse.simulator import PLANNERS, simulate
 from structgen.nca import save_weights
 from structgen.runs import open_run
 

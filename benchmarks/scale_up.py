@@ -6,6 +6,7 @@ baseline; per size and layout, the highest mean throughput and the robot count w
         [--planner pbs] [--steps 1000] [--seeds 3] [--workers 2] [--repair-time-limit 120] [--no-tiling]
         [--layouts DIR] [--json OUT.json] [--output docs/scale_up.png]
     python benchmarks/scale_up.py --redraw OUT.json [--output docs/scale_up.png]
+    python benchmarks/scale_up.py NAME=WEIGHTS.npy --add-to OUT.json [--output docs/scale_up.png]
 
 Each WEIGHTS is a generator's NCA weights (`docs/layout_runs/even_generator.npy`; a CMA-ES baseline's beside it, as
 `cma-es=FILE.npy`). It grows the size's NCA steps (50, 200 at 101x102) and is repaired (at 33x36 as training
@@ -15,7 +16,9 @@ tiled to each larger size and repaired, is the tiling baseline. Robot counts go 
 counted with what they reached) has fallen below its best twice or every run congests. Needs the original's maps
 ($STRUCTGEN_REFERENCE_DATA) for the paper's and the human layouts. Prints one table, draws the paper's two panels
 (highest mean throughput, and the robot count there, against size) and, with `--json`, keeps every point (after
-each size, so a sweep stopped part way keeps what it measured; `--redraw` draws the panels from it).
+each size, so a sweep stopped part way keeps what it measured; `--redraw` draws the panels from it). `--add-to`
+measures only the named generators, with the kept JSON's kind, planner, steps, runs and sizes, and adds their rows to
+it (a baseline trained later joins the figure without measuring the rest again).
 """
 
 from __future__ import annotations
@@ -31,9 +34,9 @@ from table2 import ROWS, grow_and_repair, tile_and_repair  # the script beside t
 
 from evolution.files import InputFileError, MiB, atomic_write, read_json
 from evolution.plots import figure_png, new_figure
-from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
-from structgen.domains.warehouse.simulator import PLANNERS, evaluate_layout
-from structgen.grid import Grid
+from structgen.domains.layouts.grid import Grid
+from structgen.domains.layouts.kinds import WAREHOUSE, reference_maps
+from structgen.domains.layouts.warehouse.simulator import PLANNERS, evaluate_layout
 
 SIZES = ("33x36", "45x47", "57x58", "69x69", "81x80", "93x91", "101x102")
 OURS = "warehouse/ours/nca_to_show/cma_mae"
@@ -119,18 +122,30 @@ def main() -> None:
     parser.add_argument(
         "--redraw", type=Path, default=None, metavar="IN.json", help="draw the plot from a --json file, measure nothing"
     )
+    parser.add_argument(
+        "--add-to", type=Path, default=None, metavar="IN.json", help="measure only the named generators; add them to IN.json"
+    )
     args = parser.parse_args()
-    if args.redraw is not None:
+    if args.redraw is not None and args.add_to is not None:
+        parser.error("--redraw and --add-to: give one")
+    kept = None
+    if args.redraw is not None or args.add_to is not None:
+        option, path = ("--redraw", args.redraw) if args.redraw is not None else ("--add-to", args.add_to)
         try:
-            kept = read_json(args.redraw, 10 * MiB, what="scale-up JSON")
+            kept = read_json(path, 10 * MiB, what="scale-up JSON")
             results, kind, planner = kept["results"], kept["kind"], kept["planner"]
         except InputFileError as err:
-            parser.error(f"--redraw: {err}")
+            parser.error(f"{option}: {err}")
         except (KeyError, TypeError):
-            parser.error(f"--redraw: {args.redraw} is not a JSON this script kept (results, kind and planner)")
+            parser.error(f"{option}: {path} is not a JSON this script kept (results, kind and planner)")
+    if args.redraw is not None:
         draw(results, kind, planner, kept.get("steps", args.steps), args.output)
         print(f"{args.output}: written")
         return
+    if kept is not None:  # measure as the kept sweep did
+        first = next(iter(next(iter(results.values())).values()))
+        args.kind, args.planner, args.steps, args.seeds = kind, planner, kept.get("steps", args.steps), first["points"][0]["runs"]
+        args.sizes, args.no_tiling, args.json = ",".join(results), True, args.add_to
     if not args.generators:
         parser.error("name at least one generator's weights (or --redraw a kept JSON)")
     maps = reference_maps()
@@ -150,7 +165,7 @@ def main() -> None:
     )
     print("| size | layout | cells the repair changed | highest mean throughput | at robots | runs that jammed there |")
     print("|---|---|---:|---:|---:|---|")
-    results: dict[str, dict[str, dict]] = {}
+    results: dict[str, dict[str, dict]] = {} if kept is None else kept["results"]
     first_small = None
     for size in sizes:
         layouts: dict[str, tuple[np.ndarray, int | None]] = {}
@@ -164,9 +179,10 @@ def main() -> None:
                 first_small = grow_and_repair(next(iter(generators.values())), row, "33x36", 50, 60.0)["tiles"]
             tiled = tile_and_repair(first_small, row, robot_step(size), args.repair_time_limit, size=size)
             layouts["tiling"] = (tiled["tiles"], tiled["changed"])
-        layouts["paper's CMA-MAE"] = (Grid.load(maps / papers_layout(size, row.uneven), WAREHOUSE.vocabulary).tiles, None)
-        layouts["human"] = (Grid.load(maps / human_layout(size), WAREHOUSE.vocabulary).tiles, None)
-        results[size] = {}
+        if kept is None:
+            layouts["paper's CMA-MAE"] = (Grid.load(maps / papers_layout(size, row.uneven), WAREHOUSE.vocabulary).tiles, None)
+            layouts["human"] = (Grid.load(maps / human_layout(size), WAREHOUSE.vocabulary).tiles, None)
+        results.setdefault(size, {})
         for label, (tiles, changed) in layouts.items():
             if args.layouts is not None and changed is not None:
                 args.layouts.mkdir(parents=True, exist_ok=True)

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
-from structgen.domains.warehouse.simulator import PLANNERS, simulate
-from structgen.grid import Grid
+from structgen.domains.layouts.grid import Grid
+from structgen.domains.layouts.kinds import MANUFACTURING, WAREHOUSE, reference_maps
+from structgen.domains.layouts.warehouse.simulator import PLANNERS, simulate
 
 MAPS = reference_maps() or Path("no reference maps")
 OURS = "warehouse/ours/nca_to_show"

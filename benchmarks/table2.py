@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from evolution.files import atomic_write
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE, reference_maps
-from structgen.domains.warehouse.problem import LayoutProblem, ManufacturingSettings, WarehouseSettings
-from structgen.domains.warehouse.repair import REPAIR_GREEDY_BEYOND, repair
-from structgen.domains.warehouse.simulator import evaluate_layout
-from structgen.grid import Grid
+from structgen.domains.layouts.grid import Grid
+from structgen.domains.layouts.kinds import MANUFACTURING, WAREHOUSE, reference_maps
+from structgen.domains.layouts.problem import LayoutProblem, ManufacturingSettings, WarehouseSettings
+from structgen.domains.layouts.repair import REPAIR_GREEDY_BEYOND, repair
+from structgen.domains.layouts.warehouse.simulator import evaluate_layout
 
 OURS = "warehouse/ours/nca_to_show"
 

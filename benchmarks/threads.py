@@ -57,8 +57,8 @@ def fortress():
     return 50 * 100 / (time.perf_counter() - began)
 
 def growth():
-    from structgen.conv_nca import ConvNCA
-    from structgen.domains.warehouse.layouts import WAREHOUSE
+    from structgen.domains.layouts.conv_nca import ConvNCA
+    from structgen.domains.layouts.kinds import WAREHOUSE
     nca, seed = ConvNCA(3), WAREHOUSE.seed(WAREHOUSE.size("101x102").grown)
     genomes = np.random.default_rng(0).normal(0, 0.2, (20, nca.n_params))
     nca.grow(genomes[:2], seed, 2)

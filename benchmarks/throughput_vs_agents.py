@@ -21,9 +21,9 @@ import numpy as np
 
 from evolution.files import atomic_write
 from evolution.plots import figure_png, new_figure
-from structgen.domains.warehouse.layouts import WAREHOUSE, reference_maps
-from structgen.domains.warehouse.simulator import PLANNERS, simulate
-from structgen.grid import Grid
+from structgen.domains.layouts.grid import Grid
+from structgen.domains.layouts.kinds import WAREHOUSE, reference_maps
+from structgen.domains.layouts.warehouse.simulator import PLANNERS, simulate
 
 MAPS = reference_maps() or Path("no reference maps")
 OURS = "warehouse/ours/nca_to_show"

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from structgen import _moved
 from structgen._version import __version__
 from structgen.structure import Structure, StructureError
 from structgen.threads import apply_thread_policy
 
 # Before anything loads torch or numba (the imports above do not): their thread pools read these variables once, at start.
 apply_thread_policy()
+_moved.install()  # old module names (moved in 0.4) import for one more release, with a warning
 
 __all__ = [
     "LocalNCA",
@@ -30,8 +32,8 @@ __all__ = [
 _NCA_NAMES = {"LocalNCA", "NCAConfig", "grow", "grow_population", "random_weights"}
 
 if TYPE_CHECKING:
-    from structgen.domain_check import check_domain
     from structgen.nca import LocalNCA, NCAConfig, grow, grow_population, random_weights
+    from structgen.runs.domain_check import check_domain
 
 
 def __getattr__(name: str) -> Any:
@@ -41,7 +43,7 @@ def __getattr__(name: str) -> Any:
 
         return getattr(nca, name)
     if name == "check_domain":  # it reaches the engine (evolution) and the run commands: load them only when asked
-        from structgen.domain_check import check_domain
+        from structgen.runs.domain_check import check_domain
 
         return check_domain
     raise AttributeError(f"module 'structgen' has no attribute {name!r}")

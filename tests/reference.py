@@ -28,7 +28,7 @@ def folder(name: str) -> Path:
 
 def maps() -> Path:
     """The warehouse paper's maps (``$STRUCTGEN_REFERENCE_MAPS`` still names them too), or a path that does not exist."""
-    from structgen.domains.warehouse.layouts import reference_maps
+    from structgen.domains.layouts.kinds import reference_maps
 
     return reference_maps() or folder("warehouse-maps")
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from structgen.experiment import load_experiment
+from structgen.runs.experiment import load_experiment
 
 CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
 

@@ -22,7 +22,7 @@ import pytest
 
 from structgen.cli import main
 from structgen.config import flatten
-from structgen.experiment import load_experiment
+from structgen.runs.experiment import load_experiment
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = [

@@ -14,7 +14,7 @@ import pytest
 
 from evolution.toys import Sphere
 from structgen import check_domain, domains
-from structgen.domain_check import CHECKS, DomainContractError
+from structgen.runs.domain_check import CHECKS, DomainContractError
 
 SPECS = domains.specs()
 

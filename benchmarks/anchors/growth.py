@@ -30,8 +30,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path = [str(ROOT)] + [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
 from benchmarks.anchors._original import checkout_of_original, import_from_original  # noqa: E402
-from structgen.conv_nca import ConvNCA  # noqa: E402
-from structgen.domains.warehouse.layouts import WAREHOUSE  # noqa: E402
+from structgen.domains.layouts.conv_nca import ConvNCA  # noqa: E402
+from structgen.domains.layouts.kinds import WAREHOUSE  # noqa: E402
 
 REPOSITORY = "https://github.com/lunjohnzhang/warehouse_env_gen_nca_public"
 STEPS = {"33x36": 50, "101x102": 200}

@@ -144,9 +144,9 @@ def run_rhcr(
 
 
 def run_ours(map_file: Path, agents: int, steps: int, seed: int, uneven: bool = False):
-    from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE
-    from structgen.domains.warehouse.simulator import simulate
-    from structgen.grid import Grid
+    from structgen.domains.layouts.grid import Grid
+    from structgen.domains.layouts.kinds import MANUFACTURING, WAREHOUSE
+    from structgen.domains.layouts.warehouse.simulator import simulate
 
     kind = MANUFACTURING if is_factory(map_file) else WAREHOUSE
     tiles = Grid.load(map_file, kind.vocabulary).tiles
@@ -234,7 +234,7 @@ def main() -> None:
     parser.add_argument("--robots", default="500,1000,1500,2000", help="sweep: robot counts (default 500,1000,1500,2000)")
     parser.add_argument("--output", type=Path, default=Path("rhcr_sweep.json"), help="sweep: JSON file to write")
     args = parser.parse_args()
-    from structgen.domains.warehouse.layouts import reference_maps
+    from structgen.domains.layouts.kinds import reference_maps
 
     args.build_dir.mkdir(parents=True, exist_ok=True)
     checkout = checkout_of_original(args.original, args.build_dir, REPOSITORY, ("RHCR/src",))

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from evolution import Evaluation, Problem, atomic_write
-from structgen.commands import EXIT_OK, DomainCommands, InputError
 from structgen.domains import DomainSpec, MainJob
+from structgen.registry.commands import EXIT_OK, DomainCommands, InputError
 
 
 @dataclass(frozen=True)

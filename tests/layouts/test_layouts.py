@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from structgen import conv_nca
 from structgen.cli import main
-from structgen.conv_nca import ConvNCA, parameter_count
-from structgen.domains.warehouse.layouts import MANUFACTURING, MAZE, WAREHOUSE
-from structgen.domains.warehouse.maze import AGENTS, diameter, run_episodes
-from structgen.domains.warehouse.measures import broken_cells, pattern_entropy, shelf_components, similarity, violations
-from structgen.domains.warehouse.repair import RepairError, distance_from_valid, greedy_repair, repair
-from structgen.grid import Grid, GridError
+from structgen.domains.layouts import conv_nca
+from structgen.domains.layouts.conv_nca import ConvNCA, parameter_count
+from structgen.domains.layouts.grid import Grid, GridError
+from structgen.domains.layouts.kinds import MANUFACTURING, MAZE, WAREHOUSE
+from structgen.domains.layouts.maze.walkers import AGENTS, diameter, run_episodes
+from structgen.domains.layouts.measures import broken_cells, pattern_entropy, shelf_components, similarity, violations
+from structgen.domains.layouts.repair import RepairError, distance_from_valid, greedy_repair, repair
 from tests import reference
 from tests.layouts.reference_conv_nca import reference_grow
 
@@ -257,7 +257,7 @@ def test_the_rounded_relaxation_changes_as_few_cells_as_the_full_search():
 
 def test_the_models_objective_counts_changed_cells():
     """``good_enough`` and the rounding's bound read changed cells off HiGHS's objective through the model's offset."""
-    from structgen.domains.warehouse.repair import _manufacturing_model, _warehouse_model
+    from structgen.domains.layouts.repair import _manufacturing_model, _warehouse_model
 
     cases = [(WAREHOUSE, _warehouse_model, tiles, {"shelves": 20}) for tiles in _random_layouts(WAREHOUSE, (9, 12), 6, [2, 3])]
     cases += [
@@ -506,7 +506,7 @@ def test_bad_map_files_and_impossible_repairs_exit_2_and_write_nothing(tmp_path,
 def test_the_longest_shortest_path_is_found_a_block_at_a_time_as_over_the_whole_table(monkeypatch):
     from scipy.sparse import csgraph
 
-    from structgen.domains.warehouse import maze as mazes
+    from structgen.domains.layouts.maze import walkers as mazes
     from structgen.errors import InputError
 
     def whole_table(walls):
@@ -531,7 +531,7 @@ def test_the_longest_shortest_path_is_found_a_block_at_a_time_as_over_the_whole_
 def test_the_greedy_repair_spreads_shelves_over_the_map_with_aisles_across_the_rows():
     # Packed into the top rows, a greedy layout congested with 200 robots (throughput 0.1 where HiGHS's answer with
     # as many changes reached 6): robots must be able to cross the shelf rows everywhere.
-    from structgen.domains.warehouse.repair import GREEDY_AISLE_EVERY
+    from structgen.domains.layouts.repair import GREEDY_AISLE_EVERY
 
     for fill in (0, SHELF_TILE):
         tiles = WAREHOUSE.complete(np.full((33, 32), fill, dtype=np.uint8))
@@ -596,7 +596,7 @@ def test_a_manufacturing_floor_with_no_station_takes_the_cheap_way_and_one_stati
 def test_the_patch_repair_keeps_a_damaged_layout_and_is_valid_on_random_growths():
     # The router's cheap answer for layouts far from valid must keep what the growth got right (the archive's
     # measures come from it) and never hand out an invalid layout.
-    from structgen.domains.warehouse.patch import patch_repair
+    from structgen.domains.layouts.patch import patch_repair
 
     rng = np.random.default_rng(3)
     valid = greedy_repair(WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8)), WAREHOUSE, shelves=240)

@@ -12,11 +12,10 @@ import numpy as np
 import pytest
 import torch
 
-from structgen.domains.warehouse.maze import FORWARD, diameter
-from structgen.domains.warehouse.maze_agent import CROP, MazePolicy, RememberingMazes, run_agent
-from structgen.domains.warehouse.maze_env import _MARGIN, TorchMazes, random_maze
-from structgen.domains.warehouse.maze_experiment import baseline_mazes
-from structgen.domains.warehouse.maze_training import (
+from structgen.domains.layouts.maze.agent import CROP, MazePolicy, RememberingMazes, run_agent
+from structgen.domains.layouts.maze.env import _MARGIN, TorchMazes, random_maze
+from structgen.domains.layouts.maze.experiment import baseline_mazes
+from structgen.domains.layouts.maze.training import (
     AgentSettings,
     Curriculum,
     held_out_mazes,
@@ -24,6 +23,7 @@ from structgen.domains.warehouse.maze_training import (
     shipped_agent_path,
     train_agent,
 )
+from structgen.domains.layouts.maze.walkers import FORWARD, diameter
 from structgen.errors import InputError
 from tests.helpers import cli
 
@@ -159,7 +159,7 @@ def test_baselines_match_the_wall_count_and_the_path_length_band():
 
 
 def test_the_maze_problem_is_judged_by_the_learned_agent_over_walls_and_path_length():
-    from structgen.domains.warehouse.problem import LayoutProblem, MazeSettings
+    from structgen.domains.layouts.problem import LayoutProblem, MazeSettings
 
     problem = LayoutProblem(MazeSettings(episodes=2))
     assert problem.measure_names == ("walls", "path_length") and problem.measure_ranges == ((0.0, 256.0), (0.0, 648.0))

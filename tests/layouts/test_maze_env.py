@@ -9,8 +9,8 @@ import pytest
 import torch
 from gymnasium.utils.env_checker import check_env
 
-from structgen.domains.warehouse.maze import _STEPS, FORWARD, LEFT, RIGHT, _State, _view, diameter
-from structgen.domains.warehouse.maze_env import ENV_ID, STAY, MazeEnv, TorchMazes, random_maze
+from structgen.domains.layouts.maze.env import ENV_ID, STAY, MazeEnv, TorchMazes, random_maze
+from structgen.domains.layouts.maze.walkers import _STEPS, FORWARD, LEFT, RIGHT, _State, _view, diameter
 from structgen.errors import InputError
 
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from structgen.domains.warehouse import _mapf, _pbs
-from structgen.domains.warehouse.layouts import WAREHOUSE
-from structgen.domains.warehouse.simulator import distance_tables, simulate
+from structgen.domains.layouts.kinds import WAREHOUSE
+from structgen.domains.layouts.warehouse import _mapf, _pbs
+from structgen.domains.layouts.warehouse.simulator import distance_tables, simulate
 from tests.layouts.test_simulator import check_moves, small_warehouse
 
 WINDOW = 10
@@ -215,7 +215,7 @@ def test_each_rule_can_be_switched_off_and_moves_stay_legal(off):
 
 
 def test_each_rule_name_switches_off_its_own_bit():
-    from structgen.domains.warehouse.simulator import PBS_RULES
+    from structgen.domains.layouts.warehouse.simulator import PBS_RULES
 
     bits = [getattr(_pbs, name.upper()) for name in PBS_RULES]
     assert sorted(bits) == [1, 2, 4, 8] and sum(bits) == _pbs.ALL_RULES

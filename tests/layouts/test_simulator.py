@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from structgen.cli import main
-from structgen.domains.warehouse.layouts import MANUFACTURING, WAREHOUSE
-from structgen.domains.warehouse.simulator import STATION_WAITS, simulate
-from structgen.grid import Grid
+from structgen.domains.layouts.grid import Grid
+from structgen.domains.layouts.kinds import MANUFACTURING, WAREHOUSE
+from structgen.domains.layouts.warehouse.simulator import STATION_WAITS, simulate
 from tests import reference
 
 E, SHELF = WAREHOUSE.vocabulary.index("e"), WAREHOUSE.vocabulary.index("@")
@@ -199,7 +199,7 @@ def test_simulate_from_the_command_line(tmp_path, capsys):
 
 
 def test_evaluate_reports_the_success_rate_and_the_throughput_of_successful_runs(tmp_path, capsys):
-    from structgen.domains.warehouse.simulator import evaluate_layout
+    from structgen.domains.layouts.warehouse.simulator import evaluate_layout
 
     tiles = small_warehouse()
     free = int((~np.isin(tiles, WAREHOUSE.blocking_tiles())).sum())
@@ -230,7 +230,7 @@ def test_evaluate_reports_the_success_rate_and_the_throughput_of_successful_runs
 
 
 def test_the_warehouse_objective_is_throughput_plus_alpha_times_similarity():
-    from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
+    from structgen.domains.layouts.problem import LayoutProblem, WarehouseSettings
 
     settings = WarehouseSettings(
         size="6x8", shelves=6, iterations=5, hidden=8, repair_node_limit=50, agents=4, simulations=2, simulation_steps=60
@@ -247,8 +247,8 @@ def test_the_warehouse_objective_is_throughput_plus_alpha_times_similarity():
 
 
 def test_distances_along_a_corridor_longer_than_16_bits_hold_them_exactly():
-    from structgen.domains.warehouse import _mapf
-    from structgen.domains.warehouse.simulator import distance_tables
+    from structgen.domains.layouts.warehouse import _mapf
+    from structgen.domains.layouts.warehouse.simulator import distance_tables
 
     corridor = np.ones((1, 40_000), dtype=bool)  # a 1-wide corridor: 39,999 moves from end to end
     table = distance_tables(_mapf.grid_neighbours(corridor), np.array([0], dtype=np.int32))
@@ -258,8 +258,8 @@ def test_distances_along_a_corridor_longer_than_16_bits_hold_them_exactly():
 
 
 def test_distance_tables_beyond_the_memory_budget_are_refused_before_allocating(monkeypatch):
-    from structgen.domains.warehouse import _mapf
-    from structgen.domains.warehouse.simulator import distance_tables
+    from structgen.domains.layouts.warehouse import _mapf
+    from structgen.domains.layouts.warehouse.simulator import distance_tables
     from structgen.errors import InputError
 
     monkeypatch.setenv("STRUCTGEN_MEMORY_MB", "1")
@@ -276,7 +276,7 @@ def test_distance_tables_beyond_the_memory_budget_are_refused_before_allocating(
 def test_a_simulation_gives_the_tasks_it_gave_before_its_bookkeeping_was_compiled(planner, seed, uneven, tasks, congested_at):
     # Counts from the NumPy bookkeeping that the numba kernels of _steps replaced, which draw goals from the same
     # generator in the same order: every published throughput depends on this staying so.
-    from structgen.domains.warehouse.repair import greedy_repair
+    from structgen.domains.layouts.repair import greedy_repair
 
     tiles = greedy_repair(WAREHOUSE.complete(np.zeros((33, 32), dtype=np.uint8)), WAREHOUSE, shelves=240)
     result = simulate(tiles, 200, 300, seed=seed, planner=planner, uneven=uneven)

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from structgen.grid import Grid
+from structgen.domains.layouts.grid import Grid
 from tests.helpers import cli, kill_during_evolve, outcome
 
 # configs/warehouse_cma_mae.toml in miniature: every optimiser setting of the paper's, a 6x8 floor, 4 robots.
@@ -77,7 +77,7 @@ def test_the_best_layout_written_is_the_one_that_was_scored(tmp_path, monkeypatc
     import numpy as np
 
     from evolution.problem import Evaluation
-    from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
+    from structgen.domains.layouts.problem import LayoutProblem, WarehouseSettings
 
     settings = WarehouseSettings(size="6x8", shelves=6, iterations=5, hidden=8, repair_node_limit=50, agents=4, simulations=1)
     problem = LayoutProblem(settings)
@@ -105,8 +105,8 @@ def test_the_best_layout_written_is_the_one_that_was_scored(tmp_path, monkeypatc
 def test_training_sends_layouts_far_from_valid_to_the_greedy_repair_as_its_setting_says(monkeypatch):
     import numpy as np
 
-    from structgen.domains.warehouse import problem as layout_problem
-    from structgen.domains.warehouse.problem import LayoutProblem, WarehouseSettings
+    from structgen.domains.layouts import problem as layout_problem
+    from structgen.domains.layouts.problem import LayoutProblem, WarehouseSettings
 
     with pytest.raises(ValueError, match="repair_greedy_beyond must be an integer from -1"):
         WarehouseSettings(repair_greedy_beyond=-2)
@@ -135,7 +135,7 @@ def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_wei
 
     import numpy as np
 
-    from structgen.experiment import load_experiment
+    from structgen.runs.experiment import load_experiment
 
     config = tmp_path / "warehouse.toml"
     config.write_text(TINY_WAREHOUSE.replace("generations = 4", "generations = 1"))

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-import structgen.experiment
+import structgen.runs.experiment
 from structgen.cli import main
 
 CONFIG = """\
@@ -28,8 +28,8 @@ cells = [4, 4]
 @pytest.fixture
 def builds(monkeypatch) -> Counter:
     counts: Counter = Counter()
-    make_problem = structgen.experiment.Experiment.make_problem
-    make_optimizer = structgen.experiment.make_optimizer
+    make_problem = structgen.runs.experiment.Experiment.make_problem
+    make_optimizer = structgen.runs.experiment.make_optimizer
 
     def counted_problem(self):
         counts["problem"] += 1
@@ -39,8 +39,8 @@ def builds(monkeypatch) -> Counter:
         counts["optimizer"] += 1
         return make_optimizer(*args, **kwargs)
 
-    monkeypatch.setattr(structgen.experiment.Experiment, "make_problem", counted_problem)
-    monkeypatch.setattr(structgen.experiment, "make_optimizer", counted_optimizer)
+    monkeypatch.setattr(structgen.runs.experiment.Experiment, "make_problem", counted_problem)
+    monkeypatch.setattr(structgen.runs.experiment, "make_optimizer", counted_optimizer)
     return counts
 
 

@@ -159,7 +159,7 @@ def test_an_infinite_screen_margin_simulates_what_statics_says_breaks_far_over(t
     # A column of four breaks at the bottom under statics; with margin inf it goes to the simulation, whose verdict
     # (it breaks too) then counts, and the setting survives a run folder's config.toml.
     from structgen.domains.structures.samples import column
-    from structgen.experiment import load_experiment
+    from structgen.runs.experiment import load_experiment
 
     tower = column(6)
     assert StableStructures(StructuresSettings(evaluator="statics+bullet", screen_margin=1)).judge(tower).method == "statics"

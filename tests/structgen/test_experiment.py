@@ -7,7 +7,7 @@ import pytest
 from physics import PhysicsConfig
 from structgen import domains
 from structgen.config import ConfigError
-from structgen.experiment import load_experiment
+from structgen.runs.experiment import load_experiment
 
 STRUCTURES = domains.spec("structures-v0")
 

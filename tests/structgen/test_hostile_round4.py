@@ -16,10 +16,10 @@ import pytest
 import torch
 
 from evolution import RunFolder
-from structgen.domains.warehouse.maze_training import AgentSettings, save_agent, train_agent
+from structgen.domains.layouts.maze.training import AgentSettings, save_agent, train_agent
 from structgen.errors import InputError
 from structgen.runs import manifest
-from structgen.training_folder import open_training_folder
+from structgen.runs.training_folder import open_training_folder
 from tests.structgen.test_hostile_inputs import FIXTURES, refused, run
 
 TINY = AgentSettings(updates=2, envs=4, steps=8, checkpoint_every=1, evaluate_every=2, hidden=8, buffer=20, size=8)
@@ -128,7 +128,7 @@ def test_a_training_another_process_holds_is_refused_before_its_settings_change(
 
 def _agent_cases() -> dict:
     good = {"format": "structgen maze agent 1", "hidden": 8}
-    from structgen.domains.warehouse.maze_agent import MazePolicy
+    from structgen.domains.layouts.maze.agent import MazePolicy
 
     weights = MazePolicy(8).state_dict()
 
@@ -278,7 +278,7 @@ def test_a_tall_checkpoint_with_a_fractional_height_is_refused_by_info(tmp_path,
 
 
 def test_checked_weights_and_unpacking_are_errors_not_crashes(tmp_path):
-    from structgen.training_folder import load_torch
+    from structgen.runs.training_folder import load_torch
 
     path = tmp_path / "x.pt"
     path.write_bytes(_torch_bytes({"a": torch.zeros(3)}))
@@ -286,7 +286,7 @@ def test_checked_weights_and_unpacking_are_errors_not_crashes(tmp_path):
     path.write_bytes(b"PK\x03\x04 broken")
     with pytest.raises(InputError, match="x.pt: not a test file"):
         load_torch(path, "a test file")
-    save_agent(tmp_path / "agent.pt", __import__("structgen.domains.warehouse.maze_agent", fromlist=["MazePolicy"]).MazePolicy(8))
+    save_agent(tmp_path / "agent.pt", __import__("structgen.domains.layouts.maze.agent", fromlist=["MazePolicy"]).MazePolicy(8))
     assert load_torch(tmp_path / "agent.pt", "an agent")["hidden"] == 8
 
 
@@ -310,7 +310,7 @@ def test_a_fortress_number_of_5000_digits_is_refused_as_input(where):
 
 
 def test_a_training_that_fails_before_its_first_checkpoint_leaves_nothing_behind(tmp_path, monkeypatch):
-    import structgen.domains.warehouse.maze_training as maze_training
+    import structgen.domains.layouts.maze.training as maze_training
 
     def broken(settings):
         raise RuntimeError("the curriculum broke")
@@ -326,7 +326,7 @@ def test_a_training_that_fails_before_its_first_checkpoint_leaves_nothing_behind
 
 
 def test_an_interrupted_training_keeps_its_folder_for_resume(tmp_path, monkeypatch):
-    import structgen.domains.warehouse.maze_training as maze_training
+    import structgen.domains.layouts.maze.training as maze_training
 
     def interrupted(settings):
         raise KeyboardInterrupt

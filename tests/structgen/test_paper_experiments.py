@@ -13,8 +13,8 @@ import pytest
 from structgen.domains.structures.experiment import EXPERIMENTS, generation_of, spawns_by
 from structgen.domains.structures.problem import StableStructures, StructuresSettings
 from structgen.domains.structures.samples import column
-from structgen.experiment import load_experiment
 from structgen.nca import NCAConfig
+from structgen.runs.experiment import load_experiment
 from tests.helpers import cli, outcome
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -126,7 +126,7 @@ def test_a_seed_run_keeps_its_worker_count_when_it_is_resumed(tmp_path, monkeypa
     # resumed seed silently runs on the one process it was started with.
     import subprocess
 
-    from structgen import seed_runs
+    from structgen.runs import seed_runs
 
     commands = []
 
@@ -149,7 +149,7 @@ def test_a_seed_run_stopped_by_ctrl_c_stops_the_experiment_with_exit_130_and_say
     # that as a failed run (a RuntimeError, exit 1) though nothing had failed and the same command resumes it.
     import subprocess
 
-    from structgen import seed_runs
+    from structgen.runs import seed_runs
 
     monkeypatch.setattr(seed_runs.subprocess, "run", lambda command, **_: subprocess.CompletedProcess(command, 130, "", ""))
     out = tmp_path / "cutoff"

@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import structgen.experiment
+import structgen.runs.experiment
 from evolution.toys import Sphere
 from structgen.cli import main
-from structgen.experiment import load_experiment
 from structgen.runs import evolve
+from structgen.runs.experiment import load_experiment
 from tests.helpers import findings
 
 SPHERE = """\
@@ -110,7 +110,7 @@ class Failing(Sphere):
 
 
 def test_a_run_that_fails_before_its_first_checkpoint_leaves_no_folder(tmp_path, monkeypatch):
-    monkeypatch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: Failing())
+    monkeypatch.setattr(structgen.runs.experiment.Experiment, "make_problem", lambda self: Failing())
     experiment = load_experiment(config(tmp_path))
     with pytest.raises(RuntimeError, match="the simulator broke"):
         evolve(experiment, tmp_path / "run", progress=False)
@@ -118,7 +118,7 @@ def test_a_run_that_fails_before_its_first_checkpoint_leaves_no_folder(tmp_path,
 
 
 def test_a_run_that_fails_in_a_folder_the_user_made_leaves_the_folder_as_it_was(tmp_path, monkeypatch):
-    monkeypatch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: Failing())
+    monkeypatch.setattr(structgen.runs.experiment.Experiment, "make_problem", lambda self: Failing())
     (tmp_path / "mine").mkdir()
     with pytest.raises(RuntimeError, match="the simulator broke"):
         evolve(load_experiment(config(tmp_path)), tmp_path / "mine", progress=False)
@@ -138,7 +138,7 @@ def test_a_run_killed_before_its_first_checkpoint_resumes_from_the_beginning_to_
             return super().evaluate(np.asarray(genomes), seeds)
 
     with monkeypatch.context() as patch:
-        patch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: FailsThird())
+        patch.setattr(structgen.runs.experiment.Experiment, "make_problem", lambda self: FailsThird())
         experiment = load_experiment(config(tmp_path, 4), overrides=["run.checkpoint_every=100", "run.checkpoint_seconds=0"])
         with pytest.raises(RuntimeError, match="killed"):
             evolve(experiment, tmp_path / "run", progress=False)
@@ -191,7 +191,7 @@ def test_a_run_that_fails_later_keeps_its_folder_to_resume(tmp_path, monkeypatch
                 raise RuntimeError("the simulator broke")
             return super().evaluate(np.asarray(genomes), seeds)
 
-    monkeypatch.setattr(structgen.experiment.Experiment, "make_problem", lambda self: FailsSecond())
+    monkeypatch.setattr(structgen.runs.experiment.Experiment, "make_problem", lambda self: FailsSecond())
     with pytest.raises(RuntimeError):
         evolve(load_experiment(config(tmp_path)), tmp_path / "run", progress=False)
     assert (tmp_path / "run" / "checkpoint.pkl").exists()

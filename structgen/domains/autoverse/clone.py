@@ -341,7 +341,7 @@ def fit_policy(
 def clone_run(run_dir: Path, settings: CloneSettings, output: Path, *, progress: bool = True) -> dict[str, Any]:
     """Train a policy on the run's playtraces, evaluate it on every split, write ``policy.pt`` and ``report.json``."""
     from evolution.files import atomic_write
-    from structgen.training_folder import save_torch
+    from structgen.runs.training_folder import save_torch
 
     output = Path(output)
     if output.exists() and not output.is_dir():

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import (
+from structgen.registry.commands import (
     MAX_SEED,
     DomainCommands,
     InputError,

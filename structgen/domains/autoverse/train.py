@@ -49,7 +49,7 @@ from structgen.domains.autoverse.ppo import GamePool
 from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.errors import InputError
 from structgen.ppo import PPO, EpisodeReturns, check_rollout_memory
-from structgen.training_folder import (
+from structgen.runs.training_folder import (
     checked_like,
     checked_optimiser,
     checked_weights,

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from structgen.commands import (
+from structgen.registry.commands import (
     EXIT_OK,
     MAX_SEED,
     DomainCommands,

@@ -21,7 +21,7 @@ from typing import Any
 
 from evolution.files import atomic_write
 from structgen.errors import InputError
-from structgen.seed_runs import ADDRESS, check_seed_folder, expected_run, run_all
+from structgen.runs.seed_runs import ADDRESS, check_seed_folder, expected_run, run_all
 
 __all__ = ["PAPER_TABLE", "run_experiment", "table_markdown"]
 

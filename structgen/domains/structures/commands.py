@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from structgen.commands import (
+from structgen.registry.commands import (
     EXIT_FAILURE,
     EXIT_OK,
     MAX_SEED,
@@ -286,34 +286,18 @@ def _run_nca(args: argparse.Namespace) -> tuple[Any, Any, dict[str, Any]]:
     return genome, experiment.problem_settings.nca, {"run": str(args.run), "elite": args.elite}
 
 
-def cmd_info(args: argparse.Namespace) -> int:
-    if Path(args.file).is_dir():  # a run folder, of any domain, or a tall search
-        from structgen.domains.structures.tall import describe_search, is_search_folder, search_summary
-        from structgen.runs import describe_run, other_run_kind, run_summary
+def describe_structure(path: Path) -> tuple[dict[str, Any], str] | None:
+    """``structgen info`` on a structure file, or on a tall search folder of structgen 0.2 (no manifest); None for a
+    folder that is neither (a run folder: the generic ``info`` describes it)."""
+    from structgen.domains.structures.tall import describe_search, is_search_folder, search_summary
 
-        if is_search_folder(args.file):
-            summary = search_summary(args.file)
-            print(json.dumps(summary) if args.json else describe_search(summary))
-            return EXIT_OK
-
-        other = other_run_kind(args.file)
-        if other is not None:  # another domain's own kind of run: that domain describes it
-            from structgen import domains
-
-            hooks = domains.spec(other[0]).command_hooks()
-            if hooks is None:
-                raise InputError(f"{args.file}: a {other[1]!r} run of the {other[0]} domain, which has no commands")
-            summary, text = hooks.describe_run(other[1], Path(args.file))
-            print(json.dumps(summary) if args.json else text)
-            return EXIT_OK
-        summary = run_summary(args.file)
-        print(json.dumps(summary) if args.json else describe_run(summary))
-        return EXIT_OK
-    structure = _load_structure(args.file)
-    summary = {"file": str(args.file), **structure.summary()}
-    if args.json:
-        print(json.dumps(summary))
-        return EXIT_OK
+    if path.is_dir():
+        if not is_search_folder(path):
+            return None
+        summary = search_summary(path)
+        return summary, describe_search(summary)
+    structure = _load_structure(path)
+    summary = {"file": str(path), **structure.summary()}
     low, high = summary["bounds"]["min"], summary["bounds"]["max"]
     rows = [
         ("file", summary["file"]),
@@ -325,9 +309,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         ("isolated", summary["isolated_vertices"]),
         ("max degree", summary["max_degree"]),
     ]
-    for name, value in rows:
-        print(f"{name:<11} {value}")
-    return EXIT_OK
+    return summary, "\n".join(f"{name:<11} {value}" for name, value in rows)
 
 
 _METHODS = {
@@ -435,18 +417,6 @@ def _add_grow(subparsers: Any) -> None:
     _add_mesh_options(grow, "mesh dimensions (mesh formats only; defaults match the physics model)")
     add_set_option(grow, "the NCA (nca.*) and the mesh (mesh.*)", "nca.cutoff=0.6 or sphere_radius=0.2")
     grow.set_defaults(handler=cmd_grow)
-
-
-def _add_info(subparsers: Any) -> None:
-    info = subparsers.add_parser(
-        "info",
-        help="print counts, height and connectivity of a structure, or summarise a run folder",
-        description="Print a structure's vertex and edge counts, height, bounding box and connected components; "
-        "or, given a run folder (of any domain), what the run is, how far it got, its best candidate and archive.",
-    )
-    info.add_argument("file", metavar="FILE|RUN_DIR", help="structure JSON file, or a run folder")
-    info.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
-    info.set_defaults(handler=cmd_info)
 
 
 def _add_check(subparsers: Any) -> None:
@@ -767,10 +737,20 @@ class StructureCommands(DomainCommands):
         "grow": _add_grow,
         "check": _add_check,
         "render": _add_render,
-        "info": _add_info,
         "teach": _add_teach,
         "tall": _add_tall,
     }
+
+    def describe_path(self, path: Path) -> tuple[dict[str, Any], str] | None:
+        return describe_structure(path)
+
+    def describe_run(self, kind: str, run_dir: Path) -> tuple[dict[str, Any], str]:
+        if kind != "tall":
+            return super().describe_run(kind, run_dir)
+        from structgen.domains.structures.tall import describe_search, search_summary
+
+        summary = search_summary(run_dir)
+        return summary, describe_search(summary)
 
     def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
         if kind != "tall":

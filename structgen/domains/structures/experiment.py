@@ -1,7 +1,7 @@
 """The stable-structures paper's four experiments at its own settings, a table beside its numbers, and its figures.
 
 ``structgen structures experiment NAME OUT_DIR`` runs ``configs/paper_<NAME>.toml`` once per seed (default 0, 1, 2),
-each in its own run folder ``OUT_DIR/seed-<S>``, several at a time (:mod:`structgen.seed_runs`: a folder that exists
+each in its own run folder ``OUT_DIR/seed-<S>``, several at a time (:mod:`structgen.runs.seed_runs`: a folder that exists
 is resumed, or kept when it got far enough). Each run stops at the generations holding the paper's spawn numbers on
 the way (``milestones``) and keeps its best structure there in ``OUT_DIR/seed-<S>-spawns/spawn-<N>/``, the pictures
 the ``figure`` command lays out as the paper's figures 4 to 9. Then the table is written from the runs' metrics:
@@ -27,7 +27,7 @@ from typing import Any
 
 from evolution.files import atomic_write
 from structgen.errors import InputError
-from structgen.seed_runs import check_seed_folder, expected_run, run_seed
+from structgen.runs.seed_runs import check_seed_folder, expected_run, run_seed
 
 __all__ = [
     "EXPERIMENTS",

@@ -256,7 +256,7 @@ def _config_text(settings: TallSettings, workers: int) -> str:
 
 def _read_config(folder: RunFolder) -> tuple[TallSettings, int]:
     """The search settings and the number of workers a search folder's ``config.toml`` holds."""
-    from structgen.experiment import parse_toml
+    from structgen.runs.experiment import parse_toml
 
     where = folder / RunFolder.CONFIG
     tables = parse_toml(folder.config_text(), where)

@@ -1,0 +1,1 @@
+"""Robots on warehouse and manufacturing floors: the simulator and its compiled planners."""

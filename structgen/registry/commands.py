@@ -1,0 +1,252 @@
+"""What the command line and the domains' own verbs share: the input error, exit codes, the ``--set`` option, and
+the hooks through which a domain adds verbs and exports.
+
+The command line (:mod:`structgen.cli`) knows no domain. A domain that wants verbs of its own names a
+:class:`DomainCommands` in its :class:`~structgen.domains.DomainSpec`; the command line calls it to add
+``structgen <group> <verb>`` (and the domain's top-level shortcuts), and to export the domain's files and run elites
+through the generic ``structgen export``. This module stays light: it is imported to build every command line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Collection, Iterable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from structgen.errors import InputError
+
+if TYPE_CHECKING:
+    from structgen.registry import DomainSpec
+
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_FAILURE",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "MAX_SEED",
+    "DomainCommands",
+    "InputError",
+    "Parser",
+    "add_seed_run_options",
+    "add_set_option",
+    "device_name",
+    "finite_number",
+    "output_path",
+    "print_table",
+    "settings_from_args",
+    "verbs_wanted",
+    "whole_number",
+]
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+#: Stopped by Ctrl-C after a checkpoint (128 + SIGINT, as shells report it); the same command or `resume` goes on.
+EXIT_INTERRUPTED = 130
+#: Seeds are whole numbers from 0 to this (what numpy's generators take in one 64-bit word).
+MAX_SEED = 2**63 - 1
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with usage errors in one line (``structgen grow: error: argument --seed: ...``) and exit code 2,
+    like every other error of the command line, instead of the usage block and then the error."""
+
+    def error(self, message: str) -> Any:  # argparse's hook; it must not return
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def whole_number(low: int, high: int) -> Any:
+    """An argparse ``type`` for whole numbers from ``low`` to ``high``; anything else is a usage error naming the
+    option."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected a whole number from {low:,} to {high:,}, got {value:,}")
+        return value
+
+    return parse
+
+
+def finite_number(low: float = -math.inf, high: float = math.inf, *, above: bool = False) -> Any:
+    """An argparse ``type`` for numbers from ``low`` (or above it, with ``above``) to ``high``; NaN, infinities and
+    anything else are usage errors naming the option."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+        if value < low or (above and value == low) or value > high:
+            bound = f"above {low:g}" if above else f"from {low:g}"
+            raise argparse.ArgumentTypeError(f"expected a number {bound}{f' to {high:g}' if high < math.inf else ''}, got {text}")
+        return value
+
+    return parse
+
+
+def device_name(text: str) -> str:
+    """An argparse ``type`` for torch device names (``cpu``, ``cuda``, ``cuda:N``, ``mps``); whether the machine has
+    the device is checked when the work starts."""
+    from structgen.devices import check_device_name
+
+    try:
+        return check_device_name(text, "device")
+    except InputError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def output_path(text: str) -> Path:
+    """An argparse ``type`` for files a command will write: refused at once, before any work, if it cannot be
+    written (its folder is a file, its name is too long, it is a folder)."""
+    from evolution.files import InputFileError, check_output
+
+    try:
+        return check_output(text)
+    except InputFileError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def png_output_path(text: str) -> Path:
+    """:func:`output_path` for a picture written as PNG: a name not ending in ``.png`` is refused before any work
+    (PNG data under another suffix would mislead whatever opens it)."""
+    path = output_path(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"{text}: this option writes a PNG picture; give a name ending in .png")
+    return path
+
+
+def add_set_option(parser: argparse.ArgumentParser | Any, tables: str, example: str) -> None:
+    """The ``--set KEY=VALUE`` option, the same in every subcommand (see :mod:`structgen.config` for the grammar)."""
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help=f"change a setting of {tables} by its dotted name, or by the end of it when no other setting shares "
+        f"that, e.g. {example} (repeatable; the named options are shortcuts for some of them)",
+    )
+
+
+def settings_from_args(roots: Mapping[str, Any], args: argparse.Namespace, shortcuts: Mapping[str, str] = {}) -> dict[str, Any]:
+    """The settings objects in ``roots`` with the command's ``--set`` assignments applied, then its shortcut options.
+
+    ``shortcuts`` maps an option's ``dest`` to the dotted setting it stands for (``{"iterations": "nca.iterations"}``);
+    an option left at None was not given. Shortcut options apply last, so an option given by name wins over --set.
+    """
+    from structgen.config import apply_overrides
+
+    given = [(key, getattr(args, dest)) for dest, key in shortcuts.items() if getattr(args, dest, None) is not None]
+    return apply_overrides(roots, [*getattr(args, "set", []), *given])
+
+
+class DomainCommands:
+    """What a domain adds to the command line. Subclass it, override what applies, and name an instance in the
+    domain's spec (``commands="mypackage.cli:COMMANDS"``). Handlers raise :class:`InputError` for bad input."""
+
+    #: The domain's verbs: name -> a function adding that verb's parser to ``subparsers``.
+    adders: Mapping[str, Callable[[Any], None]] = {}
+
+    def add_verbs(self, subparsers: Any, domain: DomainSpec, only: Collection[str] | None = None) -> None:
+        """Add the domain's verbs to ``subparsers`` (all of them, or those named in ``only``, for the top-level
+        shortcuts). Each verb's parser sets ``handler`` to a function of the parsed arguments returning the exit
+        code. By default, the verbs of :attr:`adders`; override for anything else."""
+        for name in verbs_wanted(self.adders, only):
+            self.adders[name](subparsers)
+
+    def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
+        """``structgen resume`` on a run folder of the domain that is not an evolution run: a search of its own, whose
+        manifest names its ``run_kind``. ``args`` holds resume's options (``workers``, ``generations``,
+        ``cluster``); returns the exit code."""
+        raise InputError(f"{run_dir}: a {kind!r} run, which this domain cannot resume")
+
+    def describe_run(self, kind: str, run_dir: Path) -> tuple[dict[str, Any], str]:
+        """``structgen info`` on a run folder of the domain that is not an evolution run (its manifest names its
+        ``run_kind``): a summary for ``--json`` and the text to print."""
+        raise InputError(f"{run_dir}: a {kind!r} run, which this domain cannot describe")
+
+    def describe_path(self, path: Path) -> tuple[dict[str, Any], str] | None:
+        """``structgen info`` on a file of the domain (or a folder of its own that is no run folder): a summary for
+        ``--json`` and the text to print; None when ``path`` is none of the domain's (the default)."""
+        return None
+
+    def add_export_options(self, parser: argparse.ArgumentParser) -> None:
+        """Options for exporting this domain's files and elites; they appear in ``structgen export --help``, so
+        give them names no other domain is likely to use."""
+
+    def export_file(self, source: Path, output: Path, args: argparse.Namespace) -> str:
+        """Write the domain's file ``source`` to ``output`` (in the format its suffix names); returns the line to
+        print."""
+        raise InputError(f"{source}: this domain has no files to export")
+
+    def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]) -> str:
+        """Write what ``genome`` makes (a structure, a layout) to ``output``; ``origin`` names the run and elite it
+        came from, for the file's metadata. Returns the line to print."""
+        raise InputError(f"{output}: this domain has nothing to export")
+
+
+def add_setting_options(
+    parser: argparse.ArgumentParser, options: Iterable[tuple[str, str, Any, str]], settings_class: type, label: str = "default"
+) -> None:
+    """Options that each set one field of a settings dataclass, from rows ``(option, field, parse, help)``. Each
+    defaults to None (the field keeps the settings' value, which the help shows as ``(label value)``), read from the
+    class's fields without building it, since building can check more than a parser needs (and load torch)."""
+    import dataclasses
+
+    defaults = {item.name: item.default for item in dataclasses.fields(settings_class)}
+    for option, field, parse, text in options:
+        metavar = "N" if isinstance(defaults[field], int) else "X"
+        parser.add_argument(
+            option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} ({label} {defaults[field]})"
+        )
+
+
+def given_settings(args: argparse.Namespace, options: Iterable[tuple[str, str, Any, str]]) -> dict[str, Any]:
+    """The fields that options added by :func:`add_setting_options` were given on the command line."""
+    return {field: getattr(args, field) for _, field, _, _ in options if getattr(args, field) is not None}
+
+
+def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_settings: Callable[[Any], Any], what: str) -> Any:
+    """``structgen resume`` on an agent training's folder (one that trains in this process, by PPO updates): its
+    settings, with ``--generations`` as the number of updates to reach."""
+    import dataclasses
+
+    from evolution import RunFolder
+
+    if args.cluster is not None or args.workers is not None:
+        raise InputError(f"{run_dir}: {what} runs in this process; give --generations (updates) only")
+    settings = read_settings(RunFolder(run_dir))
+    return settings if args.generations is None else dataclasses.replace(settings, updates=args.generations)
+
+
+def add_seed_run_options(
+    parser: argparse.ArgumentParser, *, config_help: str, config_default: str | None, seeds: list[int], seeds_help: str
+) -> None:
+    """The options every ``experiment`` verb shares (one run per seed, several at a time, then a table):
+    ``OUT_DIR``, ``--config``, ``--seeds``, ``--parallel`` and ``--json``. The experiment itself and how each run
+    uses its processes are the verb's own."""
+    parser.add_argument("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)")
+    parser.add_argument("--config", default=config_default, metavar="TOML", help=f"each run's configuration ({config_help})")
+    parser.add_argument(
+        "--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S", help=f"run seeds ({seeds_help})"
+    )
+    parser.add_argument("--parallel", type=whole_number(1, 1024), default=2, metavar="N", help="runs at once (default 2)")
+    parser.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
+
+
+def print_table(report: Mapping[str, Any], args: argparse.Namespace, markdown: Callable[[Any], str]) -> int:
+    """An experiment's table on stdout: one JSON object with ``--json``, else its markdown."""
+    import json
+
+    print(json.dumps(report) if args.json else markdown(report), end="\n" if args.json else "")
+    return EXIT_OK
+
+
+def verbs_wanted(names: Iterable[str], only: Collection[str] | None) -> list[str]:
+    """The verbs of ``names`` to add: all, or those in ``only``."""
+    return [name for name in names if only is None or name in only]

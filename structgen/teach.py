@@ -1,5 +1,0 @@
-"""Deprecated alias of :mod:`structgen.domains.structures.teach` (the structures domain's own module), for one release."""
-
-from structgen._moved import moved
-
-moved(__name__, "structgen.domains.structures.teach")
