@@ -100,3 +100,18 @@ def test_every_toml_block_is_a_configuration_taken_as_written(tmp_path):
         resolved = flatten(load_experiment(path).to_mapping())
         for key, value in flatten(tomllib.loads(text)).items():
             assert resolved[key] == value, key
+
+
+def test_the_layer_picture_is_drawn_from_the_code():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
+    try:
+        import hooks
+    finally:
+        sys.path.pop(0)
+    from tests.layering import GRAPH
+
+    svg = hooks.layers_svg()
+    for name in GRAPH:  # every folder of the code has its box, named as the picture names it
+        group = hooks._group(name)
+        assert (group.removeprefix("domains/") or "domains/__init__") in svg, group
+    assert "layouts/ (" in svg and "#cc0000" not in svg.lower()  # no arrow up
