@@ -14,7 +14,7 @@ text into those objects and objects back into text:
   from that instance before the other keys apply. :func:`to_table` writes ``preset`` back when an object equals one.
 - **Keys** in ``--set`` name a setting by its full dotted path (``problem.nca.cutoff``) or by any tail of it that no
   other setting shares (``nca.cutoff``, ``cutoff``): :func:`resolve_key`. The same rule holds in every subcommand,
-  so ``structgen check --set break_force=60`` is short for ``--set physics.break_force=60``.
+  so ``structgen evaluate --set break_force=60`` is short for ``--set physics.break_force=60``.
 """
 
 from __future__ import annotations

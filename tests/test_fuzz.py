@@ -136,7 +136,7 @@ def test_any_structure_file(capsys, content, command):
         argv = {
             "info": ["info", str(folder / "s.json")],
             "export": ["export", str(folder / "s.json"), str(folder / "out.glb")],
-            "check": ["check", str(folder / "s.json"), "--statics"],
+            "check": ["evaluate", str(folder / "s.json"), "--statics"],
         }[command]
         answers_cleanly(folder, argv, ["out.glb"] if command == "export" else [], capsys)
 

@@ -32,8 +32,11 @@ from structgen.registry.commands import (
     MAX_SEED,
     InputError,
     Parser,
+    VerbHelpFormatter,
     add_set_option,
+    examples_epilog,
     output_path,
+    renamed_verb_note,
     whole_number,
 )
 
@@ -184,6 +187,15 @@ def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
         "tables), or, without CONFIG, the domain's main job (a run of a few minutes).\nWrites a run folder: "
         "config.toml, manifest.json, checkpoint.pkl, metrics.jsonl, best/, plots, and the archive for quality "
         "diversity.\nCtrl-C finishes the generation, checkpoints and exits (130); `structgen resume` continues.",
+        epilog=examples_epilog(
+            [f"structgen {domain.group_name} evolve", f"structgen {domain.group_name} evolve --generations 5 --seed 1"]
+            if domain
+            else [
+                "structgen evolve",
+                "structgen evolve configs/paper_cutoff.toml --workers 2 --run-dir runs/cutoff",
+                f"structgen evolve --domain {domains.DEFAULT_DOMAIN} --generations 5 --set optimizer.population=20",
+            ]
+        ),
     )
     evolve.add_argument("config", nargs="?", metavar="CONFIG.toml", help="run configuration (default: the main job)")
     if domain is None:
@@ -272,6 +284,8 @@ def _add_compare(commands: Any) -> None:
         description="Print a table of each run's generations, evaluations, best objective and (quality diversity) "
         "QD score and coverage, and draw their best objective (and QD score and coverage, when every run has an "
         "archive) over generations in one picture.",
+        formatter_class=VerbHelpFormatter,
+        epilog=examples_epilog(["structgen compare runs/ga runs/qd -o compare.png", "structgen compare runs/* --json"]),
     )
     compare.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run folders, of any domain and optimiser")
     compare.add_argument(
@@ -293,6 +307,8 @@ def _add_resume(commands: Any) -> None:
         description="Continue the run in RUN_DIR from its last checkpoint, reading only its config.toml; the result "
         "is the same as if it had never stopped. A domain's own kind of run (a tall search) is continued by its "
         "domain, with the settings it was started with.",
+        formatter_class=VerbHelpFormatter,
+        epilog=examples_epilog(["structgen resume runs/qd", "structgen resume runs/qd --generations 200 --workers 2"]),
     )
     resume.add_argument("run_dir", metavar="RUN_DIR", help="run folder")
     resume.add_argument(
@@ -318,6 +334,16 @@ def _add_export(commands: Any, exporters: list[tuple[domains.DomainSpec, Any]], 
         help="write a file, or an elite of a run, in another format",
         description=f"Write SOURCE to OUT in the format OUT's suffix names. SOURCE is a run folder (its best "
         f"candidate, or an archive elite, made again from its genome) or a file of {which}.",
+        formatter_class=VerbHelpFormatter,
+        epilog=examples_epilog(
+            [line for _, hooks in exporters for line in hooks.examples.get("export", ())]
+            if domain
+            else [
+                "structgen export runs/qd best.glb",
+                "structgen export tower.json tower.stl",
+                "structgen export runs/qd -o elite.obj --elite index:12",
+            ]
+        ),
     )
     export.add_argument("source", metavar="SOURCE", help="run folder or file")
     export.add_argument("output", nargs="?", type=output_path, metavar="OUT", help="output file (or use -o)")
@@ -350,7 +376,11 @@ def _add_info(commands: Any, domain: domains.DomainSpec | None) -> None:
         description="Summarise a run folder of any domain (what the run is, how far it got, its best candidate "
         f"and archive; a search or an agent training, as its domain tells it) or a file of {which} (a "
         "structure: counts, height, bounding box, components).",
-        epilog="examples:\n  structgen info runs/qd\n  structgen info tower.json --json",
+        epilog=examples_epilog(
+            [f"structgen {domain.group_name} info runs/{domain.group_name}"]
+            if domain
+            else ["structgen info runs/qd", "structgen info tower.json --json"]
+        ),
     )
     info.add_argument("path", metavar="RUN_DIR|FILE", help="run folder, or a file")
     if domain is None:
@@ -388,7 +418,11 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     listing_parser = commands.add_parser(
-        "list", help="list the registered domains or optimizers", description="One line for each domain or optimizer."
+        "list",
+        help="list the registered domains or optimizers",
+        description="One line for each domain or optimizer.",
+        formatter_class=VerbHelpFormatter,
+        epilog=examples_epilog(["structgen list domains", "structgen list optimizers --json"]),
     )
     listing_parser.add_argument("what", choices=("domains", "optimizers"), help="what to list")
     listing_parser.add_argument("--json", action="store_true", help="print a JSON list with more about each")
@@ -411,7 +445,7 @@ def build_parser() -> argparse.ArgumentParser:
         )
         verbs = group.add_subparsers(dest="verb", metavar="VERB", required=True)
         _add_evolve(verbs, spec)
-        _add_info(verbs, spec)
+        _add_info(verbs if hooks is None else hooks.verb_parsers(verbs), spec)
         if hooks is not None:
             _add_export(verbs, [(spec, hooks)], spec)
             hooks.add_verbs(verbs, spec)
@@ -465,6 +499,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     for name in ("structgen", "physics", "evolution"):
         logging.getLogger(name).setLevel(logging.DEBUG if args.verbose else logging.INFO)
+    if note := renamed_verb_note(args, (args.command, getattr(args, "verb", None))):
+        log.warning(note)
     handler: Callable[[argparse.Namespace], int] = args.handler
     try:
         code = handler(args)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -26,14 +26,19 @@ __all__ = [
     "EXIT_INTERRUPTED",
     "EXIT_OK",
     "MAX_SEED",
+    "RENAMED_VERBS_GO_IN",
+    "SHARED_VERBS",
     "DomainCommands",
+    "VerbHelpFormatter",
     "InputError",
     "Parser",
     "add_seed_run_options",
     "add_set_option",
     "device_name",
+    "examples_epilog",
     "finite_number",
     "output_path",
+    "renamed_verb_note",
     "print_table",
     "settings_from_args",
     "verbs_wanted",
@@ -145,19 +150,90 @@ def settings_from_args(roots: Mapping[str, Any], args: argparse.Namespace, short
     return apply_overrides(roots, [*getattr(args, "set", []), *given])
 
 
+#: One verb for each concept several domains share (make an item from a generator, judge it as the domain's score
+#: does, draw it, summarise it, train an agent, run a paper's experiment, draw a paper's figure); a domain's own
+#: verbs only where the concept is its own.
+SHARED_VERBS = {
+    "grow": "make one item from a generator",
+    "evaluate": "judge one item as the domain's score does",
+    "show": "draw one item",
+    "info": "summarise a run folder or an item",
+    "train": "train an agent",
+    "experiment": "run a paper's experiment",
+    "figure": "draw a paper's figure",
+}
+#: The release in which the verbs that :attr:`DomainCommands.renamed` lists stop answering.
+RENAMED_VERBS_GO_IN = "0.5"
+
+
+class VerbHelpFormatter(argparse.HelpFormatter):
+    """argparse's formatter, but an epilog of examples keeps its lines as written (descriptions still wrap)."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if text.startswith("examples:"):
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
+def examples_epilog(examples: Iterable[str]) -> str:
+    """A ``--help`` epilog listing ``examples`` (command lines), for :class:`VerbHelpFormatter`."""
+    return "examples:\n" + "\n".join(f"  {line}" for line in examples)
+
+
+class _VerbParsers:
+    """``subparsers`` that give each verb its examples (:attr:`DomainCommands.examples`, as the ``--help`` epilog)
+    and the old names :attr:`DomainCommands.renamed` lists as aliases; a verb typed by an old name says which
+    replaces it (``structgen.cli`` prints it)."""
+
+    def __init__(self, subparsers: Any, renamed: Mapping[str, str], examples: Mapping[str, Sequence[str]]) -> None:
+        self._subparsers, self._renamed, self._examples = subparsers, renamed, examples
+
+    def add_parser(self, name: str, **kwargs: Any) -> Any:
+        if name in self._examples and "epilog" not in kwargs:
+            kwargs.update(epilog=examples_epilog(self._examples[name]), formatter_class=VerbHelpFormatter)
+        old = [before for before, after in self._renamed.items() if after == name]
+        parser = self._subparsers.add_parser(name, aliases=[*kwargs.pop("aliases", []), *old], **kwargs)
+        if old:
+            parser.set_defaults(renamed_verbs={before: name for before in old})
+        return parser
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._subparsers, name)
+
+
+def renamed_verb_note(args: argparse.Namespace, typed: Iterable[str]) -> str | None:
+    """What to say when one of the words ``typed`` on the command line is a verb's old name (None otherwise)."""
+    renamed = getattr(args, "renamed_verbs", None) or {}
+    for word in typed:
+        if word in renamed:
+            return f"'{word}' is now '{renamed[word]}'; the old name goes in structgen {RENAMED_VERBS_GO_IN}"
+    return None
+
+
 class DomainCommands:
     """What a domain adds to the command line. Subclass it, override what applies, and name an instance in the
     domain's spec (``commands="mypackage.cli:COMMANDS"``). Handlers raise :class:`InputError` for bad input."""
 
-    #: The domain's verbs: name -> a function adding that verb's parser to ``subparsers``.
+    #: The domain's verbs: name -> a function adding that verb's parser to ``subparsers``. A concept in
+    #: :data:`SHARED_VERBS` takes its verb there.
     adders: Mapping[str, Callable[[Any], None]] = {}
+    #: Old verb names still answered for one release: old name -> its verb now.
+    renamed: Mapping[str, str] = {}
+    #: Each verb's examples (whole command lines), shown at the end of its ``--help``.
+    examples: Mapping[str, Sequence[str]] = {}
 
     def add_verbs(self, subparsers: Any, domain: DomainSpec, only: Collection[str] | None = None) -> None:
         """Add the domain's verbs to ``subparsers`` (all of them, or those named in ``only``, for the top-level
-        shortcuts). Each verb's parser sets ``handler`` to a function of the parsed arguments returning the exit
-        code. By default, the verbs of :attr:`adders`; override for anything else."""
+        shortcuts), each with its old names of :attr:`renamed`. Each verb's parser sets ``handler`` to a function of
+        the parsed arguments returning the exit code. By default, the verbs of :attr:`adders`; an override builds on
+        :meth:`verb_parsers`."""
+        subparsers = self.verb_parsers(subparsers)
         for name in verbs_wanted(self.adders, only):
             self.adders[name](subparsers)
+
+    def verb_parsers(self, subparsers: Any) -> Any:
+        """``subparsers`` that give each verb its :attr:`examples` and :attr:`renamed`'s old names as aliases."""
+        return _VerbParsers(subparsers, self.renamed, self.examples)
 
     def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
         """``structgen resume`` on a run folder of the domain that is not an evolution run: a search of its own, whose

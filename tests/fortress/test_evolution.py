@@ -156,7 +156,7 @@ def test_a_killed_fortress_run_resumes_to_the_same_archive(tmp_path, capsys):
     assert json.loads((tmp_path / "table.json").read_text()) == table
 
     # Worlds of a run: by folder (best) or by cell.
-    code, out, err = cli(capsys, "fortress", "run", whole, "--steps", "15", "--json")
+    code, out, err = cli(capsys, "fortress", "evaluate", whole, "--steps", "15", "--json")
     assert code == 0, err
     index = (whole / "archive.csv").read_text().splitlines()[1].split(",")[0]
     code, out, err = cli(capsys, "export", whole, "--elite", f"index:{index}", "-o", tmp_path / "elite.txt")
@@ -190,12 +190,12 @@ def own_world(tmp_path, text: str, name: str = "world.txt"):
 
 def test_run_prints_the_final_map_and_the_population_of_each_class(tmp_path, capsys):
     path = own_world(tmp_path, GEM_KEEPER)
-    code, out, err = cli(capsys, "fortress", "run", path, "--steps", "30", "--seed", "2")
+    code, out, err = cli(capsys, "fortress", "evaluate", path, "--steps", "30", "--seed", "2")
     assert code == 0, err
     lines = out.splitlines()
     assert lines[0] == "#" * 15 and lines[7] == "#" * 15
     assert "stopped after" in lines[8] and lines[9].startswith("population: ")
-    code, out, err = cli(capsys, "fortress", "run", path, "--steps", "30", "--seed", "2", "--json")
+    code, out, err = cli(capsys, "fortress", "evaluate", path, "--steps", "30", "--seed", "2", "--json")
     summary = json.loads(out)
     world = read_fortress_file(path)
     final = simulate([world], [2], 30, record=True).traces[0][0].entities[-1]
@@ -205,17 +205,17 @@ def test_run_prints_the_final_map_and_the_population_of_each_class(tmp_path, cap
 def test_running_an_entity_file_says_that_it_places_no_entities(tmp_path, capsys):
     # An entity file (the original's ENT/*.txt) defines one class and places nothing: an empty world, and the command
     # says why.
-    code, out, err = cli(capsys, "fortress", "run", own_world(tmp_path, LONE_CLASS, "lone.txt"), "--steps", "5")
+    code, out, err = cli(capsys, "fortress", "evaluate", own_world(tmp_path, LONE_CLASS, "lone.txt"), "--steps", "5")
     assert code == 0 and "0 entities" in out
     assert "places no entities (no -- INIT ENT POS -- or -- INIT FORT -- block)" in err
-    code, out, err = cli(capsys, "fortress", "run", own_world(tmp_path, GEM_KEEPER), "--steps", "5")
+    code, out, err = cli(capsys, "fortress", "evaluate", own_world(tmp_path, GEM_KEEPER), "--steps", "5")
     assert code == 0 and "places no entities" not in err
 
 
 @needs_data
 def test_the_originals_files_run_from_the_command_line(capsys):
     for path in (DATA / "FORTS" / "LOCK_N_KEY.txt", DATA / "ENT" / "boko.txt"):
-        code, out, err = cli(capsys, "fortress", "run", path, "--steps", "5")
+        code, out, err = cli(capsys, "fortress", "evaluate", path, "--steps", "5")
         assert code == 0 and out.splitlines()[0] == "#" * 15, err
 
 
@@ -245,15 +245,15 @@ def test_replay_and_show_write_their_pictures(tmp_path, capsys):
 
 
 def test_bad_worlds_are_refused_with_their_place(tmp_path, capsys):
-    code, out, err = cli(capsys, "fortress", "run", tmp_path / "missing.txt")
+    code, out, err = cli(capsys, "fortress", "evaluate", tmp_path / "missing.txt")
     assert code != 0 and "missing.txt" in err
     bad = tmp_path / "bad.txt"
     bad.write_text("A\n-- NODES --\n0: add Q\n-- EDGES --\n\n-- INIT ENT POS --\nA-[2, 2]\n")
-    code, out, err = cli(capsys, "fortress", "run", bad)
+    code, out, err = cli(capsys, "fortress", "evaluate", bad)
     assert code != 0 and "bad.txt" in err and "add Q" in err
-    code, out, err = cli(capsys, "fortress", "run")
+    code, out, err = cli(capsys, "fortress", "evaluate")
     assert code != 0 and "--random" in err
-    code, out, err = cli(capsys, "fortress", "run", "--random", "3", "--steps", "5")
+    code, out, err = cli(capsys, "fortress", "evaluate", "--random", "3", "--steps", "5")
     assert code == 0, err
 
 
@@ -283,7 +283,7 @@ def test_the_entropy_measures_start_from_worlds_spread_over_entropy():
 
 def test_work_beyond_the_memory_budget_is_refused_before_it_starts(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("STRUCTGEN_MEMORY_MB", "64")
-    code, out, err = cli(capsys, "fortress", "run", "--random", "1", "--steps", "1000000")
+    code, out, err = cli(capsys, "fortress", "evaluate", "--random", "1", "--steps", "1000000")
     assert code == 2 and "1,000,000 ticks of 1 worlds x 1 seeds, every tick recorded needs about" in err
     code, out, err = cli(capsys, "fortress", "evolve", "--set", "steps=2000000", "--run-dir", tmp_path / "run")
     assert code == 2 and "problem steps = 2,000,000 x sims = 5: one evaluation needs about" in err
@@ -293,5 +293,5 @@ def test_work_beyond_the_memory_budget_is_refused_before_it_starts(tmp_path, cap
 def test_a_run_folder_of_another_domain_is_not_taken_for_a_world(tmp_path, capsys):
     code, out, err = cli(capsys, "evolve", "--domain", "ones-v0", "--generations", "1", "--run-dir", tmp_path / "ones")
     assert code == 0, err
-    code, out, err = cli(capsys, "fortress", "run", tmp_path / "ones")
+    code, out, err = cli(capsys, "fortress", "evaluate", tmp_path / "ones")
     assert code == 2 and "a run of the ones-v0 domain, not a fortress run" in err

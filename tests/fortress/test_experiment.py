@@ -84,8 +84,8 @@ def test_a_lower_population_cap_stops_a_growing_world_sooner():
 
 
 def test_the_rules_option_reaches_the_simulation(tmp_path, capsys):
-    code, out, err = cli(capsys, "fortress", "run", "--random", "4", "--steps", "30", "--rules", "qd-paper", "--json")
+    code, out, err = cli(capsys, "fortress", "evaluate", "--random", "4", "--steps", "30", "--rules", "qd-paper", "--json")
     assert code == 0, err
-    code, again, err = cli(capsys, "fortress", "run", "--random", "4", "--steps", "30", "--paper-rules", "--json")
+    code, again, err = cli(capsys, "fortress", "evaluate", "--random", "4", "--steps", "30", "--paper-rules", "--json")
     assert code == 0, err
     assert json.loads(out)["ticks"] <= 30 and json.loads(again)["ticks"] <= 30

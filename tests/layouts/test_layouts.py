@@ -409,7 +409,7 @@ def run(capsys, *argv):
 
 def test_generate_repair_measure_and_show_from_the_command_line(tmp_path, capsys):
     raw, fixed, picture = tmp_path / "raw.json", tmp_path / "fixed.json", tmp_path / "pair.png"
-    assert run(capsys, "warehouse", "generate", "--seed", 4, "--size", "9x16", "-o", raw)[0] == 0
+    assert run(capsys, "warehouse", "grow", "--seed", 4, "--size", "9x16", "-o", raw)[0] == 0
     code, out, _ = run(capsys, "warehouse", "repair", raw, "-o", fixed, "--round-relaxation", "yes")
     assert code == 0 and "cells changed (proven optimal" in out
     data = json.loads(fixed.read_text())
@@ -423,7 +423,7 @@ def test_generate_repair_measure_and_show_from_the_command_line(tmp_path, capsys
     assert code == 0 and measured["valid"] and measured["shelf_tiles"] == 20
     assert run(capsys, "warehouse", "show", raw, fixed, "-o", picture)[0] == 0
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert run(capsys, "maze", "generate", "-o", tmp_path / "m.json")[0] == 0
+    assert run(capsys, "maze", "grow", "-o", tmp_path / "m.json")[0] == 0
     code, out, _ = run(capsys, "maze", "measure", tmp_path / "m.json", "--json", "--agent", "oracle", "--episodes", 2)
     assert code == 0 and json.loads(out)["shortest_path"] >= -1
 

@@ -184,7 +184,7 @@ def test_the_agent_commands(tmp_path, capsys):
     code, out, _ = cli(
         capsys,
         "maze",
-        "train-agent",
+        "train",
         "--run-dir",
         tmp_path / "run",
         "--updates",

@@ -227,7 +227,7 @@ def test_verbose_before_or_after_the_command_shows_the_traceback(tmp_path, capsy
 def test_console_script_and_help_for_every_subcommand(tmp_path):
     script = Path(sys.executable).with_name("structgen")
     command = [str(script)] if script.exists() else [sys.executable, "-m", "structgen"]
-    for sub in ([], ["grow"], ["export"], ["info"], ["check"], ["render"]):
+    for sub in ([], ["grow"], ["export"], ["info"], ["evaluate"], ["show"]):
         done = subprocess.run([*command, *sub, "--help"], capture_output=True, text=True, check=False)
         assert done.returncode == 0 and "usage: structgen" in done.stdout
     done = subprocess.run([*command, "info", str(tmp_path / "x.json")], capture_output=True, text=True, check=False)
@@ -254,7 +254,7 @@ def column_4(tmp_path: Path) -> Path:
 
 
 def test_check_json_reports_the_required_fields(capsys, square):
-    code, out, err = run(capsys, "check", square, "--preset", "fast", "--json")
+    code, out, err = run(capsys, "evaluate", square, "--preset", "fast", "--json")
     assert code == 0 and err == ""
     report = json.loads(out)
     for key in ("integrity", "height", "complexity", "score", "broken_joints", "settled"):
@@ -265,20 +265,20 @@ def test_check_json_reports_the_required_fields(capsys, square):
 
 
 def test_check_of_a_breaking_structure_exits_0_unless_strict(capsys, column_4):
-    code, out, _ = run(capsys, "check", column_4, "--preset", "fast")
+    code, out, _ = run(capsys, "evaluate", column_4, "--preset", "fast")
     assert code == 0 and "breaks" in out and "broken      joint 0 (edge 0, vertex 0)" in out
-    code, _, _ = run(capsys, "check", column_4, "--preset", "fast", "--strict")
+    code, _, _ = run(capsys, "evaluate", column_4, "--preset", "fast", "--strict")
     assert code == 1
 
 
 def test_check_strict_passes_a_standing_structure(capsys, square):
-    code, out, _ = run(capsys, "check", square, "--preset", "fast", "--strict")
+    code, out, _ = run(capsys, "evaluate", square, "--preset", "fast", "--strict")
     assert code == 0 and "stands" in out
 
 
 @pytest.mark.parametrize("key", ["break_force", "physics.break_force"])
 def test_check_set_overrides_a_physics_setting(capsys, column_4, key):
-    code, out, _ = run(capsys, "check", column_4, "--preset", "fast", "--set", f"{key}=70", "--json")
+    code, out, _ = run(capsys, "evaluate", column_4, "--preset", "fast", "--set", f"{key}=70", "--json")
     assert code == 0
     report = json.loads(out)
     assert report["integrity"] == 1.0 and report["config"]["break_force"] == 70.0 and report["preset"] is None
@@ -296,64 +296,64 @@ def test_check_set_overrides_a_physics_setting(capsys, column_4, key):
     ],
 )
 def test_check_bad_settings_exit_2_naming_the_key(capsys, column_4, setting, fragments):
-    code, out, err = run(capsys, "check", column_4, "--set", setting)
+    code, out, err = run(capsys, "evaluate", column_4, "--set", setting)
     assert code == 2 and out == ""
     assert_one_line_error(err, *fragments)
 
 
 def test_check_refuses_structures_over_the_size_cap(capsys, column_4):
-    code, _, err = run(capsys, "check", column_4, "--set", "max_joints=4")
+    code, _, err = run(capsys, "evaluate", column_4, "--set", "max_joints=4")
     assert code == 2
     assert_one_line_error(err, "column4.json", "more than max_joints = 4", "check --statics", "--set max_joints=N")
 
 
 def test_check_of_a_broken_file(tmp_path, capsys):
     (tmp_path / "bad.json").write_text('{"vertices": [[0, 0, 0], [0, 0, 0]], "edges": []}')
-    code, _, err = run(capsys, "check", tmp_path / "bad.json")
+    code, _, err = run(capsys, "evaluate", tmp_path / "bad.json")
     assert code == 2
     assert_one_line_error(err, "bad.json", "vertices[1] duplicates vertices[0]")
 
 
 def test_render_writes_a_png_before_and_after(tmp_path, capsys, column_4):
-    code, out, _ = run(capsys, "render", column_4, "-o", tmp_path / "c.png", "--preset", "fast", "--dpi", 40)
+    code, out, _ = run(capsys, "show", column_4, "-o", tmp_path / "c.png", "--preset", "fast", "--dpi", 40)
     assert code == 0 and "breaks" in out
     data = (tmp_path / "c.png").read_bytes()
     assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 1000
 
 
 def test_render_refuses_other_formats_and_writes_nothing(tmp_path, capsys, column_4):
-    code, _, err = run(capsys, "render", column_4, "-o", tmp_path / "c.jpg")
+    code, _, err = run(capsys, "show", column_4, "-o", tmp_path / "c.jpg")
     assert code == 2
     assert_one_line_error(err, "c.jpg", "PNG")
     assert not (tmp_path / "c.jpg").exists()
 
 
 def test_check_statics_predicts_without_simulating(capsys, column_4, square):
-    code, out, _ = run(capsys, "check", column_4, "--statics", "--json")
+    code, out, _ = run(capsys, "evaluate", column_4, "--statics", "--json")
     report = json.loads(out)
     assert code == 0 and report["method"] == "statics" and report["integrity"] == 0.0 and report["steps"] == 2
-    code, out, _ = run(capsys, "check", square, "--statics")
+    code, out, _ = run(capsys, "evaluate", square, "--statics")
     assert code == 0 and "static frame solve" in out and "stands" in out
 
 
 def test_check_transient_rates_the_first_moments(capsys, column_4, square):
-    code, out, _ = run(capsys, "check", column_4, "--transient", "0.3", "--json", "--strict")
+    code, out, _ = run(capsys, "evaluate", column_4, "--transient", "0.3", "--json", "--strict")
     report = json.loads(out)
     assert code == 1 and report["method"] == "transient" and report["sim_time"] == pytest.approx(0.3)
     assert report["peak_force"] > 52.5 and report["integrity"] == pytest.approx(52.5 / report["peak_force"])
-    code, out, _ = run(capsys, "check", square, "--transient", "0.3", "--strict")
+    code, out, _ = run(capsys, "evaluate", square, "--transient", "0.3", "--strict")
     assert code == 0 and "holds in the first 0.3 s" in out and "peak force" in out
     for options, message in [
         (("--transient", "0.3", "--statics"), "not allowed with argument --transient"),
         (("--transient", "-1"), "--transient: expected a number of seconds above 0"),
     ]:
         with pytest.raises(SystemExit) as exit_info:
-            main(["check", str(square), *options])
+            main(["evaluate", str(square), *options])
         assert exit_info.value.code == 2 and message in capsys.readouterr().err
 
 
 def test_render_statics_writes_a_png(tmp_path, capsys, column_4):
-    code, out, _ = run(capsys, "render", column_4, "--statics", "-o", tmp_path / "c.png", "--dpi", 40)
+    code, out, _ = run(capsys, "show", column_4, "--statics", "-o", tmp_path / "c.png", "--dpi", 40)
     assert code == 0 and "breaks" in out and (tmp_path / "c.png").read_bytes().startswith(b"\x89PNG")
 
 
@@ -406,6 +406,57 @@ def test_every_verb_has_help_and_every_option_says_what_it_does(capsys):
                 assert action.help, f"structgen {' '.join(path)}: {action.option_strings or action.dest} has no help"
 
 
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        (["check"], "evaluate"),
+        (["structures", "render"], "show"),
+        (["maze", "generate"], "grow"),
+        (["maze", "train-agent"], "train"),
+        (["fortress", "run"], "evaluate"),
+        (["autoverse", "search"], "evaluate"),
+    ],
+)
+def test_a_verbs_old_name_still_answers_for_a_release_and_names_the_new_one(capsys, old, new):
+    from structgen.registry.commands import RENAMED_VERBS_GO_IN
+
+    with pytest.raises(SystemExit) as done:
+        main([*old, "--help"])  # the same parser: its usage names the new verb
+    assert done.value.code == 0 and f" {new} [-h]" in capsys.readouterr().out
+    import argparse
+
+    from structgen.registry.commands import renamed_verb_note
+
+    parser = dict(all_parsers())[tuple(old)]  # what parsing the old name gives, without the verb's own arguments
+    args = argparse.Namespace(**parser._defaults, command=old[0], verb=old[-1])
+    note = renamed_verb_note(args, (args.command, args.verb))
+    assert note == f"'{old[-1]}' is now '{new}'; the old name goes in structgen {RENAMED_VERBS_GO_IN}"
+
+
+def test_a_verb_typed_by_its_new_name_says_nothing_of_renames(capsys, column_4):
+    code, _, err = run(capsys, "evaluate", column_4, "--statics")
+    assert code == 0 and "is now" not in err
+    code, _, err = run(capsys, "check", column_4, "--statics")
+    assert code == 0 and "'check' is now 'evaluate'" in err
+
+
+def test_the_shared_concepts_take_one_verb_in_every_domain():
+    import argparse
+
+    from structgen.registry.commands import SHARED_VERBS
+
+    verbs = {}  # group -> its verbs' names (an alias is listed beside its verb, not as a verb of its own)
+    for path, parser in all_parsers():
+        for action in parser._actions:
+            if len(path) == 1 and isinstance(action, argparse._SubParsersAction):
+                verbs[path[0]] = {entry.dest for entry in action._choices_actions}
+    for group, names in verbs.items():
+        assert not names & {"check", "render", "generate", "train-agent", "search", "run"}, (group, names)
+    assert {"grow", "evaluate", "show", "info"} <= verbs["structures"] and {"grow", "show", "info", "train"} <= verbs["maze"]
+    assert {"evaluate", "show", "info"} <= verbs["fortress"] and {"evaluate", "show", "train"} <= verbs["autoverse"]
+    assert set(SHARED_VERBS) == {"grow", "evaluate", "show", "info", "train", "experiment", "figure"}
+
+
 def test_list_domains_and_optimizers(capsys):
     code, out, _ = run(capsys, "list", "domains")
     lines = out.splitlines()
@@ -444,3 +495,26 @@ def test_a_reader_that_closes_the_pipe_early_ends_the_command_quietly(tmp_path):
     process.stdout.close()
     err = process.stderr.read().decode()
     assert process.wait(timeout=120) == 141 and "Error" not in err and "Traceback" not in err, err
+
+
+def test_every_verb_shows_examples_that_the_command_line_takes_for_that_verb(tmp_path, monkeypatch):
+    import argparse
+    import shlex
+
+    from structgen.cli import build_parser
+
+    monkeypatch.chdir(tmp_path)  # examples name files here; parsing them writes nothing
+    for path, parser in all_parsers():
+        if any(isinstance(action, argparse._SubParsersAction) for action in parser._actions):
+            continue
+        epilog = parser.epilog or ""
+        assert epilog.startswith("examples:"), f"structgen {' '.join(path)} --help shows no examples"
+        assert "\n  structgen " in parser.format_help(), path  # kept one to a line
+        for line in epilog.splitlines()[1:]:
+            words = shlex.split(line)
+            assert words[0] == "structgen", line
+            try:
+                args = build_parser().parse_args(words[1:])
+            except SystemExit:
+                pytest.fail(f"structgen {' '.join(path)}: its example {line!r} does not parse")
+            assert args.handler is parser._defaults["handler"], f"{line!r} reaches another verb than {path}"

@@ -71,7 +71,7 @@ def inputs(folder: Path) -> dict[str, tuple[list, tuple[str, ...]]]:
         "file as a folder": (["info", folder / "ok.json" / "x.json"], ("x.json", "a part of the path is a file")),
         "output under a file": (["export", folder / "ok.json", folder / "ok.json" / "x.glb"], ("is a file, not a folder",)),
         "output name too long": (["export", folder / "ok.json", folder / ("a" * 300 + ".glb")], ("file name too long",)),
-        "dpi 0": (["render", folder / "ok.json", "-o", folder / "x.png", "--dpi", "0"], ("--dpi", "got 0")),
+        "dpi 0": (["show", folder / "ok.json", "-o", folder / "x.png", "--dpi", "0"], ("--dpi", "got 0")),
         "seed -1": (["grow", "--seed", "-1", "-o", folder / "g.json"], ("--seed", "got -1")),
         "huge max-vertices": (
             ["grow", "--max-vertices", 10**19, "-o", folder / "g.json"],
@@ -83,7 +83,7 @@ def inputs(folder: Path) -> dict[str, tuple[list, tuple[str, ...]]]:
         "/dev/zero": (["info", "/dev/zero"], ("/dev/zero", "not a regular file")),
         "NaN in metadata": (["export", folder / "nan.json", folder / "n.glb"], ("nan.json", "NaN")),
         "coordinate too large": (["info", folder / "huge.json"], ("huge.json", "vertices[0]", "out of range")),
-        "tiny timestep": (["check", folder / "ok.json", "--set", "timestep=1e-9"], ("max_steps",)),
+        "tiny timestep": (["evaluate", folder / "ok.json", "--set", "timestep=1e-9"], ("max_steps",)),
         "config error names the file": (
             ["evolve", folder / "bad.toml", "--run-dir", folder / "run"],
             ("bad.toml", "run.generations"),
@@ -169,7 +169,7 @@ def test_a_piece_still_falling_when_the_simulation_ends_adds_no_height_and_does_
     report = check_stability(floating, PhysicsConfig.preset("fast"))
     assert report.falling == 1 and report.height == 0.0 and not report.stands and report.final_speed > 10
     (tmp_path / "f.json").write_text(json.dumps(floating))
-    code, out, _ = run(capsys, "check", tmp_path / "f.json", "--preset", "fast", "--strict")
+    code, out, _ = run(capsys, "evaluate", tmp_path / "f.json", "--preset", "fast", "--strict")
     assert code == 1 and "still falling when the simulation ended: 1 vertex" in out
     resting = check_stability({"vertices": [[0, 0, 0], [0, 0, 1]], "edges": [[0, 1]]}, PhysicsConfig.preset("fast"))
     assert resting.stands and resting.falling == 0 and resting.height == pytest.approx(1.0, abs=1e-3)
@@ -191,7 +191,7 @@ def test_exports_and_static_solves_beyond_the_memory_budget_are_refused_before_a
     )
     refused(
         capsys,
-        "check",
+        "evaluate",
         tmp_path / "line.json",
         "--statics",
         "--set",
@@ -220,9 +220,9 @@ def test_the_memory_budget_defaults_to_4_gib_and_refuses_a_nonsense_setting(monk
 OUTPUT_VERBS = [
     ["grow", "--seed", "1", "--max-vertices", "8", "-o", "{out}"],
     ["export", "{structure}", "{out}"],
-    ["render", "{structure}", "--statics", "-o", "{out}"],
-    ["warehouse", "generate", "--size", "6x8", "--iterations", "2", "-o", "{out}"],
-    ["fortress", "run", "--random", "1", "--steps", "2", "--save", "{out}"],
+    ["show", "{structure}", "--statics", "-o", "{out}"],
+    ["warehouse", "grow", "--size", "6x8", "--iterations", "2", "-o", "{out}"],
+    ["fortress", "evaluate", "--random", "1", "--steps", "2", "--save", "{out}"],
 ]
 
 
@@ -293,8 +293,8 @@ def _files(tmp_path: Path) -> None:
 HOSTILE = [
     (["warehouse", "measure", "surrogate.json"], "a lone UTF-16 surrogate"),
     (["info", "structure.json"], "a lone UTF-16 surrogate"),
-    (["warehouse", "generate", "--device", "bogus", "-o", "g.json"], "expected cpu, cuda, cuda:N or mps"),
-    (["warehouse", "generate", "--device", "meta", "-o", "g.json"], "expected cpu, cuda, cuda:N or mps"),
+    (["warehouse", "grow", "--device", "bogus", "-o", "g.json"], "expected cpu, cuda, cuda:N or mps"),
+    (["warehouse", "grow", "--device", "meta", "-o", "g.json"], "expected cpu, cuda, cuda:N or mps"),
     (["autoverse", "evolve", "--set", "device=bogus", "--print-config"], "problem device = 'bogus'"),
     (["warehouse", "repair", "big.json", "-o", "r.json", "--time-limit", "nan"], "expected a finite number"),
     (["warehouse", "repair", "big.json", "-o", "r.json", "--time-limit", "0"], "expected a number above 0"),
@@ -311,7 +311,7 @@ HOSTILE = [
     (["autoverse", "clone", "c", "-o", "bc", "--lr", "nan"], "argument --lr: expected a finite number"),
     (["autoverse", "clone", "c", "-o", "bc", "--min-fitness", "inf"], "argument --min-fitness: expected a finite number"),
     (["info", "old-tall"], "settings.json: expected an object of settings, got list"),
-    (["fortress", "run", "x" * 300], "file name too long"),
+    (["fortress", "evaluate", "x" * 300], "file name too long"),
 ]
 
 

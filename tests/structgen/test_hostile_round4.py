@@ -114,7 +114,7 @@ def test_a_damaged_training_folder_is_refused_and_left_as_it_was(maze_training, 
     damage, fragments = _checkpoint_cases(maze_training)[case]
     damage(folder / "checkpoint.pt")
     before = _snapshot(folder)
-    refused(capsys, "maze", "train-agent", "--run-dir", folder, *TINY_OPTIONS, "--updates", "4", fragments=fragments)
+    refused(capsys, "maze", "train", "--run-dir", folder, *TINY_OPTIONS, "--updates", "4", fragments=fragments)
     assert _snapshot(folder) == before  # config.toml says 2 updates still; no checkpoint written
 
 
@@ -122,7 +122,7 @@ def test_a_training_another_process_holds_is_refused_before_its_settings_change(
     folder = _copy(maze_training, tmp_path)
     before = _snapshot(folder)
     with RunFolder(folder).locked():
-        refused(capsys, "maze", "train-agent", "--run-dir", folder, *TINY_OPTIONS, "--updates", "2000000")
+        refused(capsys, "maze", "train", "--run-dir", folder, *TINY_OPTIONS, "--updates", "2000000")
     assert _snapshot(folder) == before
 
 
@@ -176,10 +176,10 @@ def test_a_run_with_broken_agent_weights_is_refused_before_its_first_generation(
 
 
 def test_options_out_of_range_are_refused_before_a_folder_is_made(tmp_path, capsys):
-    refused(capsys, "maze", "train-agent", "--run-dir", tmp_path / "big", "--envs", "1000000", fragments=("--envs",))
+    refused(capsys, "maze", "train", "--run-dir", tmp_path / "big", "--envs", "1000000", fragments=("--envs",))
     assert not (tmp_path / "big").exists()
     if not torch.cuda.is_available():
-        refused(capsys, "maze", "train-agent", "--run-dir", tmp_path / "gpu", "--device", "cuda", fragments=("cuda",))
+        refused(capsys, "maze", "train", "--run-dir", tmp_path / "gpu", "--device", "cuda", fragments=("cuda",))
         assert not (tmp_path / "gpu").exists()
     for size in ("abc", "0x0", "100000x100000"):
         code, _, err = run(capsys, "maze", "experiment", "--large-size", size, "--small", "a", "--large", "b")
@@ -203,7 +203,7 @@ def test_overwrite_never_deletes_a_folder_of_another_kind(tmp_path, capsys):
     evolution = _evolution_run(tmp_path / "evolution")
     before = _snapshot(evolution)
     refused(
-        capsys, "maze", "train-agent", "--run-dir", evolution, *TINY_OPTIONS, "--overwrite",
+        capsys, "maze", "train", "--run-dir", evolution, *TINY_OPTIONS, "--overwrite",
         fragments=("an evolution run", "maze-agent"),
     )  # fmt: skip
     assert _snapshot(evolution) == before

@@ -186,7 +186,7 @@ def test_the_command_writes_the_run_folder_and_prints_how_to_grow_and_check_the_
     out = capsys.readouterr().out
     assert "the tallest that holds: 3 levels" in out and "over the" not in out
     assert f"grow it: structgen grow --weights {run_dir / 'tall_3.npy'} --max-extent 2 --iterations 3 -o tall.json" in out
-    assert f"structgen check {run_dir / 'tall_3.json'}\n" in out  # within the default limits: nothing to --set
+    assert f"structgen evaluate {run_dir / 'tall_3.json'}\n" in out  # within the default limits: nothing to --set
     grown_file = tmp_path / "tall.json"
     assert (
         main(["grow", "--weights", str(run_dir / "tall_3.npy"), "--max-extent", "2", "--iterations", "3", "-o", str(grown_file)])
@@ -216,7 +216,7 @@ def test_the_physics_is_a_setting_of_the_search_and_of_the_check_it_prints(tmp_p
     assert main(["info", str(run_dir)]) == 0
     assert "joints break above 0.5 N" in capsys.readouterr().out
     assert main(["tall", "--run-dir", str(tmp_path / "other"), *SMALL_OPTIONS, "--set", "physics.break_force=60"]) == 0
-    assert "structgen check " in (out := capsys.readouterr().out) and "--set break_force=60.0" in out
+    assert "structgen evaluate " in (out := capsys.readouterr().out) and "--set break_force=60.0" in out
     assert main(["tall", "--run-dir", str(tmp_path / "bad"), "--set", "physics.break_forse=1"]) == 2
     assert "break_forse" in capsys.readouterr().err and not (tmp_path / "bad").exists()
 

@@ -121,7 +121,7 @@ def test_the_committed_tall_ncas_grow_their_designs_and_hold_through_the_spawn_t
     growth = grown.metadata["growth"]
     assert growth["reached_fixed_point"] and growth["iterations_run"] == levels - 1
     assert cells_of(grown) == relative_to_top(by_level_rules(rules, tied_levels=0))
-    # the full 30 s faithful verdict takes minutes (the 'structgen check' command that 'structgen tall' prints); the
+    # the full 30 s faithful verdict takes minutes (the 'structgen evaluate' command that 'structgen tall' prints); the
     # first 0.3 s is where these designs carry most
     report = check_transient(grown, PhysicsConfig(max_joints=5000), window=0.3)
     assert report.peak_force < PhysicsConfig().break_force

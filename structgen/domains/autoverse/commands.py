@@ -229,7 +229,7 @@ def _add_play(subparsers: Any) -> None:
 
 def _add_search(subparsers: Any) -> None:
     p = subparsers.add_parser(
-        "search",
+        "evaluate",
         help="find a game's best play with best-first search and print its fitness",
         description="Run greedy best-first search on cumulative reward for BUDGET expansions and print the best "
         "return, the iteration it was first found at (the evolution's fitness) and the actions that reach it.",
@@ -379,7 +379,19 @@ def _add_train(subparsers: Any) -> None:
 
 
 class AutoverseCommands(DomainCommands):
-    adders = {"play": _add_play, "search": _add_search, "show": _add_show, "clone": _add_clone, "train": _add_train}
+    renamed = {"search": "evaluate"}  # until 0.5
+    examples = {
+        "play": ["structgen autoverse play --builtin maze --actions 2,2,0,2", "structgen autoverse play game.json --steps 50"],
+        "evaluate": [
+            "structgen autoverse evaluate --random 6 --budget 200 --save game.json",
+            "structgen autoverse evaluate --builtin maze --budget 2000",
+        ],
+        "show": ["structgen autoverse show game.json -o game.png", "structgen autoverse show game.json -o play.gif --search 200"],
+        "clone": ["structgen autoverse clone runs/autoverse -o runs/autoverse-bc --window 5"],
+        "train": ["structgen autoverse train runs/autoverse -o runs/av-player"],
+        "export": ["structgen autoverse export runs/autoverse best.json", "structgen autoverse export runs/autoverse best.png"],
+    }
+    adders = {"play": _add_play, "evaluate": _add_search, "show": _add_show, "clone": _add_clone, "train": _add_train}
 
     def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
         from structgen.domains.autoverse.train import RUN_KIND, read_settings, source_run, train

@@ -1,4 +1,4 @@
-"""The verbs of the Amorphous Fortress: ``structgen fortress run|replay|show|robustness`` (``evolve`` comes with every
+"""The verbs of the Amorphous Fortress: ``structgen fortress evaluate|replay|show|robustness`` (``evolve`` comes with every
 domain).
 
 A world is named by a fortress file (the original's format: ``FORTS/*.txt``, saved elites, what ``--save`` or an
@@ -194,7 +194,7 @@ def cmd_robustness(args: argparse.Namespace) -> int:
 
 def _add_run(subparsers: Any) -> None:
     p = subparsers.add_parser(
-        "run",
+        "evaluate",
         help="simulate a world and print its final map and the population of each class",
         description="Simulate WORLD for --steps ticks under --seed and print the final map (the original's text "
         "form), why it stopped, the share of its machines visited, and how many entities of each class are left.",
@@ -333,8 +333,21 @@ def _add_figure(subparsers: Any) -> None:
 
 
 class FortressCommands(DomainCommands):
+    renamed = {"run": "evaluate"}  # until 0.5
+    examples = {
+        "evaluate": [
+            "structgen fortress evaluate --random 4 --steps 100 --save world.txt",
+            "structgen fortress evaluate runs/af --elite best",
+        ],
+        "replay": ["structgen fortress replay world.txt --steps 50 --every 10", "structgen fortress replay runs/af --gif af.gif"],
+        "show": ["structgen fortress show world.txt -o world.png --populations populations.png"],
+        "robustness": ["structgen fortress robustness runs/exp1/seed-0 -o robustness.json"],
+        "experiment": ["structgen fortress experiment entities_nodes runs/exp1 --seeds 0 1 2"],
+        "figure": ["structgen fortress figure archive runs/exp1/seed-0 -o archive.png"],
+        "export": ["structgen fortress export runs/af best.txt", "structgen fortress export runs/af elite.png --elite index:40"],
+    }
     adders = {
-        "run": _add_run,
+        "evaluate": _add_run,
         "replay": _add_replay,
         "show": _add_show,
         "robustness": _add_robustness,

@@ -1,6 +1,6 @@
 """The verbs of the layout domains: ``structgen warehouse|manufacturing|maze
-generate|tile|repair|simulate|evaluate|show|measure`` (``simulate`` and ``evaluate``: warehouses and manufacturing
-floors)."""
+grow|tile|repair|simulate|evaluate|show|measure`` (``simulate`` and ``evaluate``: warehouses and manufacturing
+floors; ``train``, ``test-agent`` and ``experiment``: mazes)."""
 
 from __future__ import annotations
 
@@ -58,7 +58,7 @@ def _check_output(path: Path, suffix: str) -> None:
         raise InputError(f"{path}: this command writes {suffix} files; give a name ending in {suffix}")
 
 
-# -- generate ---------------------------------------------------------------------------------------------------------
+# -- grow -------------------------------------------------------------------------------------------------------------
 def cmd_generate(args: argparse.Namespace) -> int:
     from evolution.files import read_weights
     from structgen.domains.layouts.conv_nca import ConvNCA
@@ -371,7 +371,7 @@ def cmd_show(args: argparse.Namespace) -> int:
 # -- the parsers ------------------------------------------------------------------------------------------------------
 def _add_generate(subparsers: Any, kind: LayoutKind) -> None:
     p = subparsers.add_parser(
-        "generate",
+        "grow",
         help=f"grow a {kind.name} layout with the conv NCA",
         description=f"Grow a {kind.name} layout from the seed block with the conv NCA (random weights or saved ones) "
         "and write it, unrepaired, as a map JSON file.",
@@ -604,7 +604,7 @@ def _add_evaluate(subparsers: Any, kind: LayoutKind) -> None:
 
 
 # -- the maze agent ---------------------------------------------------------------------------------------------------
-#: train-agent's options: (option, AgentSettings field, argparse type, help). The defaults are the settings' own.
+#: maze train's options: (option, AgentSettings field, argparse type, help). The defaults are the settings' own.
 def _agent_options() -> list[tuple[str, str, Any, str]]:
     return [
         ("--updates", "updates", whole_number(1, 10**7), "PPO updates in all (a resumed run goes on to this many)"),
@@ -654,7 +654,7 @@ def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
     from structgen.domains.layouts.maze.agent_settings import AgentSettings
 
     p = subparsers.add_parser(
-        "train-agent",
+        "train",
         help="train the maze agent (PPO with a PLR/ACCEL curriculum) in a run folder",
         description="Train the learning maze agent: it sees the 5x5 cells in front of it and its direction, keeps a "
         "map of what it has seen and where it has walked, and learns by PPO on random 16x16 mazes chosen by a "
@@ -904,24 +904,47 @@ def _add_experiment(subparsers: Any, kind: LayoutKind) -> None:
     p.set_defaults(handler=cmd_experiment, kind=kind.name)
 
 
+def _examples(kind: str) -> dict[str, list[str]]:
+    """Each verb's ``--help`` examples for the ``kind`` family member."""
+    verb = f"structgen {kind}"
+    return {
+        "grow": [f"{verb} grow --seed 1 -o layout.json", f"{verb} grow --weights generator.npy --size 101x102 -o large.json"],
+        "tile": [f"{verb} tile layout.json --size 101x102 -o tiled.json"],
+        "repair": [f"{verb} repair layout.json -o repaired.json --time-limit 60"],
+        "simulate": [f"{verb} simulate repaired.json --agents 200 --planner pbs --frames robots.png"],
+        "evaluate": [f"{verb} evaluate repaired.json --simulations 10 --steps 5000 --planner pbs --workers 2"],
+        "show": [f"{verb} show layout.json -o layout.png", f"{verb} show layout.json repaired.json -o changes.png"],
+        "measure": [f"{verb} measure layout.json --json"],
+        "train": [f"{verb} train --run-dir runs/maze_agent", f"{verb} train --run-dir runs/maze_agent --updates 1000"],
+        "test-agent": [f"{verb} test-agent --kind rooms --size 32 --count 200", f"{verb} test-agent maze.json"],
+        "experiment": [f"{verb} experiment runs/maze", f"{verb} experiment --small small.json --large large.json --json"],
+        "export": [f"{verb} export runs/{kind} best.json", f"{verb} export runs/{kind} elite.json --elite index:120"],
+    }
+
+
 class LayoutCommands(DomainCommands):
+    renamed = {"generate": "grow", "train-agent": "train"}  # until 0.5
+
     def __init__(self, kind: str, verbs: tuple[str, ...]) -> None:
         self.kind = kind
         self.verbs = verbs
+        self.renamed = {old: new for old, new in self.renamed.items() if new in verbs}
+        self.examples = {verb: lines for verb, lines in _examples(kind).items() if verb in (*verbs, "export")}
 
     def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
         adders = {
-            "generate": _add_generate,
+            "grow": _add_generate,
             "tile": _add_tile,
             "repair": _add_repair,
             "simulate": _add_simulate,
             "evaluate": _add_evaluate,
             "show": _add_show,
             "measure": _add_measure,
-            "train-agent": _add_train_agent,
+            "train": _add_train_agent,
             "test-agent": _add_test_agent,
             "experiment": _add_experiment,
         }
+        subparsers = self.verb_parsers(subparsers)
         for name in verbs_wanted([v for v in adders if v in self.verbs], only):
             adders[name](subparsers, KINDS[self.kind])
 
@@ -957,8 +980,6 @@ class LayoutCommands(DomainCommands):
         return f"{output}: {problem.kind.name} {tiles.shape[0]}x{tiles.shape[1]} (unrepaired)"
 
 
-WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("generate", "tile", "repair", "simulate", "evaluate", "show", "measure"))
-MANUFACTURING_COMMANDS = LayoutCommands(
-    "manufacturing", ("generate", "tile", "repair", "simulate", "evaluate", "show", "measure")
-)
-MAZE_COMMANDS = LayoutCommands("maze", ("generate", "tile", "show", "measure", "train-agent", "test-agent", "experiment"))
+WAREHOUSE_COMMANDS = LayoutCommands("warehouse", ("grow", "tile", "repair", "simulate", "evaluate", "show", "measure"))
+MANUFACTURING_COMMANDS = LayoutCommands("manufacturing", ("grow", "tile", "repair", "simulate", "evaluate", "show", "measure"))
+MAZE_COMMANDS = LayoutCommands("maze", ("grow", "tile", "show", "measure", "train", "test-agent", "experiment"))

@@ -134,7 +134,7 @@ class MazeSettings:
     iterations: NCA steps (0: 50).
     agent: ``learned`` (the learning agent of :mod:`.maze.agent`, the paper's judge) or a scripted one: ``oracle``,
         ``wall_follower``, ``explorer`` or ``random_walk``.
-    agent_weights: the learned agent's weights (a ``train-agent`` run's ``agent.pt``); empty: the shipped agent.
+    agent_weights: the learned agent's weights (a ``structgen maze train`` run's ``agent.pt``); empty: the shipped agent.
     episodes: episodes per maze (50 in the paper).
     measures: ``walls`` (number of walls x the agent's mean path length, the paper's main run) or ``entropy``
         (pattern entropy x mean path length, its second).

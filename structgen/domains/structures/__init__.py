@@ -2,7 +2,7 @@
 
 - :mod:`.problem`: the settings (``[problem]``: evaluator, ``[problem.nca]``, ``[problem.physics]``) and the problem
   that grows NCA weights into structures and scores them with the paper's Q.
-- :mod:`.commands`: the verbs ``grow``, ``check``, ``render``, ``teach`` and ``tall`` (also at the top level:
+- :mod:`.commands`: the verbs ``grow``, ``evaluate``, ``show``, ``teach`` and ``tall`` (also at the top level:
   ``structgen grow`` is ``structgen structures grow``), what the generic ``info`` says of a structure file or a tall
   search, and the export of structure files and run elites as meshes.
 
@@ -24,7 +24,7 @@ DOMAIN = DomainSpec(
     settings="structgen.domains.structures.problem:StructuresSettings",
     summary="3D lattice structures grown by a local NCA and judged by rigid-body physics (the paper's Q)",
     commands="structgen.domains.structures.commands:COMMANDS",
-    shortcuts=("grow", "check", "render", "teach", "tall"),
+    shortcuts=("grow", "evaluate", "show", "teach", "tall"),
     aliases=("structures",),
     libraries=("torch", "pybullet", "trimesh"),
     # The paper's setup with its special rules (its local NCA, five steps, activation cutoff 0.6, no building below

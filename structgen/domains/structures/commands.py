@@ -1,4 +1,5 @@
-"""The structures domain's verbs: ``grow``, ``check``, ``render``, ``info``, and exports of structures as meshes.
+"""The structures domain's verbs: ``grow``, ``evaluate``, ``show``, ``teach``, ``tall``, what ``info`` says of a
+structure, and exports of structures as meshes.
 
 ``structgen structures <verb>``, and at the top level too (``structgen grow``): they are the product's face. Every
 verb takes ``--set`` with the same grammar as ``structgen evolve``; its named options are shortcuts for settings
@@ -421,7 +422,7 @@ def _add_grow(subparsers: Any) -> None:
 
 def _add_check(subparsers: Any) -> None:
     check = subparsers.add_parser(
-        "check",
+        "evaluate",
         help="simulate a structure under gravity and report whether it stands",
         description="Build FILE as rigid bodies (a sphere per vertex, a cylinder per edge, breakable fixed joints), "
         "rest it on the ground under gravity, and report integrity I (share of joints unbroken), height H, "
@@ -439,9 +440,9 @@ def _add_check(subparsers: Any) -> None:
 
 def _add_render(subparsers: Any) -> None:
     render = subparsers.add_parser(
-        "render",
+        "show",
         help="draw a structure before and after its stability check",
-        description="Judge FILE as 'check' does (by simulation, or by the static analysis with --statics) and draw "
+        description="Judge FILE as 'evaluate' does (by simulation, or by the static analysis with --statics) and draw "
         "it as placed and as it ended up, broken joints in red, to a PNG image (no display needed).",
     )
     render.add_argument("file", metavar="FILE", help="structure JSON file")
@@ -588,7 +589,7 @@ def _report_tall(result: Any, run_dir: Path) -> int:
     }
     changed.update(limits.room_for(grown.n_vertices, grown.n_edges))
     print(
-        f"its {limits.horizon:g} s verdict (minutes): structgen check {run_dir / f'tall_{levels}.json'}"
+        f"its {limits.horizon:g} s verdict (minutes): structgen evaluate {run_dir / f'tall_{levels}.json'}"
         + "".join(f" --set {name}={value}" for name, value in changed.items())
     )
     return EXIT_OK
@@ -731,12 +732,27 @@ def _add_figure(subparsers: Any) -> None:
 
 
 class StructureCommands(DomainCommands):
+    renamed = {"check": "evaluate", "render": "show"}  # until 0.5
+    # In the top-level form; `structgen structures VERB` is the same verb.
+    examples = {
+        "grow": ["structgen grow --seed 1 -o tower.json", "structgen grow --run runs/qd -o best.glb --gif growth.gif"],
+        "evaluate": ["structgen evaluate tower.json --preset fast", "structgen evaluate tower.json --statics --json"],
+        "show": ["structgen show tower.json -o tower.png --preset fast"],
+        "teach": ["structgen teach tower.json -o tower_nca.npy"],
+        "tall": ["structgen tall --run-dir runs/tall --levels 5 --workers 2"],
+        "experiment": [
+            "structgen structures experiment cutoff runs/cutoff --seeds 0 1 2",
+            "structgen structures experiment baseline runs/baseline --table-only",
+        ],
+        "figure": ["structgen structures figure runs/cutoff -o cutoff.png"],
+        "export": ["structgen structures export runs/qd best.glb", "structgen structures export tower.json tower.stl"],
+    }
     adders = {
         "experiment": _add_experiment,
         "figure": _add_figure,
         "grow": _add_grow,
-        "check": _add_check,
-        "render": _add_render,
+        "evaluate": _add_check,
+        "show": _add_render,
         "teach": _add_teach,
         "tall": _add_tall,
     }

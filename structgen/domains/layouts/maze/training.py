@@ -231,7 +231,7 @@ def agent_policy(weights: str | Path | None = None) -> MazePolicy:
 
 
 # --- the run folder -----------------------------------------------------------------------------------------------------------
-_TABLE, _HEADER = "agent", "Settings of this maze-agent training (structgen maze train-agent)"
+_TABLE, _HEADER = "agent", "Settings of this maze-agent training (structgen maze train)"
 
 
 def read_settings(folder: RunFolder) -> AgentSettings:
