@@ -12,6 +12,10 @@ text into those objects and objects back into text:
 - **Presets** are a declared hook: a settings class that has a ``presets()`` classmethod (returning a mapping of
   names to instances, like :meth:`physics.PhysicsConfig.presets`) accepts a ``preset`` key, which starts its table
   from that instance before the other keys apply. :func:`to_table` writes ``preset`` back when an object equals one.
+- **Limits**: a settings class may list the range and meaning of its numeric fields in a ``limits`` class attribute
+  (:class:`Limit`; merged over its bases, so a subclass adds or narrows them). One place then serves the check
+  (:func:`check_limits`, from ``__post_init__``), the command-line option made from the field
+  (:func:`structgen.registry.commands.add_setting_options`) and its help.
 - **Keys** in ``--set`` name a setting by its full dotted path (``problem.nca.cutoff``) or by any tail of it that no
   other setting shares (``nca.cutoff``, ``cutoff``): :func:`resolve_key`. The same rule holds in every subcommand,
   so ``structgen evaluate --set break_force=60`` is short for ``--set physics.break_force=60``.
@@ -37,6 +41,9 @@ else:  # pragma: no cover - Python 3.10
 
 __all__ = [
     "ConfigError",
+    "Limit",
+    "check_limits",
+    "limits_of",
     "apply_overrides",
     "build",
     "flatten",
@@ -65,6 +72,63 @@ class ConfigError(InputError):
 
 
 # -- text ---------------------------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Limit:
+    """The range a numeric setting may take and what it means, in one place for its check, its option and its help.
+
+    Attributes:
+        low, high: the range, both ends included (``high`` may be infinite).
+        help: what the setting does, one line (its option's help).
+        whole: a whole number (else any finite number).
+        above: ``low`` itself excluded (a number above ``low``).
+        option: its command-line option where not ``--`` + the field's name with dashes.
+    """
+
+    low: float
+    high: float
+    help: str
+    whole: bool = True
+    above: bool = False
+    option: str | None = None
+
+    def describe(self) -> str:
+        """The range in words: ``a whole number from 1 to 10,000``, ``a number above 0, at most 1``."""
+        kind = "a whole number" if self.whole else "a number"
+        shown = (lambda x: f"{x:,}") if self.whole else (lambda x: f"{x:g}")
+        if self.above:
+            return f"{kind} above {shown(self.low)}" + ("" if self.high == math.inf else f", at most {shown(self.high)}")
+        start = "" if self.low == -math.inf else f" from {shown(self.low)}"
+        end = "" if self.high == math.inf else (f" to {shown(self.high)}" if start else f" of at most {shown(self.high)}")
+        return f"{kind}{start}{end}"
+
+    def admits(self, value: Any) -> bool:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return False
+        if self.whole and not isinstance(value, int):
+            return False
+        if not math.isfinite(value):
+            return False
+        return (value > self.low if self.above else value >= self.low) and value <= self.high
+
+
+def limits_of(cls: type) -> dict[str, Limit]:
+    """Every field limit of ``cls``: its ``limits`` and its bases', a subclass's entry winning."""
+    found: dict[str, Limit] = {}
+    for klass in reversed(cls.__mro__):
+        found.update(vars(klass).get("limits", {}))
+    return found
+
+
+def check_limits(settings: Any) -> None:
+    """Raise ValueError naming the setting (``section name``), its value and its range for the first field of
+    ``settings`` outside its :class:`Limit`."""
+    section = getattr(settings, "section", type(settings).__name__)
+    for name, limit in limits_of(type(settings)).items():
+        value = getattr(settings, name)
+        if not limit.admits(value):
+            raise ValueError(f"{section} {name} = {value!r}: expected {limit.describe()}")
+
+
 def parse_value(text: str) -> Any:
     """A ``--set`` value as TOML would read it (``3``, ``0.5``, ``true``, ``"x"``, ``[1, 2]``, ``inf``); anything
     TOML cannot read is taken as a plain string, so ``--set optimizer.name=ga`` works without quotes. A value nested

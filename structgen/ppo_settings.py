@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+from structgen.config import Limit, check_limits
 from structgen.devices import check_device_name
 
 __all__ = ["PPOSettings"]
@@ -21,6 +22,23 @@ class PPOSettings:
     A domain's training settings extend these (their own defaults, more fields); ``section`` names them in errors."""
 
     section: ClassVar[str] = "ppo"
+    #: Each numeric field's range and meaning (:class:`structgen.config.Limit`): its check and its option.
+    limits: ClassVar[dict[str, Limit]] = {
+        "envs": Limit(1, 10**6, "environments played at once"),
+        "steps": Limit(1, 10**5, "steps per environment in each update"),
+        "updates": Limit(0, 10**7, "PPO updates in all (a resumed run goes on to this many)"),
+        "epochs": Limit(1, 1000, "passes over each update's steps"),
+        "minibatches": Limit(1, 10**6, "minibatches per pass"),
+        "learning_rate": Limit(0, 1, "Adam's learning rate", whole=False, above=True),
+        "gamma": Limit(0, 1, "discount", whole=False),
+        "gae_lambda": Limit(0, 1, "GAE's lambda", whole=False),
+        "clip": Limit(0, math.inf, "PPO's clip range", whole=False),
+        "entropy": Limit(0, math.inf, "weight of the entropy bonus", whole=False),
+        "value_coef": Limit(0, math.inf, "weight of the value loss", whole=False),
+        "max_grad_norm": Limit(0, math.inf, "gradient norm clipped to", whole=False),
+        "hidden": Limit(1, 65536, "width of the network's hidden layers"),
+        "seed": Limit(0, 2**63 - 1, "seed of the levels, the actions sampled and the network"),
+    }
 
     envs: int = 32
     steps: int = 128
@@ -40,17 +58,7 @@ class PPOSettings:
 
     def __post_init__(self) -> None:
         check_device_name(self.device, f"{self.section} device")
-        for name in ("envs", "steps", "updates", "epochs", "minibatches", "hidden", "seed"):
-            value = getattr(self, name)
-            low = 0 if name in ("updates", "seed") else 1
-            if not isinstance(value, int) or isinstance(value, bool) or value < low:
-                raise ValueError(f"{self.section} {name} must be a whole number of at least {low}, got {value!r}")
-        for name in ("learning_rate", "gamma", "gae_lambda", "clip", "entropy", "value_coef", "max_grad_norm"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-                raise ValueError(f"{self.section} {name} must be a finite number of at least 0, got {value!r}")
-        if not self.learning_rate > 0:
-            raise ValueError(f"{self.section} learning_rate must be positive, got {self.learning_rate!r}")
+        check_limits(self)
         if self.envs * self.steps < self.minibatches:
             raise ValueError(
                 f"{self.section} minibatches ({self.minibatches}) cannot exceed envs x steps ({self.envs * self.steps})"

@@ -15,6 +15,7 @@ from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from structgen.config import Limit, limits_of
 from structgen.errors import InputError
 
 if TYPE_CHECKING:
@@ -43,6 +44,9 @@ __all__ = [
     "settings_from_args",
     "verbs_wanted",
     "whole_number",
+    "add_setting_options",
+    "given_settings",
+    "limit_type",
 ]
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
@@ -63,33 +67,31 @@ class Parser(argparse.ArgumentParser):
 def whole_number(low: int, high: int) -> Any:
     """An argparse ``type`` for whole numbers from ``low`` to ``high``; anything else is a usage error naming the
     option."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"expected a whole number from {low:,} to {high:,}, got {value:,}")
-        return value
-
-    return parse
+    return limit_type(Limit(low, high, ""))
 
 
 def finite_number(low: float = -math.inf, high: float = math.inf, *, above: bool = False) -> Any:
     """An argparse ``type`` for numbers from ``low`` (or above it, with ``above``) to ``high``; NaN, infinities and
     anything else are usage errors naming the option."""
+    return limit_type(Limit(low, high, "", whole=False, above=above))
 
-    def parse(text: str) -> float:
+
+def limit_type(limit: Limit) -> Any:
+    """An argparse ``type`` for the values ``limit`` admits: the one range check of the command line, whose message
+    argparse prefixes with the option (``argument --updates: expected a whole number from 1 to 10,000,000, got
+    0``)."""
+
+    def parse(text: str) -> int | float:
         try:
-            value = float(text)
+            value: int | float = int(text) if limit.whole else float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+            raise argparse.ArgumentTypeError(
+                f"expected {'a whole number' if limit.whole else 'a number'}, got {text!r}"
+            ) from None
         if not math.isfinite(value):
             raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-        if value < low or (above and value == low) or value > high:
-            bound = f"above {low:g}" if above else f"from {low:g}"
-            raise argparse.ArgumentTypeError(f"expected a number {bound}{f' to {high:g}' if high < math.inf else ''}, got {text}")
+        if not limit.admits(value):
+            raise argparse.ArgumentTypeError(f"expected {limit.describe()}, got {f'{value:,}' if limit.whole else text}")
         return value
 
     return parse
@@ -267,24 +269,32 @@ class DomainCommands:
 
 
 def add_setting_options(
-    parser: argparse.ArgumentParser, options: Iterable[tuple[str, str, Any, str]], settings_class: type, label: str = "default"
+    parser: argparse.ArgumentParser, settings_class: type, fields: Iterable[str], label: str = "default"
 ) -> None:
-    """Options that each set one field of a settings dataclass, from rows ``(option, field, parse, help)``. Each
-    defaults to None (the field keeps the settings' value, which the help shows as ``(label value)``), read from the
-    class's fields without building it, since building can check more than a parser needs (and load torch)."""
+    """One option for each of ``fields`` of a settings dataclass, made from the field's
+    :class:`structgen.config.Limit`: named ``--`` + the field with dashes (or the limit's ``option``), checked by the
+    limit (:func:`limit_type`), helped by its text and the field's default as ``(label value)``. Each option defaults
+    to None, so that a field not given keeps the settings' value (:func:`given_settings`); the defaults are read from
+    the class's fields without building it, since building can check more than a parser needs (and load torch)."""
     import dataclasses
 
     defaults = {item.name: item.default for item in dataclasses.fields(settings_class)}
-    for option, field, parse, text in options:
-        metavar = "N" if isinstance(defaults[field], int) else "X"
+    limits = limits_of(settings_class)
+    for field in fields:
+        limit = limits[field]
         parser.add_argument(
-            option, dest=field, type=parse, default=None, metavar=metavar, help=f"{text} ({label} {defaults[field]})"
+            limit.option or "--" + field.replace("_", "-"),
+            dest=field,
+            type=limit_type(limit),
+            default=None,
+            metavar="N" if limit.whole else "X",
+            help=f"{limit.help} ({label} {defaults[field]})",
         )
 
 
-def given_settings(args: argparse.Namespace, options: Iterable[tuple[str, str, Any, str]]) -> dict[str, Any]:
+def given_settings(args: argparse.Namespace, fields: Iterable[str]) -> dict[str, Any]:
     """The fields that options added by :func:`add_setting_options` were given on the command line."""
-    return {field: getattr(args, field) for _, field, _, _ in options if getattr(args, field) is not None}
+    return {field: getattr(args, field) for field in fields if getattr(args, field) is not None}
 
 
 def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_settings: Callable[[Any], Any], what: str) -> Any:

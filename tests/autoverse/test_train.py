@@ -91,7 +91,7 @@ def test_the_command_line_trains_resumes_and_refuses_bad_settings(evolved, tmp_p
     code, printed, err = cli(capsys, "resume", out, "--generations", "2")
     assert code == 0 and "2 PPO updates" in printed, err
     code, _, err = cli(capsys, "autoverse", "train", evolved, "-o", tmp_path / "bad", "--evolve-mutation", "everything")
-    assert code == 2 and "evolve_mutation" in err and "everything" in err
+    assert code == 2 and "--evolve-mutation" in err and "everything" in err and "rules_and_map" in err
     assert not (tmp_path / "bad").exists()
 
 

@@ -290,36 +290,30 @@ def _add_clone(subparsers: Any) -> None:
 
 
 # -- train ----------------------------------------------------------------------------------------------------------------
-#: train's options: (option, TrainSettings field, argparse type, help). Their defaults come from the preset.
-def _train_options() -> list[tuple[str, str, Any, str]]:
-    return [
-        ("--clone-steps", "clone_steps", whole_number(0, 10**8), "behaviour-cloning gradient steps (0: PPO from scratch)"),
-        ("--clone-batch", "clone_batch", whole_number(1, 10**6), "cloning batch"),
-        ("--clone-lr", "clone_learning_rate", finite_number(0, 1, above=True), "cloning learning rate"),
-        ("--updates", "updates", whole_number(0, 10**7), "PPO updates in all (a resumed run goes on to this many)"),
-        ("--envs", "envs", whole_number(1, 10**6), "games played at once"),
-        ("--steps", "steps", whole_number(1, 10**5), "steps per game in each update"),
-        ("--epochs", "epochs", whole_number(1, 1000), "passes over each update's steps"),
-        ("--minibatches", "minibatches", whole_number(1, 10**6), "minibatches per pass"),
-        ("--lr", "learning_rate", finite_number(0, 1, above=True), "PPO's Adam learning rate"),
-        ("--gamma", "gamma", finite_number(0, 1), "discount"),
-        ("--entropy", "entropy", finite_number(0, 10), "weight of the entropy bonus"),
-        ("--hidden", "hidden", whole_number(1, 4096), "network width (the convolution's channels and the layers')"),
-        ("--evaluate-every", "evaluate_every", whole_number(1, 10**7), "updates between evaluations on every split"),
-        ("--eval-steps", "eval_steps", whole_number(1, 10**7), "steps each game is played for in an evaluation"),
-        ("--eval-games", "eval_games", whole_number(0, 10**6), "games of each split evaluated, spread over its fitness (0: all)"),
-        ("--checkpoint-every", "checkpoint_every", whole_number(1, 10**7), "updates between checkpoints"),
-        (
-            "--evolve-every",
-            "evolve_every",
-            whole_number(0, 10**7),
-            "updates between rounds of regret-driven evolution of the training games (0: off)",
-        ),
-        ("--pool", "pool", whole_number(0, 10**6), "games the evolution keeps (0: as many as the training split)"),
-        ("--evolve-mutation", "evolve_mutation", str, "how evolved games differ from their parents: rules_and_map or map_only"),
-        ("--min-fitness", "min_fitness", finite_number(), "games of the run below this fitness are left out"),
-        ("--seed", "seed", whole_number(0, MAX_SEED), "seed of cloning, the games drawn, the actions sampled and evolution"),
-    ]
+#: The settings train takes as options, each made from the field's limit (TrainSettings.limits); the defaults shown
+#: are the cpu preset's (the settings' own).
+_TRAIN_FIELDS = (
+    "clone_steps",
+    "clone_batch",
+    "clone_learning_rate",
+    "updates",
+    "envs",
+    "steps",
+    "epochs",
+    "minibatches",
+    "learning_rate",
+    "gamma",
+    "entropy",
+    "hidden",
+    "evaluate_every",
+    "eval_steps",
+    "eval_games",
+    "checkpoint_every",
+    "evolve_every",
+    "pool",
+    "min_fitness",
+    "seed",
+)
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -327,7 +321,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
 
     values = dict(PRESETS[args.preset])
-    values.update(given_settings(args, _train_options()))
+    values.update(given_settings(args, (*_TRAIN_FIELDS, "evolve_mutation")))
     observed = {"window": args.window, "hide_rules": args.hide_rules, "padding": args.padding, "blank_window": args.blank_window}
     try:
         settings = TrainSettings(**values, **observed, device=args.device)
@@ -352,6 +346,7 @@ def _print_training(output: Path, rows: list[dict[str, Any]]) -> None:
 
 
 def _add_train(subparsers: Any) -> None:
+    from structgen.domains.autoverse.game import MUTATIONS
     from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
 
     p = subparsers.add_parser(
@@ -369,7 +364,13 @@ def _add_train(subparsers: Any) -> None:
     p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse evolution run folder (its playtraces)")
     p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="training folder (made, or resumed)")
     p.add_argument("--preset", choices=tuple(PRESETS), default="cpu", help="starting settings (default cpu)")
-    add_setting_options(p, _train_options(), TrainSettings, "cpu preset:")
+    add_setting_options(p, TrainSettings, _TRAIN_FIELDS, "cpu preset:")
+    p.add_argument(
+        "--evolve-mutation",
+        choices=MUTATIONS,
+        default=None,
+        help=f"how evolved games differ from their parents (cpu preset: {TrainSettings.evolve_mutation})",
+    )
     _observation_options(p)
     p.add_argument("--device", type=device_name, default="cpu", help="torch device: cpu, cuda, cuda:N (default cpu)")
     p.add_argument(

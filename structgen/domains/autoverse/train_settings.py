@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from structgen.config import Limit
 from structgen.domains.autoverse.game import MUTATIONS
 from structgen.ppo_settings import PPOSettings
 
@@ -31,6 +32,23 @@ class TrainSettings(PPOSettings):
     """
 
     section: ClassVar[str] = "train"
+    limits: ClassVar[dict[str, Limit]] = {
+        "envs": Limit(1, 10**6, "games played at once"),
+        "steps": Limit(1, 10**5, "steps per game in each update"),
+        "learning_rate": Limit(0, 1, "PPO's Adam learning rate", whole=False, above=True, option="--lr"),
+        "hidden": Limit(1, 65536, "network width (the convolution's channels and the layers')"),
+        "seed": Limit(0, 2**63 - 1, "seed of cloning, the games drawn, the actions sampled and evolution"),
+        "clone_steps": Limit(0, 10**8, "behaviour-cloning gradient steps (0: PPO from scratch)"),
+        "clone_batch": Limit(1, 10**6, "cloning batch"),
+        "clone_learning_rate": Limit(0, 1, "cloning learning rate", whole=False, above=True, option="--clone-lr"),
+        "min_fitness": Limit(-math.inf, math.inf, "games of the run below this fitness are left out", whole=False),
+        "evaluate_every": Limit(1, 10**7, "updates between evaluations on every split"),
+        "eval_steps": Limit(1, 10**7, "steps each game is played for in an evaluation"),
+        "eval_games": Limit(0, 10**6, "games of each split evaluated, spread over its fitness (0: all)"),
+        "checkpoint_every": Limit(1, 10**7, "updates between checkpoints"),
+        "evolve_every": Limit(0, 10**7, "updates between rounds of regret-driven evolution of the training games (0: off)"),
+        "pool": Limit(0, 10**6, "games the evolution keeps (0: as many as the training split)"),
+    }
 
     updates: int = 50
     steps: int = 101
@@ -54,26 +72,6 @@ class TrainSettings(PPOSettings):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        for name in (
-            "clone_steps",
-            "clone_batch",
-            "evaluate_every",
-            "eval_steps",
-            "eval_games",
-            "checkpoint_every",
-            "evolve_every",
-            "pool",
-        ):
-            value = getattr(self, name)
-            low = 1 if name in ("clone_batch", "evaluate_every", "eval_steps", "checkpoint_every") else 0
-            if not isinstance(value, int) or isinstance(value, bool) or value < low:
-                raise ValueError(f"train {name} must be a whole number of at least {low}, got {value!r}")
-        for name in ("clone_learning_rate", "min_fitness"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"train {name} must be a finite number, got {value!r}")
-        if not self.clone_learning_rate > 0:
-            raise ValueError(f"train clone_learning_rate must be positive, got {self.clone_learning_rate!r}")
         if self.evolve_mutation not in MUTATIONS:
             raise ValueError(f"train evolve_mutation must be one of {', '.join(MUTATIONS)}, got {self.evolve_mutation!r}")
         try:

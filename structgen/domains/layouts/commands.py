@@ -604,35 +604,34 @@ def _add_evaluate(subparsers: Any, kind: LayoutKind) -> None:
 
 
 # -- the maze agent ---------------------------------------------------------------------------------------------------
-#: maze train's options: (option, AgentSettings field, argparse type, help). The defaults are the settings' own.
-def _agent_options() -> list[tuple[str, str, Any, str]]:
-    return [
-        ("--updates", "updates", whole_number(1, 10**7), "PPO updates in all (a resumed run goes on to this many)"),
-        ("--envs", "envs", whole_number(1, 10**6), "mazes played at once"),
-        ("--steps", "steps", whole_number(1, 10**5), "steps per maze in each update"),
-        ("--epochs", "epochs", whole_number(1, 1000), "passes over each update's steps"),
-        ("--minibatches", "minibatches", whole_number(1, 10**6), "minibatches per pass"),
-        ("--learning-rate", "learning_rate", finite_number(0, 1, above=True), "Adam's learning rate"),
-        ("--gamma", "gamma", finite_number(0, 1), "discount"),
-        ("--entropy", "entropy", finite_number(0, 10), "weight of the entropy bonus"),
-        ("--hidden", "hidden", whole_number(1, 4096), "width of the network's two hidden layers"),
-        ("--size", "size", whole_number(4, 256), "side of the training mazes (inside their outer wall)"),
-        ("--replay", "replay", finite_number(0, 1), "chance that a finished episode's next level is replayed from the buffer"),
-        ("--edit", "edit", finite_number(0, 1), "chance that a new level is an edit of a buffer level (else random)"),
-        ("--buffer", "buffer", whole_number(1, 10**6), "levels the curriculum keeps"),
-        ("--temperature", "temperature", finite_number(0, 100, above=True), "of the replay's rank weights"),
-        ("--staleness", "staleness", finite_number(0, 1), "share of the replay chance given by how long ago a level was played"),
-        ("--checkpoint-every", "checkpoint_every", whole_number(1, 10**7), "updates between checkpoints"),
-        ("--evaluate-every", "evaluate_every", whole_number(1, 10**7), "updates between tests on the held-out mazes"),
-        ("--seed", "seed", whole_number(0, 2**32 - 1), "seed of the levels, the starting directions and the network"),
-    ]
+#: The settings maze train takes as options: each made from the field's limit (AgentSettings.limits).
+_AGENT_FIELDS = (
+    "updates",
+    "envs",
+    "steps",
+    "epochs",
+    "minibatches",
+    "learning_rate",
+    "gamma",
+    "entropy",
+    "hidden",
+    "size",
+    "replay",
+    "edit",
+    "buffer",
+    "temperature",
+    "staleness",
+    "checkpoint_every",
+    "evaluate_every",
+    "seed",
+)
 
 
 def cmd_train_agent(args: argparse.Namespace) -> int:
     from structgen.domains.layouts.maze.agent_settings import AgentSettings
     from structgen.domains.layouts.maze.training import AGENT_FILE, train_agent
 
-    values = given_settings(args, _agent_options())
+    values = given_settings(args, _AGENT_FIELDS)
     try:
         settings = AgentSettings(**values, device=args.device)
     except ValueError as err:
@@ -665,7 +664,7 @@ def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
     p.add_argument(
         "--run-dir", required=True, type=Path, metavar="DIR", help="run folder (made, or resumed if it holds this training)"
     )
-    add_setting_options(p, _agent_options(), AgentSettings)
+    add_setting_options(p, AgentSettings, _AGENT_FIELDS)
     p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
     p.add_argument(
         "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"

@@ -3,9 +3,11 @@ defaults without loading torch (:mod:`.training` trains with them)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+from structgen.config import Limit
 from structgen.ppo_settings import PPOSettings
 
 __all__ = ["AgentSettings"]
@@ -20,6 +22,21 @@ class AgentSettings(PPOSettings):
     evaluate_every (updates)."""
 
     section: ClassVar[str] = "agent"
+    limits: ClassVar[dict[str, Limit]] = {
+        "updates": Limit(1, 10**7, "PPO updates in all (a resumed run goes on to this many)"),
+        "envs": Limit(1, 10**6, "mazes played at once"),
+        "steps": Limit(1, 10**5, "steps per maze in each update"),
+        "hidden": Limit(1, 65536, "width of the network's two hidden layers"),
+        "seed": Limit(0, 2**32 - 1, "seed of the levels, the starting directions and the network"),
+        "size": Limit(4, 256, "side of the training mazes (inside their outer wall)"),
+        "replay": Limit(0, 1, "chance that a finished episode's next level is replayed from the buffer", whole=False),
+        "edit": Limit(0, 1, "chance that a new level is an edit of a buffer level (else random)", whole=False),
+        "buffer": Limit(1, 10**6, "levels the curriculum keeps"),
+        "temperature": Limit(0, math.inf, "of the replay's rank weights", whole=False, above=True),
+        "staleness": Limit(0, 1, "share of the replay chance given by how long ago a level was played", whole=False),
+        "checkpoint_every": Limit(1, 10**7, "updates between checkpoints"),
+        "evaluate_every": Limit(1, 10**7, "updates between tests on the held-out mazes"),
+    }
 
     updates: int = 500
     envs: int = 256
@@ -34,16 +51,3 @@ class AgentSettings(PPOSettings):
     staleness: float = 0.3
     checkpoint_every: int = 10
     evaluate_every: int = 10
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        for name in ("replay", "edit", "staleness"):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
-                raise ValueError(f"agent {name} must be a probability from 0 to 1, got {value!r}")
-        if not self.temperature > 0:
-            raise ValueError(f"agent temperature must be positive, got {self.temperature!r}")
-        for name in ("size", "buffer", "checkpoint_every", "evaluate_every"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < (4 if name == "size" else 1):
-                raise ValueError(f"agent {name} must be a whole number of at least {4 if name == 'size' else 1}, got {value!r}")
