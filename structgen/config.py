@@ -81,6 +81,7 @@ class Limit:
         help: what the setting does, one line (its option's help).
         whole: a whole number (else any finite number).
         above: ``low`` itself excluded (a number above ``low``).
+        below: ``high`` itself excluded (a number below ``high``).
         option: its command-line option where not ``--`` + the field's name with dashes.
     """
 
@@ -89,12 +90,17 @@ class Limit:
     help: str
     whole: bool = True
     above: bool = False
+    below: bool = False
     option: str | None = None
 
     def describe(self) -> str:
         """The range in words: ``a whole number from 1 to 10,000``, ``a number above 0, at most 1``."""
         kind = "a whole number" if self.whole else "a number"
         shown = (lambda x: f"{x:,}") if self.whole else (lambda x: f"{x:g}")
+        if self.above and self.below:
+            return f"{kind} strictly between {shown(self.low)} and {shown(self.high)}"
+        if self.below:
+            return f"{kind} below {shown(self.high)}" + ("" if self.low == -math.inf else f", at least {shown(self.low)}")
         if self.above:
             return f"{kind} above {shown(self.low)}" + ("" if self.high == math.inf else f", at most {shown(self.high)}")
         start = "" if self.low == -math.inf else f" from {shown(self.low)}"
@@ -108,7 +114,8 @@ class Limit:
             return False
         if not math.isfinite(value):
             return False
-        return (value > self.low if self.above else value >= self.low) and value <= self.high
+        above_low = value > self.low if self.above else value >= self.low
+        return above_low and (value < self.high if self.below else value <= self.high)
 
 
 def limits_of(cls: type) -> dict[str, Limit]:

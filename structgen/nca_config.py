@@ -7,8 +7,9 @@ module exists so that reading the settings (for a configuration file, for the de
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import ClassVar
 
+from structgen.config import Limit, check_limits
 from structgen.lattice import N_NEIGHBOURS
 from structgen.structure import MAX_COORDINATE
 
@@ -35,6 +36,15 @@ class NCAConfig:
         max_extent: cells further than this from the seed along any axis are never built.
     """
 
+    section: ClassVar[str] = "NCA"
+    limits: ClassVar[dict[str, Limit]] = {
+        "hidden": Limit(1, MAX_HIDDEN, "hidden layer size"),
+        "iterations": Limit(0, MAX_ITERATIONS, "growth steps from the seed vertex"),
+        "cutoff": Limit(0, 1, "an output fires above this sigmoid value", whole=False, above=True, below=True),
+        "max_vertices": Limit(1, MAX_VERTICES, "stop growth before exceeding this many vertices"),
+        "max_extent": Limit(1, MAX_COORDINATE, "never build further than this many cells from the seed"),
+    }
+
     hidden: int = 60
     iterations: int = 5
     cutoff: float = 0.5
@@ -43,35 +53,9 @@ class NCAConfig:
     max_extent: int = 32
 
     def __post_init__(self) -> None:
-        def need(ok: bool, name: str, what: str) -> None:
-            if not ok:
-                raise ValueError(f"NCA {name} must be {what}, got {getattr(self, name)!r}")
-
-        def is_int(value: Any) -> bool:
-            return isinstance(value, int) and not isinstance(value, bool)
-
-        need(is_int(self.hidden) and 1 <= self.hidden <= MAX_HIDDEN, "hidden", f"an integer from 1 to {MAX_HIDDEN:,}")
-        need(
-            is_int(self.iterations) and 0 <= self.iterations <= MAX_ITERATIONS,
-            "iterations",
-            f"an integer from 0 to {MAX_ITERATIONS:,}",
-        )
-        need(
-            isinstance(self.cutoff, (int, float)) and not isinstance(self.cutoff, bool) and 0 < self.cutoff < 1,
-            "cutoff",
-            "a number strictly between 0 and 1",
-        )
-        need(isinstance(self.build_down, bool), "build_down", "true or false")
-        need(
-            is_int(self.max_vertices) and 1 <= self.max_vertices <= MAX_VERTICES,
-            "max_vertices",
-            f"an integer from 1 to {MAX_VERTICES:,}",
-        )
-        need(
-            is_int(self.max_extent) and 1 <= self.max_extent <= MAX_COORDINATE,
-            "max_extent",
-            f"an integer from 1 to {MAX_COORDINATE:,}",
-        )
+        check_limits(self)
+        if not isinstance(self.build_down, bool):
+            raise ValueError(f"NCA build_down must be true or false, got {self.build_down!r}")
 
 
 def n_params(config: NCAConfig | None = None) -> int:

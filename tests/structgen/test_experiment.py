@@ -118,7 +118,7 @@ def test_combinations_that_cannot_work_fail_when_the_optimizer_is_built(tmp_path
         ),
         ("[optimizer]\npopulation = 10\nparents = 10\n", [], r"parents \(10\) must be fewer than population \(10\)"),
         ("[problem]\nname = 'maze'\n", [], r"c.toml: problem.name: unknown domain 'maze'; choose one of structures-v0, "),
-        ("[problem.nca]\ncutoff = 1.5\n", [], r"NCA cutoff must be a number strictly between 0 and 1"),
+        ("[problem.nca]\ncutoff = 1.5\n", [], r"NCA cutoff = 1.5: expected a number strictly between 0 and 1"),
         ("[problem.nca]\ncutof = 0.6\n", [], r"unknown setting 'problem.nca.cutof'"),
         (
             "[problem.physics]\npreset = 'turbo'\n",

@@ -75,7 +75,7 @@ def inputs(folder: Path) -> dict[str, tuple[list, tuple[str, ...]]]:
         "seed -1": (["grow", "--seed", "-1", "-o", folder / "g.json"], ("--seed", "got -1")),
         "huge max-vertices": (
             ["grow", "--max-vertices", 10**19, "-o", folder / "g.json"],
-            ("max_vertices", "10000000000000000000"),
+            ("--max-vertices", "10,000,000,000,000,000,000"),
         ),
         "empty .npy": (["grow", "--weights", folder / "empty.npy", "-o", folder / "g.json"], ("empty.npy", "not a valid .npy")),
         "lying .npy header": (["grow", "--weights", folder / "lying.npy", "-o", folder / "g.json"], ("lying.npy", "header says")),

@@ -25,6 +25,7 @@ from structgen.registry.commands import (
     InputError,
     add_seed_run_options,
     add_set_option,
+    add_setting_options,
     output_path,
     png_output_path,
     print_table,
@@ -90,15 +91,8 @@ def _add_mesh_options(parser: argparse.ArgumentParser, title: str) -> None:
 def _add_nca_options(parser: argparse.ArgumentParser) -> None:
     from structgen.nca_config import NCAConfig
 
-    nca = NCAConfig()
     group = parser.add_argument_group("NCA (defaults follow the paper)")
-    group.add_argument(
-        "--iterations", type=int, metavar="N", help=f"growth steps from the seed vertex (default {nca.iterations})"
-    )
-    group.add_argument(
-        "--cutoff", type=float, metavar="X", help=f"an output fires above this sigmoid value (default {nca.cutoff})"
-    )
-    group.add_argument("--hidden", type=int, metavar="N", help=f"hidden layer size (default {nca.hidden})")
+    add_setting_options(group, NCAConfig, ("iterations", "cutoff", "hidden"))
     group.add_argument(
         "--no-build-down",
         dest="build_down",
@@ -106,12 +100,7 @@ def _add_nca_options(parser: argparse.ArgumentParser) -> None:
         const=False,
         help="never grow below the seed's level (the paper's special rule)",
     )
-    group.add_argument(
-        "--max-vertices", type=int, metavar="N", help=f"stop growth before exceeding this (default {nca.max_vertices})"
-    )
-    group.add_argument(
-        "--max-extent", type=int, metavar="N", help=f"never build further than N cells from the seed (default {nca.max_extent})"
-    )
+    add_setting_options(group, NCAConfig, ("max_vertices", "max_extent"))
 
 
 def _add_physics_options(parser: argparse.ArgumentParser) -> None:
