@@ -108,7 +108,7 @@ def test_training_sends_layouts_far_from_valid_to_the_greedy_repair_as_its_setti
     from structgen.domains.layouts import problem as layout_problem
     from structgen.domains.layouts.problem import LayoutProblem, WarehouseSettings
 
-    with pytest.raises(ValueError, match="repair_greedy_beyond must be an integer from -1"):
+    with pytest.raises(ValueError, match="problem repair_greedy_beyond = -2: expected a whole number from -1 to 1,000,000,000"):
         WarehouseSettings(repair_greedy_beyond=-2)
     asked = []
     real = layout_problem.repair

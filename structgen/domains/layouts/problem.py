@@ -10,14 +10,16 @@ Measures are the original's: shelf components and pattern entropy (warehouse), s
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from evolution.problem import Evaluation, Problem
 from structgen.budget import check_memory
+from structgen.config import Limit, check_limits
 from structgen.domains.layouts.conv_nca import HIDDEN, ConvNCA
 from structgen.domains.layouts.kinds import KINDS, REPAIR_TIME_LIMIT, LayoutKind
 from structgen.domains.layouts.maze.walkers import MAX_DIAMETER_FLOOR
@@ -45,9 +47,11 @@ REPAIRED_FIELDS = (
 __all__ = ["LayoutProblem", "ManufacturingSettings", "MazeSettings", "WarehouseSettings"]
 
 
-def _positive_int(name: str, value, low: int = 1, high: int = 10**6) -> None:
-    if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
-        raise ValueError(f"problem {name} must be an integer from {low} to {high:,}, got {value!r}")
+#: The NCA steps and hidden channels of any layout problem.
+_NCA_LIMITS = {
+    "iterations": Limit(0, 100_000, "NCA steps (0: the paper's for the size)"),
+    "hidden": Limit(1, 1024, "the NCA's hidden channels"),
+}
 
 
 @dataclass(frozen=True)
@@ -94,24 +98,25 @@ class WarehouseSettings:
     hidden: int = HIDDEN
 
     kind = "warehouse"
+    section: ClassVar[str] = "problem"
+    limits: ClassVar[dict[str, Limit]] = {
+        **_NCA_LIMITS,
+        "shelves": Limit(0, 10**7, "exact shelf count of the repair (0: the paper's for the size)"),
+        "alpha": Limit(-math.inf, math.inf, "weight of the similarity score in the objective", whole=False),
+        "agents": Limit(0, 10**7, "robots in each simulation"),
+        "simulations": Limit(0, 1000, "simulations per layout (0: the similarity term alone)"),
+        "simulation_steps": Limit(1, 10**7, "steps of each simulation"),
+        "repair_time_limit": Limit(0, 86400, "seconds HiGHS may spend on one layout", whole=False, above=True),
+        "repair_threads": Limit(1, 1024, "HiGHS's threads per repair"),
+        "repair_node_limit": Limit(0, 10**9, "branch-and-bound nodes per repair (0: no limit)"),
+        "repair_greedy_beyond": Limit(-1, 10**9, "layouts further than this from valid skip HiGHS (-1: none do)"),
+    }
 
     def __post_init__(self) -> None:
         KINDS[self.kind].size(self.size)
-        _positive_int("iterations", self.iterations, 0, 100_000)
-        _positive_int("shelves", self.shelves, 0, 10**7)
-        _positive_int("repair_threads", self.repair_threads, 1, 1024)
-        _positive_int("repair_node_limit", self.repair_node_limit, 0, 10**9)
-        _positive_int("repair_greedy_beyond", self.repair_greedy_beyond, -1, 10**9)
-        _positive_int("hidden", self.hidden, 1, 1024)
-        _positive_int("agents", self.agents, 0, 10**7)
-        _positive_int("simulations", self.simulations, 0, 1000)
-        _positive_int("simulation_steps", self.simulation_steps, 1, 10**7)
+        check_limits(self)
         if self.planner not in PLANNERS:
             raise ValueError(f"problem planner must be one of {', '.join(PLANNERS)}, got {self.planner!r}")
-        if not (isinstance(self.alpha, (int, float)) and np.isfinite(self.alpha)):
-            raise ValueError(f"problem alpha must be a finite number, got {self.alpha!r}")
-        if not (isinstance(self.repair_time_limit, (int, float)) and 0 < self.repair_time_limit <= 86400):
-            raise ValueError(f"problem repair_time_limit must be from 0 to 86400 seconds, got {self.repair_time_limit!r}")
 
 
 @dataclass(frozen=True)
@@ -150,14 +155,14 @@ class MazeSettings:
     hidden: int = HIDDEN
 
     kind = "maze"
+    section: ClassVar[str] = "problem"
+    limits: ClassVar[dict[str, Limit]] = {**_NCA_LIMITS, "episodes": Limit(1, 10_000, "episodes per maze")}
 
     def __post_init__(self) -> None:
         from structgen.domains.layouts.maze.walkers import AGENTS
 
         KINDS[self.kind].size(self.size)
-        _positive_int("iterations", self.iterations, 0, 100_000)
-        _positive_int("episodes", self.episodes, 1, 10_000)
-        _positive_int("hidden", self.hidden, 1, 1024)
+        check_limits(self)
         if self.agent not in ("learned", *AGENTS):
             raise ValueError(f"problem agent must be one of learned, {', '.join(AGENTS)}, got {self.agent!r}")
         if self.measures not in ("walls", "entropy"):
