@@ -19,12 +19,13 @@ import os
 import struct
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
 from evolution.files import atomic_write
 from structgen.budget import check_memory
+from structgen.config import Limit, check_limits
 from structgen.errors import StructureError
 
 if TYPE_CHECKING:
@@ -68,6 +69,16 @@ class MeshStyle:
     """Dimensions (lattice units times ``spacing``) and look of an exported structure; the dimensions default to
     the physics model's."""
 
+    section: ClassVar[str] = "mesh"
+    # The upper bound of the lengths keeps every coordinate of the largest structure a finite float32, as glTF stores it.
+    limits: ClassVar[dict[str, Limit]] = {
+        "sphere_radius": Limit(0, 1e6, "radius of the vertex spheres", whole=False, above=True),
+        "cylinder_radius": Limit(0, 1e6, "radius of the edge cylinders", whole=False, above=True),
+        "spacing": Limit(0, 1e6, "world length of one lattice step", whole=False, above=True),
+        "sphere_subdivisions": Limit(0, 5, "icosphere subdivisions of each sphere (0 for big structures)"),
+        "cylinder_sections": Limit(3, 128, "sides of each cylinder (6 for big structures)"),
+    }
+
     sphere_radius: float = 0.25
     cylinder_radius: float = 0.08
     spacing: float = 1.0
@@ -77,20 +88,15 @@ class MeshStyle:
     edge_color: tuple[int, int, int, int] = (120, 140, 165, 255)
 
     def __post_init__(self) -> None:
-        for name in ("sphere_radius", "cylinder_radius", "spacing"):
-            value = getattr(self, name)
-            # The upper bound keeps every coordinate of the largest structure a finite float32, as glTF stores it.
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and 0 < value <= 1e6):
-                raise StructureError(f"mesh {name} must be a positive number up to 1e6, got {value!r}")
+        try:
+            check_limits(self)
+        except ValueError as err:
+            raise StructureError(str(err)) from None
         if self.sphere_radius * 2 >= self.spacing:
             raise StructureError(
                 f"mesh sphere_radius {self.sphere_radius} must be less than half the spacing {self.spacing}, "
                 "or neighbouring spheres touch and edges have no length"
             )
-        if not (isinstance(self.sphere_subdivisions, int) and 0 <= self.sphere_subdivisions <= 5):
-            raise StructureError(f"mesh sphere_subdivisions must be an integer in 0..5, got {self.sphere_subdivisions!r}")
-        if not (isinstance(self.cylinder_sections, int) and 3 <= self.cylinder_sections <= 128):
-            raise StructureError(f"mesh cylinder_sections must be an integer in 3..128, got {self.cylinder_sections!r}")
 
 
 # Peak memory of an export per triangle, measured on lines of 20,000 to 100,000 vertices (GLB, several resolutions).

@@ -153,9 +153,10 @@ def test_export_lighter_mesh_for_big_structures(tmp_path, capsys, good_file):
 
 
 def test_export_refuses_an_impossible_mesh_resolution(tmp_path, capsys, good_file):
-    code, _, err = run(capsys, "export", good_file, tmp_path / "o.glb", "--cylinder-sections", 2)
-    assert code == 2
-    assert_one_line_error(err, "cylinder_sections", "3..128")
+    with pytest.raises(SystemExit) as refused:  # as the options are read
+        run(capsys, "export", good_file, tmp_path / "o.glb", "--cylinder-sections", 2)
+    assert refused.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, "--cylinder-sections", "a whole number from 3 to 128, got 2")
     assert sorted(os.listdir(tmp_path)) == ["good.json"]
 
 

@@ -13,11 +13,21 @@ from structgen.config import Limit, check_limits, limits_of
 from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.domains.layouts.maze.agent_settings import AgentSettings
 from structgen.domains.layouts.problem import ManufacturingSettings, MazeSettings, WarehouseSettings
+from structgen.mesh import MeshStyle
 from structgen.nca_config import NCAConfig
 from structgen.ppo_settings import PPOSettings
 
 #: The settings classes whose ranges live in limits.
-SETTINGS = (PPOSettings, AgentSettings, TrainSettings, NCAConfig, WarehouseSettings, ManufacturingSettings, MazeSettings)
+SETTINGS = (
+    PPOSettings,
+    AgentSettings,
+    TrainSettings,
+    NCAConfig,
+    WarehouseSettings,
+    ManufacturingSettings,
+    MazeSettings,
+    MeshStyle,
+)
 
 
 def test_a_subclass_adds_to_its_bases_limits_and_its_own_entries_win():

@@ -60,26 +60,9 @@ NCA_OPTIONS = {
 def _add_mesh_options(parser: argparse.ArgumentParser, title: str) -> None:
     from structgen.mesh import MeshStyle
 
-    style = MeshStyle()
     group = parser.add_argument_group(title)
-    group.add_argument(
-        "--sphere-radius", type=float, metavar="R", help=f"radius of the vertex spheres (default {style.sphere_radius})"
-    )
-    group.add_argument(
-        "--cylinder-radius", type=float, metavar="R", help=f"radius of the edge cylinders (default {style.cylinder_radius})"
-    )
-    group.add_argument("--spacing", type=float, metavar="S", help=f"world length of one lattice step (default {style.spacing})")
-    group.add_argument(
-        "--sphere-subdivisions",
-        type=int,
-        metavar="N",
-        help=f"icosphere subdivisions of each sphere, 0..5 (default {style.sphere_subdivisions}; 0 for big structures)",
-    )
-    group.add_argument(
-        "--cylinder-sections",
-        type=int,
-        metavar="N",
-        help=f"sides of each cylinder, 3..128 (default {style.cylinder_sections}; 6 for big structures)",
+    add_setting_options(
+        group, MeshStyle, ("sphere_radius", "cylinder_radius", "spacing", "sphere_subdivisions", "cylinder_sections")
     )
     group.add_argument(
         "--solid",
