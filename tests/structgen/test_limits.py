@@ -13,6 +13,7 @@ from structgen.config import Limit, check_limits, limits_of
 from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.domains.layouts.maze.agent_settings import AgentSettings
 from structgen.domains.layouts.problem import ManufacturingSettings, MazeSettings, WarehouseSettings
+from structgen.domains.structures.tall_settings import TallSettings
 from structgen.mesh import MeshStyle
 from structgen.nca_config import NCAConfig
 from structgen.ppo_settings import PPOSettings
@@ -27,6 +28,7 @@ SETTINGS = (
     ManufacturingSettings,
     MazeSettings,
     MeshStyle,
+    TallSettings,
 )
 
 

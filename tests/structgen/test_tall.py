@@ -173,7 +173,10 @@ def test_a_second_writer_is_refused_while_a_search_holds_its_folder(small_run):
 
 @pytest.mark.parametrize(
     ("changes", "message"),
-    [({"levels": 1}, "levels must be a whole number from 2 to 50, got 1"), ({"refine": "yes"}, "refine must be true or false")],
+    [
+        ({"levels": 1}, "search levels = 1: expected a whole number from 2 to 50"),
+        ({"refine": "yes"}, "refine must be true or false"),
+    ],
 )
 def test_settings_out_of_range_are_refused(changes, message):
     with pytest.raises(InputError, match=message):
@@ -261,5 +264,5 @@ def test_a_checkpoint_holding_a_design_no_search_writes_is_refused_before_it_is_
     (folder / "checkpoint.json").write_text(json.dumps(state))
     assert main(["info", str(folder)]) == 2
     assert "designs['300']'s height is 300" in capsys.readouterr().err
-    with pytest.raises(InputError, match="levels must be a whole number from 2 to 50"):
+    with pytest.raises(InputError, match="search levels = 300: expected a whole number from 2 to 50"):
         TallSettings(levels=300)

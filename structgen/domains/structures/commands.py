@@ -570,7 +570,6 @@ def _report_tall(result: Any, run_dir: Path) -> int:
 def _add_tall(subparsers: Any) -> None:
     from structgen.domains.structures.tall_settings import TallSettings
 
-    defaults = TallSettings()
     tall = subparsers.add_parser(
         "tall",
         help="find the tallest tower an NCA can grow that stands, and teach it",
@@ -592,30 +591,7 @@ def _add_tall(subparsers: Any) -> None:
     tall.add_argument(
         "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"
     )
-    tall.add_argument(
-        "--levels",
-        type=whole_number(2, 50),
-        metavar="N",
-        help=f"tallest design to look for, in vertices (default {defaults.levels}; search.levels)",
-    )
-    tall.add_argument(
-        "--beam",
-        type=whole_number(1, 10_000),
-        metavar="N",
-        help=f"designs of each height kept to grow the next (default {defaults.beam}; search.beam)",
-    )
-    tall.add_argument(
-        "--candidates",
-        type=whole_number(1, 10_000),
-        metavar="N",
-        help=f"designs of each height simulated, and of the refinement (default {defaults.candidates}; search.candidates)",
-    )
-    tall.add_argument(
-        "--max-vertices",
-        type=whole_number(2, 100_000),
-        metavar="N",
-        help=f"largest design tried (default {defaults.max_vertices}; search.max_vertices)",
-    )
+    add_setting_options(tall, TallSettings, ("levels", "beam", "candidates", "max_vertices"))
     tall.add_argument(
         "--refine",
         action=argparse.BooleanOptionalAction,

@@ -4,8 +4,10 @@ without loading the search (the statics, the simulator, the teaching)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 from physics.config import PhysicsConfig
+from structgen.config import Limit, check_limits
 from structgen.errors import InputError
 
 __all__ = ["MAX_LEVELS", "TallSettings"]
@@ -30,6 +32,14 @@ class TallSettings:
             caps are raised for each design as far as the design needs).
     """
 
+    section: ClassVar[str] = "search"
+    limits: ClassVar[dict[str, Limit]] = {
+        "levels": Limit(2, MAX_LEVELS, "tallest design to look for, in vertices (search.levels)"),
+        "beam": Limit(1, 10_000, "designs of each height kept to grow the next (search.beam)"),
+        "candidates": Limit(1, 10_000, "designs of each height simulated, and of the refinement (search.candidates)"),
+        "max_vertices": Limit(2, 100_000, "largest design tried (search.max_vertices)"),
+    }
+
     levels: int = 8
     beam: int = 30
     candidates: int = 12
@@ -38,11 +48,10 @@ class TallSettings:
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
 
     def __post_init__(self) -> None:
-        limits = (("levels", 2, MAX_LEVELS), ("beam", 1, 10_000), ("candidates", 1, 10_000), ("max_vertices", 2, 100_000))
-        for name, smallest, largest in limits:
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or not smallest <= value <= largest:
-                raise InputError(f"{name} must be a whole number from {smallest} to {largest:,}, got {value!r}")
+        try:
+            check_limits(self)
+        except ValueError as err:
+            raise InputError(str(err)) from None
         if not isinstance(self.refine, bool):
             raise InputError(f"refine must be true or false, got {self.refine!r}")
         if not isinstance(self.physics, PhysicsConfig):
