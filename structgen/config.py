@@ -112,7 +112,7 @@ class Limit:
             return False
         if self.whole and not isinstance(value, int):
             return False
-        if not math.isfinite(value):
+        if isinstance(value, float) and not math.isfinite(value):  # (a whole number of any size is finite)
             return False
         above_low = value > self.low if self.above else value >= self.low
         return above_low and (value < self.high if self.below else value <= self.high)

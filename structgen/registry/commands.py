@@ -88,7 +88,7 @@ def limit_type(limit: Limit) -> Any:
             raise argparse.ArgumentTypeError(
                 f"expected {'a whole number' if limit.whole else 'a number'}, got {text!r}"
             ) from None
-        if not math.isfinite(value):
+        if isinstance(value, float) and not math.isfinite(value):
             raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
         if not limit.admits(value):
             raise argparse.ArgumentTypeError(f"expected {limit.describe()}, got {f'{value:,}' if limit.whole else text}")

@@ -11,6 +11,7 @@ import pytest
 from structgen.cli import main
 from structgen.config import Limit, check_limits, limits_of
 from structgen.domains.autoverse.train_settings import TrainSettings
+from structgen.domains.fortress.problem import FortressSettings
 from structgen.domains.layouts.maze.agent_settings import AgentSettings
 from structgen.domains.layouts.problem import ManufacturingSettings, MazeSettings, WarehouseSettings
 from structgen.domains.structures.tall_settings import TallSettings
@@ -29,6 +30,7 @@ SETTINGS = (
     MazeSettings,
     MeshStyle,
     TallSettings,
+    FortressSettings,
 )
 
 
@@ -95,3 +97,12 @@ def test_check_limits_reads_the_limits_of_any_settings_class():
     assert Dice(20).sides == 20
     with pytest.raises(ValueError, match=r"^dice sides = 1: expected a whole number from 2 to 100$"):
         Dice(1)
+
+
+def test_a_whole_number_of_any_size_is_judged_by_its_range_not_by_float_overflow():
+    from structgen.registry.commands import whole_number
+
+    huge = 10**400
+    assert not Limit(0, 10, "").admits(huge) and Limit(0, math.inf, "").admits(huge)
+    with pytest.raises(Exception, match="expected a whole number from 0 to 5, got 10,000,000"):
+        whole_number(0, 5)(str(huge))

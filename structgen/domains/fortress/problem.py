@@ -15,15 +15,17 @@ that 100 cells bin a value as the original's ``int((v - low) / (high - low) * 99
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from evolution.files import atomic_write
 from evolution.problem import Evaluation, Problem
 from structgen.budget import check_memory
+from structgen.config import Limit, check_limits
 from structgen.domains.fortress.engine import POPULATION_CAP, Outcome, Rules, memory_needed, simulate
 from structgen.domains.fortress.formats import format_fortress, parse_fortress
 from structgen.domains.fortress.genome import CHARACTERS, Genome, node_types
@@ -53,6 +55,15 @@ class FortressSettings:
     orphan_edges, edge_coin, node_coin, instance_coin: :class:`.world.Variation` (defaults: the original's).
     """
 
+    section: ClassVar[str] = "problem"
+    limits: ClassVar[dict[str, Limit]] = {
+        "sims": Limit(1, math.inf, "simulations per evaluation"),
+        "steps": Limit(1, math.inf, "ticks per simulation"),
+        "sim_seed": Limit(0, math.inf, "the first simulation seed"),
+        "take_reach": Limit(-1, math.inf, "how far a take reaches (-1: anywhere)"),
+        "inactivity_limit": Limit(0, math.inf, "ticks without change that end a simulation (0: never)"),
+    }
+
     measures: str = "entities_nodes"
     sims: int = 5
     steps: int = 100
@@ -71,10 +82,7 @@ class FortressSettings:
     def __post_init__(self) -> None:
         if self.measures not in MEASURES:
             raise ValueError(f"problem measures must be one of {', '.join(MEASURES)}, got {self.measures!r}")
-        for name, low in (("sims", 1), ("steps", 1), ("sim_seed", 0), ("take_reach", -1), ("inactivity_limit", 0)):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < low:
-                raise ValueError(f"problem {name} must be a whole number >= {low}, got {value!r}")
+        check_limits(self)
         self.rules()
         self.variation()
 
