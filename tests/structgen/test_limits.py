@@ -10,10 +10,12 @@ import pytest
 
 from structgen.cli import main
 from structgen.config import Limit, check_limits, limits_of
+from structgen.domains.autoverse.problem import AutoverseSettings
 from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.domains.fortress.problem import FortressSettings
 from structgen.domains.layouts.maze.agent_settings import AgentSettings
 from structgen.domains.layouts.problem import ManufacturingSettings, MazeSettings, WarehouseSettings
+from structgen.domains.structures.problem import StructuresSettings
 from structgen.domains.structures.tall_settings import TallSettings
 from structgen.mesh import MeshStyle
 from structgen.nca_config import NCAConfig
@@ -31,6 +33,8 @@ SETTINGS = (
     MeshStyle,
     TallSettings,
     FortressSettings,
+    StructuresSettings,
+    AutoverseSettings,
 )
 
 

@@ -16,12 +16,13 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from evolution.files import atomic_write
 from evolution.problem import Evaluation, Problem
+from structgen.config import Limit, check_limits
 from structgen.devices import check_device_name
 from structgen.domains.autoverse.game import MUTATIONS, game_from_json, game_to_json, mutate_game, random_game
 
@@ -47,6 +48,12 @@ class AutoverseSettings:
     device: where games are stepped and states hashed ("cpu", "cuda").
     """
 
+    section: ClassVar[str] = "problem"
+    limits: ClassVar[dict[str, Limit]] = {
+        "budget": Limit(1, 10**7, "search expansions per game at the start of a run"),
+        "budget_step": Limit(1, 10**7, "added to the budget after a generation whose best fitness exceeds half of it"),
+    }
+
     budget: int = 200
     budget_step: int = 200
     mutation: str = "rules_and_map"
@@ -56,10 +63,7 @@ class AutoverseSettings:
     device: str = "cpu"
 
     def __post_init__(self) -> None:
-        for name in ("budget", "budget_step"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or not 1 <= value <= 10**7:
-                raise ValueError(f"problem {name} must be a whole number from 1 to 10,000,000, got {value!r}")
+        check_limits(self)
         if self.mutation not in MUTATIONS:
             raise ValueError(f"problem mutation must be one of {', '.join(MUTATIONS)}, got {self.mutation!r}")
         for name in ("fitness_tiebreak", "force_clear", "empty_rules_fire"):

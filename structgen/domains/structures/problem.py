@@ -38,7 +38,7 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -47,6 +47,7 @@ from evolution.files import atomic_write
 from physics import PhysicsConfig, StabilityReport, check_stability, check_transient
 from physics.model import InputError
 from physics.statics import check_collapse, check_statics_with_loads, overload_ratio
+from structgen.config import Limit, check_limits
 from structgen.nca import INIT_SCALE, LocalNCA, NCAConfig, _split, grow, grow_population, n_params
 from structgen.nca_config import MAX_ITERATIONS
 from structgen.structure import Structure
@@ -107,6 +108,14 @@ class StructuresSettings:
             (``preset = "faithful"``).
     """
 
+    section: ClassVar[str] = "problem"
+    limits: ClassVar[dict[str, Limit]] = {
+        "init_scale": Limit(0, 1e6, "random genomes' range", whole=False, above=True, below=True),
+        "collapse_ratio": Limit(1, 1e6, "the screened evaluator's threshold", whole=False),
+        "transient_window": Limit(0, 3600, "simulated seconds of the transient evaluator", whole=False, above=True),
+        "min_height": Limit(0, 1e6, "structures lower than this (lattice units) score 0", whole=False),
+    }
+
     init_scale: float = INIT_SCALE
     evaluator: str = "bullet"
     screen_margin: float = 1.5
@@ -118,9 +127,7 @@ class StructuresSettings:
     physics: PhysicsConfig = field(default_factory=lambda: PhysicsConfig.preset("fast"))
 
     def __post_init__(self) -> None:
-        scale = self.init_scale
-        if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0 < scale < 1e6):
-            raise ValueError(f"problem init_scale must be a positive number below 1e6, got {scale!r}")
+        check_limits(self)
         if self.evaluator not in EVALUATORS:
             raise ValueError(f"problem evaluator must be one of {', '.join(EVALUATORS)}, got {self.evaluator!r}")
         lengths = self.also_grow
@@ -133,15 +140,6 @@ class StructuresSettings:
         margin = self.screen_margin
         if not (isinstance(margin, (int, float)) and not isinstance(margin, bool) and margin >= 1):
             raise ValueError(f"problem screen_margin must be a number of at least 1 (or inf), got {margin!r}")
-        ratio = self.collapse_ratio
-        if not (isinstance(ratio, (int, float)) and not isinstance(ratio, bool) and 1 <= ratio <= 1e6):
-            raise ValueError(f"problem collapse_ratio must be a number from 1 to 1e6, got {ratio!r}")
-        window = self.transient_window
-        if not (isinstance(window, (int, float)) and not isinstance(window, bool) and 0 < window <= 3600):
-            raise ValueError(f"problem transient_window must be a number of seconds above 0 and at most 3600, got {window!r}")
-        floor = self.min_height
-        if not (isinstance(floor, (int, float)) and not isinstance(floor, bool) and 0 <= floor <= 1e6):
-            raise ValueError(f"problem min_height must be a number of lattice units from 0 to 1e6, got {floor!r}")
 
 
 class StableStructures(Problem):
