@@ -90,8 +90,10 @@ def test_the_command_line_trains_resumes_and_refuses_bad_settings(evolved, tmp_p
     assert code == 0 and "1 of 1 PPO updates" in printed, err
     code, printed, err = cli(capsys, "resume", out, "--generations", "2")
     assert code == 0 and "2 PPO updates" in printed, err
-    code, _, err = cli(capsys, "autoverse", "train", evolved, "-o", tmp_path / "bad", "--evolve-mutation", "everything")
-    assert code == 2 and "--evolve-mutation" in err and "everything" in err and "rules_and_map" in err
+    with pytest.raises(SystemExit) as refused:  # as the options are read
+        cli(capsys, "autoverse", "train", evolved, "-o", tmp_path / "bad", "--evolve-mutation", "everything")
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "--evolve-mutation" in err and "everything" in err and "rules_and_map" in err
     assert not (tmp_path / "bad").exists()
 
 
