@@ -67,8 +67,16 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     genome = np.load(run / "best" / "genome.npy")
     save_weights(out / f"{name}_generator.npy", genome)
+    evaluations = rows[-1]["evaluations"]
+    common = {
+        "run": name,
+        "domain": domain,
+        "evaluations": evaluations,
+        "share_of_paper_budget": evaluations / PAPER_EVALUATIONS,
+        "best": best,
+    }
     if "qd_score" not in rows[-1]:
-        return summarise_single(run, name, out, rows, domain, best)
+        return summarise_single(run, name, out, rows, common)
     paper = PAPER[domain]
     folder, experiment = open_run(run)
     problem = experiment.make_problem()
@@ -77,16 +85,11 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     save_weights(out / f"{name}_throughput_generator.npy", archive.genomes[top])
     top_throughput = {column: float(values[top]) for column, values in archive.columns.items()}
     paths = repair_paths(problem, archive)
-    evaluations = rows[-1]["evaluations"]
     summary = {
-        "run": name,
-        "domain": domain,
-        "evaluations": evaluations,
-        "share_of_paper_budget": evaluations / PAPER_EVALUATIONS,
+        **common,
         "qd_score": rows[-1]["qd_score"],
         "coverage": rows[-1]["coverage"],
         "paper": {key: {"mean": m, "standard_error": e} for key, (m, e) in paper.items()},
-        "best": best,
         "top_throughput": top_throughput,
         "elite_repair_paths": paths,
         "curve": [{k: r[k] for k in ("generation", "evaluations", "qd_score", "coverage")} for r in rows],
@@ -111,15 +114,10 @@ def summarise(run: Path, name: str, out: Path) -> dict:
     return summary
 
 
-def summarise_single(run: Path, name: str, out: Path, rows: list[dict], domain: str, best: dict) -> dict:
+def summarise_single(run: Path, name: str, out: Path, rows: list[dict], common: dict) -> dict:
     """A run with no archive (the CMA-ES baseline): its best generator, its objective over evaluations."""
-    evaluations = rows[-1]["evaluations"]
     summary = {
-        "run": name,
-        "domain": domain,
-        "evaluations": evaluations,
-        "share_of_paper_budget": evaluations / PAPER_EVALUATIONS,
-        "best": best,
+        **common,
         "curve": [{k: r[k] for k in ("generation", "evaluations", "best_objective", "mean_objective") if k in r} for r in rows],
     }
     atomic_write(out / f"{name}_summary.json", json.dumps(summary, indent=1) + "\n")
