@@ -350,7 +350,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     output = Path(args.output)
     if output.suffix.lower() != ".png":
-        raise InputError(f"{output}: render writes PNG images; give a name ending in .png")
+        raise InputError(f"{output}: show writes PNG images; give a name ending in .png")
     _, report = _checked(args)
     render_check(report, output, dpi=args.dpi)
     print(f"{output}: {report.verdict()}; I = {report.integrity:.3f}, Q = {report.score:.3f}")
