@@ -26,9 +26,7 @@ from structgen.domains.layouts.maze.walkers import WallFollower, run_episodes
 
 def mazes_of(kind: str, count: int, size: int, seed: int) -> list[np.ndarray]:
     rng = np.random.default_rng([seed, ["rooms", "perfect", "scattered", "carved"].index(kind)])
-    if kind == "perfect":
-        return [random_maze(rng, size, "carved", density=0.0) for _ in range(count)]
-    return [random_maze(rng, size, kind) for _ in range(count)]
+    return [random_maze(rng, size, kind) for _ in range(count)]  # a perfect maze draws as a carved one of density 0
 
 
 def summary(successes: np.ndarray) -> str:

@@ -138,9 +138,31 @@ def test_starting_directions_repeat_with_the_seed_and_levels_can_be_swapped():
         a.set_levels([random_maze(rng, 9)], rows=[0])
 
 
+@pytest.mark.parametrize("size", [9, 16, 33])
+def test_a_perfect_maze_joins_any_two_floor_cells_by_exactly_one_path(size):
+    rng = np.random.default_rng(size)
+    for _ in range(5):
+        floor = random_maze(rng, size, "perfect") == 0
+        cells = int(floor.sum())
+        edges = int((floor[1:] & floor[:-1]).sum() + (floor[:, 1:] & floor[:, :-1]).sum())
+        # connected (every floor cell reached from one) with one edge fewer than cells: a tree
+        start = tuple(np.argwhere(floor)[0])
+        seen, stack = {start}, [start]
+        while stack:
+            r, c = stack.pop()
+            for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+                n = (r + dr, c + dc)
+                if 0 <= n[0] < size and 0 <= n[1] < size and floor[n] and n not in seen:
+                    seen.add(n)
+                    stack.append(n)
+        assert len(seen) == cells and edges == cells - 1
+    with pytest.raises(InputError, match="a perfect maze has no knocked-down walls"):
+        random_maze(rng, size, "perfect", density=0.05)
+
+
 def test_random_mazes_are_solvable_and_bad_requests_are_refused():
     rng = np.random.default_rng(2)
-    for kind in ("scattered", "carved", "rooms"):
+    for kind in ("scattered", "carved", "rooms", "perfect"):
         for _ in range(10):
             maze = random_maze(rng, 16, kind)
             assert maze.shape == (16, 16) and set(np.unique(maze)) <= {0, 1} and diameter(maze) is not None

@@ -47,7 +47,8 @@ def random_maze(rng: np.random.Generator, size: int = 16, kind: str = "scattered
     obstacle levels that curricula start from. ``carved``: corridors one cell wide carved by a depth-first walk,
     then ``density`` (0-0.1 when None) of the walls knocked down to make loops. ``rooms``: 3-8 straight walls
     across the maze with one or two doors each, then ``density`` (0-0.1 when None) of the cells walls (the maze
-    agent never trains on these: they test it on a kind of maze it has not seen)."""
+    agent never trains on these: they test it on a kind of maze it has not seen). ``perfect``: carved corridors with no
+    wall knocked down, so exactly one path joins any two floor cells (``density`` must be None or 0)."""
     _check_kind_and_size(kind, size)
     while True:
         if kind == "scattered":
@@ -55,6 +56,10 @@ def random_maze(rng: np.random.Generator, size: int = 16, kind: str = "scattered
             maze = (rng.random((size, size)) < p).astype(np.uint8)
         elif kind == "carved":
             maze = _carved(rng, size, rng.uniform(0.0, 0.1) if density is None else density)
+        elif kind == "perfect":
+            if density:
+                raise InputError(f"a perfect maze has no knocked-down walls; density must be 0, got {density!r}")
+            maze = _carved(rng, size, 0.0)
         else:
             maze = _rooms(rng, size, rng.uniform(0.0, 0.1) if density is None else density)
         if _has_two_connected_floor_cells(maze):

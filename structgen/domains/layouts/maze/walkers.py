@@ -28,7 +28,7 @@ from structgen.errors import InputError
 __all__ = ["AGENTS", "EpisodeStats", "MazeAgent", "diameter", "run_episodes"]
 
 #: Kinds of random maze (:func:`.env.random_maze`); kept here, away from torch, for the command line.
-MAZE_KINDS = ("scattered", "carved", "rooms")
+MAZE_KINDS = ("scattered", "carved", "rooms", "perfect")
 
 # Directions in (row, column) steps, clockwise from north; facing index 0..3.
 _STEPS = ((-1, 0), (0, 1), (1, 0), (0, -1))
