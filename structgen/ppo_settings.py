@@ -10,7 +10,11 @@ from typing import ClassVar
 from structgen.config import Limit, check_limits
 from structgen.devices import check_device_name
 
-__all__ = ["PPOSettings"]
+__all__ = ["PPO_OPTIONS", "PPOSettings"]
+
+#: PPO's settings that a training command takes as named options (made from their limits), in the order its
+#: ``--help`` lists them.
+PPO_OPTIONS = ("updates", "envs", "steps", "epochs", "minibatches", "learning_rate", "gamma", "entropy", "hidden")
 
 
 @dataclass(frozen=True)

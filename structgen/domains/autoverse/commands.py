@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from structgen.ppo_settings import PPO_OPTIONS
 from structgen.registry.commands import (
     MAX_SEED,
     DomainCommands,
@@ -296,15 +297,7 @@ _TRAIN_FIELDS = (
     "clone_steps",
     "clone_batch",
     "clone_learning_rate",
-    "updates",
-    "envs",
-    "steps",
-    "epochs",
-    "minibatches",
-    "learning_rate",
-    "gamma",
-    "entropy",
-    "hidden",
+    *PPO_OPTIONS,
     "evaluate_every",
     "eval_steps",
     "eval_games",

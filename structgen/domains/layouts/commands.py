@@ -17,6 +17,7 @@ import numpy as np
 from structgen.domains.layouts.conv_nca import HIDDEN
 from structgen.domains.layouts.grid import Grid
 from structgen.domains.layouts.kinds import KINDS, REPAIR_TIME_LIMIT, LayoutKind
+from structgen.ppo_settings import PPO_OPTIONS
 from structgen.registry.commands import (
     DomainCommands,
     InputError,
@@ -606,15 +607,7 @@ def _add_evaluate(subparsers: Any, kind: LayoutKind) -> None:
 # -- the maze agent ---------------------------------------------------------------------------------------------------
 #: The settings maze train takes as options: each made from the field's limit (AgentSettings.limits).
 _AGENT_FIELDS = (
-    "updates",
-    "envs",
-    "steps",
-    "epochs",
-    "minibatches",
-    "learning_rate",
-    "gamma",
-    "entropy",
-    "hidden",
+    *PPO_OPTIONS,
     "size",
     "replay",
     "edit",
