@@ -43,7 +43,7 @@ def main() -> None:
     args = parser.parse_args()
     torch.manual_seed(args.seed)
     policy, about = load_agent(args.weights or shipped_agent_path())
-    untrained = MazePolicy(about["hidden"])
+    untrained = MazePolicy(about["hidden"], way_on=about.get("way_on", False))
     scripted = {
         "wall follower": lambda: WallFollower(epsilon=0.05),
         "explorer": lambda: "explorer",

@@ -15,7 +15,7 @@ from structgen.domains.layouts.grid import Grid, GridError
 from structgen.domains.layouts.kinds import MANUFACTURING, MAZE, WAREHOUSE
 from structgen.domains.layouts.maze.walkers import AGENTS, diameter, run_episodes
 from structgen.domains.layouts.measures import broken_cells, pattern_entropy, shelf_components, similarity, violations
-from structgen.domains.layouts.repair import RepairError, distance_from_valid, greedy_repair, repair
+from structgen.domains.layouts.repair import RepairError, cheap_repair, distance_from_valid, greedy_repair, repair
 from tests import reference
 from tests.layouts.reference_conv_nca import reference_grow
 
@@ -286,6 +286,38 @@ def test_the_repair_stops_at_the_first_good_enough_layout():
         repair(tiles, kind, good_enough=-1, **rules)
 
 
+def test_a_bounded_repair_stops_on_counts_with_highs_heuristics_off(monkeypatch):
+    # Training's repair (repair_search = "bounded") must repeat exactly: HiGHS stopped after its root, with the
+    # sub-MIP heuristics that no limit but the clock bounds switched off, and no solve reaching its time limit.
+    import highspy
+
+    from structgen.domains.layouts.repair import BOUNDED_OPTIONS
+
+    given: list[dict] = []
+    real_run = highspy.Highs.run
+
+    def run(self):
+        given.append({name: self.getOptionValue(name)[1] for name in [*BOUNDED_OPTIONS, "mip_max_nodes"]})
+        return real_run(self)
+
+    monkeypatch.setattr(highspy.Highs, "run", run)
+    cases = [(WAREHOUSE, tiles, {"shelves": 20}) for tiles in _random_layouts(WAREHOUSE, (9, 12), 6, [2, 3])]
+    cases += [(MANUFACTURING, tiles, {"agents": 8}) for tiles in _random_layouts(MANUFACTURING, (6, 8), 8, [0])]
+    for kind, tiles, rules in cases:
+        first = repair(tiles, kind, time_limit=600, bounded=True, **rules)
+        again = repair(tiles, kind, time_limit=600, bounded=True, **rules)
+        assert np.array_equal(first.tiles, again.tiles) and first.method == again.method and not first.timed_out
+        assert violations(first.tiles, kind, fixed=tiles if kind is WAREHOUSE else None, **rules) == []
+        # Never more changes than the full search's answer when that is proven the fewest, nor than a cheap repair's.
+        full = repair(tiles, kind, time_limit=30, **rules)
+        assert first.hamming >= full.hamming and (first.hamming == full.hamming or not first.optimal)
+        cheap, _ = cheap_repair(tiles, kind, **rules)
+        assert cheap is None or first.hamming <= int((cheap != tiles).sum())
+    bounded = [options for options in given if options["mip_heuristic_run_rens"] is False]
+    assert bounded and all(options["mip_max_nodes"] == 1 for options in bounded)
+    assert all(options[name] == value for options in bounded for name, value in BOUNDED_OPTIONS.items())
+
+
 def test_the_repair_rounds_the_relaxation_by_default_only_where_it_was_measured_to_help():
     (tiles,) = _random_layouts(WAREHOUSE, (9, 12), 6, [3])
     assert repair(tiles, WAREHOUSE, shelves=20, time_limit=30).method == "milp"  # small: the full search alone
@@ -392,6 +424,16 @@ def test_the_wall_follower_crosses_open_floor_and_carries_nothing_between_runs()
     agent = AGENTS["wall_follower"]()
     run_episodes(room, agent, episodes=3)
     assert run_episodes(corridor, agent, episodes=4) == run_episodes(corridor, "wall_follower", episodes=4)
+
+
+def test_the_explorer_keeps_the_goal_once_seen_and_finishes_perfect_mazes():
+    # Turning towards a goal can take it out of the 5x5 view; an explorer that forgot it turned left and right for
+    # ever beside it (it solved 1 of 10 perfect 16x16 mazes). With nothing left to explore it must finish them all.
+    from structgen.domains.layouts.maze.env import random_maze
+
+    rng = np.random.default_rng(0)
+    mazes = [random_maze(rng, 16, "perfect") for _ in range(5)]
+    assert all(run_episodes(maze, "explorer", episodes=2).success_rate == 1.0 for maze in mazes)
 
 
 def test_an_unsolvable_maze_scores_zero():

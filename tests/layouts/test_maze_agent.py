@@ -50,6 +50,70 @@ def test_the_memory_knows_where_the_agent_stands_from_its_own_moves():
     assert moves > 0  # some episodes ended and the memory started afresh with them
 
 
+def _frontier_distance(floor: np.ndarray, wall: np.ndarray, start: tuple[int, int], *, or_here: bool = False) -> int | None:
+    """Moves from ``start`` to the nearest other floor cell beside an unseen one (``or_here``: or ``start`` itself),
+    through seen floor (a plain BFS)."""
+    side = floor.shape[0]
+    seen = {start: 0}
+    queue = [start]
+    for cell in queue:
+        r, c = cell
+        neighbours = [((r + dr) % side, (c + dc) % side) for dr, dc in ((-1, 0), (0, 1), (1, 0), (0, -1))]
+        if (cell != start or or_here) and any(not floor[n] and not wall[n] for n in neighbours):
+            return seen[cell]
+        for n in neighbours:
+            if floor[n] and n not in seen:
+                seen[n] = seen[cell] + 1
+                queue.append(n)
+    return None
+
+
+def test_the_way_on_leads_to_the_nearest_unexplored_floor_and_then_to_the_goal():
+    from structgen.domains.layouts.maze.way_on import first_steps
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        maze = np.pad(random_maze(rng, 12, "carved"), 1, constant_values=1)
+        known = rng.random(maze.shape) < 0.6  # a map with holes in it
+        floor, wall = (maze == 0) & known, (maze == 1) & known
+        cells = np.argwhere(floor)
+        start = tuple(cells[rng.integers(len(cells))])
+        way, length, to_goal = first_steps(floor.reshape(1, -1), wall.reshape(1, -1), np.array([-1]), np.array([start]), 14)
+        expected = _frontier_distance(floor, wall, start)
+        assert (length[0] if way[0] >= 0 else None) == expected and not to_goal[0]
+        if expected:  # the first step is on a shortest path
+            step = (start[0] + (-1, 0, 1, 0)[way[0]], start[1] + (0, 1, 0, -1)[way[0]])
+            assert floor[step] and _frontier_distance(floor, wall, step, or_here=True) == expected - 1
+    # With the goal on the map, the way goes there, however near unexplored floor is.
+    floor = np.zeros((5, 5), dtype=bool)
+    floor[2, :4] = True
+    goal = np.array([2 * 5 + 0])
+    way, length, to_goal = first_steps(floor.reshape(1, -1), np.zeros((1, 25)), goal, np.array([[2, 2]]), 5)
+    assert (way[0], length[0], to_goal[0]) == (3, 2, True)
+
+
+def test_following_the_way_on_alone_finds_the_goal_of_every_maze():
+    # A policy that only turns towards the way and steps along it is the scripted explorer: the feature is enough to
+    # finish perfect mazes, where an agent that only counts its visits lost its bearings.
+    rng = np.random.default_rng(7)
+    mazes = [random_maze(rng, 16, "perfect") for _ in range(8)]
+
+    class FollowTheWay(MazePolicy):
+        def forward(self, patch, coarse, direction, way=None):
+            ahead, right, behind, left = way[:, 0], way[:, 1], way[:, 2], way[:, 3]
+            logits = torch.full((len(way), 4), -30.0)
+            logits[:, 2] = torch.where(ahead > 0, 30.0, -30.0)  # forward
+            logits[:, 1] = torch.where((right > 0) | (behind > 0), 30.0, -30.0)  # right
+            logits[:, 0] = torch.where((left > 0) | (way[:, :4].sum(1) == 0), 30.0, -30.0)  # left: also to look
+            return logits, torch.zeros(len(way))
+
+    follower = FollowTheWay(8, way_on=True)
+    assert run_agent(follower, mazes, seed=0).success_rate == 1.0
+    env = RememberingMazes(TorchMazes(mazes[:2], seed=0), way_on=True)
+    patch, coarse, direction, way = env.reset()
+    assert way.shape == (2, 6) and patch.shape == (2, 4, CROP, CROP)
+
+
 def test_the_map_around_the_agent_holds_only_what_it_saw_and_faces_its_way():
     rng = np.random.default_rng(4)
     mazes = [random_maze(rng, 12, "carved") for _ in range(4)]
@@ -130,6 +194,17 @@ def test_a_damaged_agent_or_checkpoint_is_refused_naming_the_file(tmp_path):
     bad.write_bytes(b"not torch")
     with pytest.raises(InputError, match="agent.pt: not a maze agent file"):
         load_agent(bad)
+    from structgen.domains.layouts.maze.training import save_agent
+
+    save_agent(bad, MazePolicy(8, way_on=True))
+    assert load_agent(bad)[0].way_on and load_agent(bad)[1]["way_on"] is True
+    saved = torch.load(bad, weights_only=True)
+    torch.save({**saved, "way_on": "yes"}, bad)
+    with pytest.raises(InputError, match="agent.pt: 'way_on' must be true or false, got 'yes'"):
+        load_agent(bad)
+    del saved["way_on"]  # an agent of structgen 0.4: no way on, and its weights fit only that network
+    torch.save({**saved, "policy": MazePolicy(8).state_dict()}, bad)
+    assert not load_agent(bad)[0].way_on
     train_agent(tmp_path / "run", dataclasses.replace(TINY, updates=2), progress=False)
     (tmp_path / "run" / "checkpoint.pt").write_bytes(b"broken")
     with pytest.raises(InputError, match="checkpoint.pt: not a maze-agent training checkpoint"):
@@ -144,7 +219,7 @@ def test_the_shipped_agent_solves_mazes_of_a_kind_it_never_trained_on():
     rng = np.random.default_rng(2026)
     mazes = [random_maze(rng, 16, "rooms") for _ in range(60)]
     assert run_agent(policy, mazes, seed=1).success_rate >= 0.9
-    untrained = run_agent(MazePolicy(about["hidden"]), mazes, seed=1).success_rate
+    untrained = run_agent(MazePolicy(about["hidden"], way_on=about["way_on"]), mazes, seed=1).success_rate
     assert untrained < 0.5
 
 

@@ -127,6 +127,25 @@ def test_training_sends_layouts_far_from_valid_to_the_greedy_repair_as_its_setti
     assert (fields["highs"] == 0).all() and 0 < fields["patched"].sum() < 6
 
 
+def test_training_repairs_with_the_bounded_search_unless_told_to_search_in_full(monkeypatch):
+    import numpy as np
+
+    from structgen.domains.layouts import problem as layout_problem
+    from structgen.domains.layouts.problem import LayoutProblem, ManufacturingSettings
+
+    with pytest.raises(ValueError, match="problem repair_search must be one of bounded, full, got 'fast'"):
+        ManufacturingSettings(repair_search="fast")
+    asked = []
+    real = layout_problem.repair
+    monkeypatch.setattr(layout_problem, "repair", lambda *a, **k: asked.append(k["bounded"]) or real(*a, **k))
+    tiny = dict(size="4x4", iterations=5, hidden=8, agents=1, simulations=1, simulation_steps=10)
+    genomes = LayoutProblem(ManufacturingSettings(**tiny)).initial_genomes(1, np.random.default_rng(0))
+    for search, expected in (("bounded", True), ("full", False)):
+        LayoutProblem(ManufacturingSettings(**tiny, repair_search=search)).evaluate(genomes, np.arange(1))
+        assert asked.pop() is expected
+    assert ManufacturingSettings().repair_search == "bounded"
+
+
 @pytest.mark.slow
 def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_weights(tmp_path, capsys):
     import runpy

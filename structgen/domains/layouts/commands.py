@@ -625,6 +625,8 @@ def cmd_train_agent(args: argparse.Namespace) -> int:
     from structgen.domains.layouts.maze.training import AGENT_FILE, train_agent
 
     values = given_settings(args, _AGENT_FIELDS)
+    if args.no_way_on:
+        values["way_on"] = False
     try:
         settings = AgentSettings(**values, device=args.device)
     except ValueError as err:
@@ -658,6 +660,12 @@ def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
         "--run-dir", required=True, type=Path, metavar="DIR", help="run folder (made, or resumed if it holds this training)"
     )
     add_setting_options(p, AgentSettings, _AGENT_FIELDS)
+    p.add_argument(
+        "--no-way-on",
+        action="store_true",
+        help="do not tell the network which way the goal or the nearest unexplored floor lies on its map (the agents "
+        "of structgen 0.4 and before; a run folder keeps what it started with)",
+    )
     p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
     p.add_argument(
         "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"

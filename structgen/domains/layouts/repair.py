@@ -43,6 +43,7 @@ from structgen.errors import InputError
 log = logging.getLogger(__name__)
 
 __all__ = [
+    "BOUNDED_OPTIONS",
     "GREEDY_AISLE_EVERY",
     "GREEDY_FIRST_CELLS",
     "LOCAL_MAX_SHARE",
@@ -76,6 +77,19 @@ LOCAL_RADIUS = 2
 LOCAL_MAX_SHARE = 0.4
 #: Share of the time left that the local repair may use before the full search takes over.
 LOCAL_SHARE = 0.5
+#: HiGHS's options in a bounded repair (:func:`repair`'s ``bounded``): no sub-MIP heuristics. Neither the time nor
+#: the node limit bounds what they do at the root: on a 33x36 manufacturing floor 66 cells from valid (one of the
+#: 11 of 2,500 training layouts that reached the minute), they ran sub-MIPs ten deep for 522 s before the first
+#: branching, and with RENS and RINS alone switched off the others still held it for the minute. Without any, the
+#: root took 8.5 s there; on 22 near-valid warehouse layouts every answer was the same as with them (measured,
+#: docs/layouts.md).
+BOUNDED_OPTIONS = {
+    "mip_heuristic_effort": 0.0,
+    "mip_heuristic_run_rens": False,
+    "mip_heuristic_run_rins": False,
+    "mip_heuristic_run_feasibility_jump": False,
+    "mip_heuristic_run_root_reduced_cost": False,
+}
 
 
 class RepairError(InputError):
@@ -178,9 +192,11 @@ class _Model:
         fix: np.ndarray | None = None,
         fixed_values: np.ndarray | None = None,
         target: float | None = None,
+        bounded: bool = False,
     ) -> _Solution:
         """Solve the model (``relax``: its linear relaxation) with the columns in ``fix`` held at ``fixed_values``,
-        stopping at the first layout whose objective is at most ``target`` when that is given."""
+        stopping at the first layout whose objective is at most ``target`` when that is given; ``bounded``: without
+        HiGHS's sub-MIP heuristics (see :data:`BOUNDED_OPTIONS`)."""
         import highspy
 
         inf = highspy.kHighsInf
@@ -213,6 +229,8 @@ class _Model:
             h.setOptionValue("mip_max_nodes", int(node_limit))
         if target is not None:
             h.setOptionValue("objective_target", float(target))
+        for option, value in BOUNDED_OPTIONS.items() if bounded else ():
+            h.setOptionValue(option, value)
         h.passModel(lp)
         if start is not None:
             solution = highspy.HighsSolution()
@@ -264,6 +282,7 @@ def repair(
     good_enough: int | None = None,
     local_first: bool | None = None,
     greedy_beyond: int | None = None,
+    bounded: bool = False,
 ) -> RepairResult:
     """Repair a whole map (for warehouses, with its workstation columns).
 
@@ -306,6 +325,11 @@ def repair(
             a minute, then the greedy answer anyway), and on a layout with no shelf or station at all however near
             it counts (a manufacturing floor of floor cells only), so those take the cheap way too: a training run
             repeats exactly and costs little only if they never reach it. None: every layout goes to HiGHS.
+        bounded: a repair whose answer depends on counts, never on the clock: HiGHS without its sub-MIP heuristics
+            (:data:`BOUNDED_OPTIONS`), stopped after ``node_limit`` nodes (None: after the root); the time limit is
+            then only a safety net (``timed_out`` says if it was reached). An answer HiGHS could not prove the
+            fewest changes is compared with the cheap repairs' (:func:`cheap_repair`), the fewer changes kept.
+            Training's default (``repair_search = "bounded"``), so that a run repeats exactly.
 
     Raises:
         RepairError: no valid layout exists under the rules, or neither HiGHS within the time limit nor the greedy
@@ -327,6 +351,8 @@ def repair(
         raise ValueError(f"good_enough must be a whole number of changed cells, 0 or more, got {good_enough!r}")
     # About 30 nonzeros a cell, and HiGHS's work on them: 210 MiB for a 101x102 map, measured (beside Python's own).
     check_memory(tiles.size * REPAIR_BYTES_PER_CELL, f"the repair of a {tiles.shape[0]}x{tiles.shape[1]} map", "a smaller map")
+    if bounded and node_limit is None:
+        node_limit = 1
     log.info("repairing a %dx%d %s layout with HiGHS, at most %g s", *tiles.shape, kind.name, time_limit)
     if greedy_beyond is not None:
         routed = _greedy_route(tiles, kind, shelves, agents, greedy_beyond, began)
@@ -345,7 +371,9 @@ def repair(
     if local_first if local_first is not None else kind.name == "warehouse" and tiles.size > GREEDY_FIRST_CELLS:
         if kind.name != "warehouse":
             raise ValueError("the local repair is for warehouses")
-        solution = _repair_locally(model, encode, tiles, kind, shelves, seconds_left(LOCAL_SHARE), seed, threads, node_limit)
+        solution = _repair_locally(
+            model, encode, tiles, kind, shelves, seconds_left(LOCAL_SHARE), seed, threads, node_limit, bounded
+        )
     greedy, greedy_method = None, ""
     if solution is None and (greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS):
         greedy, greedy_method = cheap_repair(tiles, kind, shelves=shelves, agents=agents)
@@ -364,14 +392,14 @@ def repair(
     target = None if good_enough is None else good_enough - model.changes_offset + 0.5
     rounded = None
     if round_relaxation and solution is None:
-        rounded = _round_the_relaxation(model, seconds_left, seed, threads, node_limit)
+        rounded = _round_the_relaxation(model, seconds_left, seed, threads, node_limit, bounded)
     if rounded is not None:
         if rounded.optimal or (target is not None and rounded.objective <= target):  # none changes fewer, or need to
             solution, method = rounded, "rounded relaxation"
         elif start is None or rounded.objective < float(model.cost @ start):
             start, method = rounded.values, "milp from rounded relaxation"
     if solution is None:
-        solution = model.solve(seconds_left(), seed, threads, start, node_limit, target=target)
+        solution = model.solve(seconds_left(), seed, threads, start, node_limit, target=target, bounded=bounded)
     if solution.values is None:
         if greedy is not None:
             result, method = greedy, greedy_method
@@ -385,6 +413,10 @@ def repair(
                 ) from None
     else:
         result = decode(solution.values)
+        if bounded and not solution.optimal:  # stopped on a count: a cheap repair may have done better
+            cheap, cheap_method = cheap_repair(tiles, kind, shelves=shelves, agents=agents)
+            if cheap is not None and (cheap != tiles).sum() < (result != tiles).sum():
+                result, method = cheap, cheap_method
     broken = violations(result, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
     if broken:  # the model and the checker disagree: never hand out an invalid layout
         raise RepairError(f"the repaired {kind.name} layout is invalid: {'; '.join(broken)}")
@@ -481,7 +513,9 @@ ROUNDING_MIN_SECONDS = 30.0
 ROUNDING_NODES = 100
 
 
-def _round_the_relaxation(model: _Model, seconds_left, seed: int, threads: int, node_limit: int | None) -> _Solution | None:
+def _round_the_relaxation(
+    model: _Model, seconds_left, seed: int, threads: int, node_limit: int | None, bounded: bool = False
+) -> _Solution | None:
     """A layout from the linear relaxation: hold each tile variable the relaxation left whole, solve for the rest.
 
     On the original's harder 33x36 maps the relaxation's bound is already the optimum or close to it, while HiGHS's
@@ -490,14 +524,20 @@ def _round_the_relaxation(model: _Model, seconds_left, seed: int, threads: int, 
     maps), which HiGHS solves in seconds; when its answer meets the bound it is optimal, and otherwise it starts the
     full search. None when either step found nothing in its share of the time.
     """
-    relaxed = model.solve(seconds_left(ROUNDING_SHARE), seed, threads, relax=True)
+    relaxed = model.solve(seconds_left(ROUNDING_SHARE), seed, threads, relax=True, bounded=bounded)
     if relaxed.values is None or not relaxed.optimal:
         return None
     integer = model.integer_columns()
     decided = integer & (np.abs(relaxed.values - np.round(relaxed.values)) <= 1e-6)
     nodes = ROUNDING_NODES if node_limit is None else min(node_limit, ROUNDING_NODES)
     rounded = model.solve(
-        seconds_left(ROUNDING_SHARE), seed, threads, node_limit=nodes, fix=decided, fixed_values=np.round(relaxed.values)
+        seconds_left(ROUNDING_SHARE),
+        seed,
+        threads,
+        node_limit=nodes,
+        fix=decided,
+        fixed_values=np.round(relaxed.values),
+        bounded=bounded,
     )
     if rounded.values is None:
         return None
@@ -510,7 +550,9 @@ def _round_the_relaxation(model: _Model, seconds_left, seed: int, threads: int, 
     return dataclasses.replace(rounded, optimal=optimal, gap=gap)
 
 
-def _repair_locally(model: _Model, encode, tiles: np.ndarray, kind: LayoutKind, shelves: int, seconds, seed, threads, node_limit):
+def _repair_locally(
+    model: _Model, encode, tiles: np.ndarray, kind: LayoutKind, shelves: int, seconds, seed, threads, node_limit, bounded
+):
     """The fewest changes within the region around the cells that break a rule, every other cell held (see
     :func:`repair`'s ``local_first``); None when the region is too large or holds no answer."""
     code = kind.vocabulary.index
@@ -528,7 +570,7 @@ def _repair_locally(model: _Model, encode, tiles: np.ndarray, kind: LayoutKind, 
         return None
     fix = np.zeros(model.n_cols, dtype=bool)
     fix[model.tile_columns[:, ~region[storage]].ravel()] = True
-    found = model.solve(seconds, seed, threads, None, node_limit, fix=fix, fixed_values=encode(tiles))
+    found = model.solve(seconds, seed, threads, None, node_limit, fix=fix, fixed_values=encode(tiles), bounded=bounded)
     if found.values is None:
         log.info("local repair found nothing (%s); the full search goes on", found.status)
         return None

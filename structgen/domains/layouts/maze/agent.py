@@ -29,6 +29,7 @@ from torch import nn
 
 from structgen.domains.layouts.maze.env import STAY, VIEW, TorchMazes
 from structgen.domains.layouts.maze.walkers import _STEPS, FORWARD
+from structgen.domains.layouts.maze.way_on import WAY_FEATURES, first_steps
 
 __all__ = ["CROP", "MazePolicy", "PathMemory", "RememberingMazes", "AgentResults", "run_agent"]
 
@@ -125,6 +126,22 @@ class PathMemory:
         side = CROP * BLOCK
         return torch.nn.functional.avg_pool2d(seen.reshape(len(seen), CHANNELS, side, side), BLOCK)
 
+    def way_on(self, direction: torch.Tensor) -> torch.Tensor:
+        """``(B, WAY_FEATURES)``: which way the goal (once on the map and reachable) or else the nearest unexplored
+        floor lies along the floor seen, relative to each agent's facing, with the path's length
+        (:mod:`.way_on`). The search runs on the CPU; on another device the maps are copied there first."""
+        maps = self.maps.detach().cpu()
+        goal_seen, goal_cell = maps[:, 3].max(dim=1)
+        goal = torch.where(goal_seen > 0, goal_cell, -1).numpy()
+        way, length, to_goal = first_steps(maps[:, 1].numpy(), maps[:, 0].numpy(), goal, self.position.cpu().numpy(), self.side)
+        features = torch.zeros(len(way), WAY_FEATURES)
+        going = torch.as_tensor(way >= 0)
+        relative = (torch.as_tensor(way) - direction.cpu()) % 4
+        features[going, relative[going]] = 1.0
+        features[:, 4] = torch.where(going, torch.log1p(torch.as_tensor(length, dtype=torch.float32)) / 8.0, 0.0)
+        features[:, 5] = torch.as_tensor(to_goal, dtype=torch.float32)
+        return features.to(self.maps.device)
+
 
 def memory_side(mazes: TorchMazes) -> int:
     """The side of a :class:`PathMemory` torus for ``mazes``: cells written lie within the view's reach (4) of the
@@ -136,11 +153,13 @@ def memory_side(mazes: TorchMazes) -> int:
 
 class RememberingMazes:
     """:class:`TorchMazes` whose agents keep a :class:`PathMemory`; observations are ``(patch, coarse patch,
-    direction)`` and :meth:`step` returns ``(observation, reward, done)`` as :class:`structgen.ppo.PPO` wants.
-    ``reached`` and ``cut`` of the last step are kept as attributes."""
+    direction)``, with ``way_on`` also :meth:`PathMemory.way_on`'s features, and :meth:`step` returns
+    ``(observation, reward, done)`` as :class:`structgen.ppo.PPO` wants. ``reached`` and ``cut`` of the last step
+    are kept as attributes."""
 
-    def __init__(self, mazes: TorchMazes) -> None:
+    def __init__(self, mazes: TorchMazes, *, way_on: bool = False) -> None:
         self.mazes = mazes
+        self.way_on = way_on
         self.memory = PathMemory(mazes.count, memory_side(mazes), mazes.device)
         self._view: torch.Tensor | None = None
 
@@ -153,7 +172,8 @@ class RememberingMazes:
     def _features(self, view: torch.Tensor, direction: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """The observation the policy sees, from the memory as it stands; ``view`` is kept for the next move."""
         self._view = view
-        return self.memory.patch(direction), self.memory.coarse(direction), direction
+        seen = self.memory.patch(direction), self.memory.coarse(direction), direction
+        return (*seen, self.memory.way_on(direction)) if self.way_on else seen
 
     def reset(self, directions: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """Start every maze afresh (facing ``directions`` when given, else as drawn by the mazes' seed)."""
@@ -198,21 +218,25 @@ class RememberingMazes:
 
 
 class MazePolicy(nn.Module):
-    """Logits over left, right, forward, stay and a value, from the two map patches and the direction."""
+    """Logits over left, right, forward, stay and a value, from the two map patches and the direction, and with
+    ``way_on`` the way to the goal or the nearest unexplored floor (:meth:`PathMemory.way_on`)."""
 
-    def __init__(self, hidden: int = 256) -> None:
+    def __init__(self, hidden: int = 256, *, way_on: bool = False) -> None:
         super().__init__()
         self.hidden = hidden
-        self.body = nn.Sequential(
-            nn.Linear(2 * CHANNELS * CROP * CROP + 4, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU()
-        )
+        self.way_on = way_on
+        inputs = 2 * CHANNELS * CROP * CROP + 4 + (WAY_FEATURES if way_on else 0)
+        self.body = nn.Sequential(nn.Linear(inputs, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU())
         self.actor = nn.Linear(hidden, 4)
         self.critic = nn.Linear(hidden, 1)
         nn.init.zeros_(self.actor.bias)
         self.actor.weight.data.mul_(0.01)
 
-    def forward(self, patch: torch.Tensor, coarse: torch.Tensor, direction: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        features = torch.cat([patch.flatten(1), coarse.flatten(1), nn.functional.one_hot(direction, 4).float()], dim=1)
+    def forward(
+        self, patch: torch.Tensor, coarse: torch.Tensor, direction: torch.Tensor, way: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        parts = [patch.flatten(1), coarse.flatten(1), nn.functional.one_hot(direction, 4).float()]
+        features = torch.cat(parts if way is None else [*parts, way], dim=1)
         hidden = self.body(features)
         return self.actor(hidden), self.critic(hidden).squeeze(-1)
 
@@ -256,7 +280,7 @@ def run_agent(
     batch = [m for m in mazes for _ in range(episodes)]
     streams = [np.random.default_rng([seed, i] if seeds is None else int(seeds[i])) for i in range(len(mazes))]
     directions = torch.as_tensor(np.concatenate([rng.integers(0, 4, episodes) for rng in streams]))
-    env = RememberingMazes(TorchMazes(batch, device=device))
+    env = RememberingMazes(TorchMazes(batch, device=device), way_on=policy.way_on)
     observation = env.reset(directions)
     rows = torch.arange(len(batch))  # the episode each row of the batch plays
     running = torch.ones(len(batch), dtype=torch.bool)  # by row: finished rows stay put until the batch shrinks

@@ -19,7 +19,8 @@ class AgentSettings(PPOSettings):
     maze per update), epochs, minibatches, learning_rate, gamma, gae_lambda, clip, entropy, value_coef,
     max_grad_norm, hidden (network width), seed, device) with the maze agent's defaults, and: size (maze side),
     replay, edit, buffer, temperature, staleness (the curriculum, see :mod:`.training`), checkpoint_every and
-    evaluate_every (updates)."""
+    evaluate_every (updates), and way_on (whether the network is told which way the goal or the nearest unexplored
+    floor lies on its map, :mod:`.way_on`)."""
 
     section: ClassVar[str] = "agent"
     limits: ClassVar[dict[str, Limit]] = {
@@ -51,3 +52,9 @@ class AgentSettings(PPOSettings):
     staleness: float = 0.3
     checkpoint_every: int = 10
     evaluate_every: int = 10
+    way_on: bool = True
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not isinstance(self.way_on, bool):
+            raise ValueError(f"way_on must be true or false, got {self.way_on!r}")

@@ -165,7 +165,7 @@ class CurriculumMazes:
         self.curriculum = curriculum
         self.in_play = [curriculum.fresh() for _ in range(settings.envs)]
         mazes = TorchMazes([curriculum.levels[i] for i in self.in_play], device=settings.device, seed=settings.seed)
-        self.env = RememberingMazes(mazes)
+        self.env = RememberingMazes(mazes, way_on=settings.way_on)
         self.log: list[torch.Tensor] = []
         self.ended: list[tuple[bool, float]] = []
 
@@ -192,7 +192,8 @@ def held_out_mazes(size: int) -> list[np.ndarray]:
 # --- weights ------------------------------------------------------------------------------------------------------------------
 def save_agent(path: str | Path, policy: MazePolicy, **about: Any) -> Path:
     """Write the agent's weights with what made them (``about``: plain values) to ``path``, atomically."""
-    return save_torch(path, {"format": "structgen maze agent 1", "hidden": policy.hidden, "policy": policy.state_dict(), **about})
+    saved = {"format": "structgen maze agent 1", "hidden": policy.hidden, "way_on": policy.way_on, "policy": policy.state_dict()}
+    return save_torch(path, {**saved, **about})
 
 
 def load_agent(path: str | Path) -> tuple[MazePolicy, dict[str, Any]]:
@@ -203,7 +204,10 @@ def load_agent(path: str | Path) -> tuple[MazePolicy, dict[str, Any]]:
         raise InputError(f"{path}: not a maze agent file (no 'format': 'structgen maze agent 1')")
     hidden = checked_whole(saved, "hidden", path, 1, MAX_HIDDEN)
     weights = checked_weights(saved, "policy", path)
-    policy = MazePolicy(hidden)
+    way_on = saved.get("way_on", False)  # agents saved before structgen 0.5 had no way on
+    if not isinstance(way_on, bool):
+        raise InputError(f"{path}: 'way_on' must be true or false, got {way_on!r}")
+    policy = MazePolicy(hidden, way_on=way_on)
     try:
         policy.load_state_dict(weights)
     except (RuntimeError, KeyError) as err:
@@ -337,7 +341,9 @@ def train_agent(
     from structgen.devices import resolve_device
 
     resolve_device(settings.device, "agent device")  # before the folder is made: a refused command leaves nothing
-    one = RememberingMazes(TorchMazes([random_maze(np.random.default_rng(0), settings.size, "carved")], device="cpu"))
+    one = RememberingMazes(
+        TorchMazes([random_maze(np.random.default_rng(0), settings.size, "carved")], device="cpu"), way_on=settings.way_on
+    )
     check_rollout_memory(one.reset(), settings.envs, settings.steps, what="--envs, --steps and --size")
     with new_folder_removed_on_failure(Path(run_dir), CHECKPOINT_FILE):
         return _train_agent(_open_folder(Path(run_dir), settings, overwrite), settings, progress)
@@ -349,7 +355,7 @@ def _train_agent(folder: RunFolder, settings: AgentSettings, progress: bool) -> 
     torch.manual_seed(settings.seed)
     curriculum = Curriculum(settings)
     env = CurriculumMazes(curriculum, settings)
-    ppo = PPO(MazePolicy(settings.hidden), settings)
+    ppo = PPO(MazePolicy(settings.hidden, way_on=settings.way_on), settings)
     done = 0
     with folder.locked():
         checkpoint = folder / CHECKPOINT_FILE

@@ -190,8 +190,12 @@ class Explorer(MazeAgent):
         super().reset(walls, goal, rng)
         self.known: dict[tuple[int, int], bool] = {}
         self.frontier: set[tuple[int, int]] = set()  # known floor with an unknown neighbour
+        self.goal: tuple[int, int] | None = None
 
     def act(self, state, view, goal_seen):
+        # The goal stays known once seen: turning towards it can take it out of view, and an explorer that forgot
+        # it there turned back to the frontier, saw it again and turned away, left and right for ever.
+        self.goal = goal_seen or self.goal
         new = [cell for cell in view if cell not in self.known]
         self.known.update(view)
         # Only the cells just seen and their neighbours can join or leave the frontier: updating it here instead of
@@ -204,8 +208,8 @@ class Explorer(MazeAgent):
             else:
                 self.frontier.discard(cell)
         passable = lambda cell: self.known.get(cell) is False  # noqa: E731
-        if goal_seen is not None:
-            step = _next_step(state.position, {goal_seen}, passable)
+        if self.goal is not None:
+            step = _next_step(state.position, {self.goal}, passable)
             if step is not None:
                 return _turn_towards(state, step)
         step = _next_step(state.position, self.frontier, passable)
@@ -220,11 +224,13 @@ class RandomWalk(MazeAgent):
     def reset(self, walls, goal, rng):
         super().reset(walls, goal, rng)
         self.known: dict[tuple[int, int], bool] = {}
+        self.goal: tuple[int, int] | None = None
 
     def act(self, state, view, goal_seen):
         self.known.update(view)
-        if goal_seen is not None:
-            step = _next_step(state.position, {goal_seen}, lambda cell: self.known.get(cell) is False)
+        self.goal = goal_seen or self.goal  # remembered, as the explorer does
+        if self.goal is not None:
+            step = _next_step(state.position, {self.goal}, lambda cell: self.known.get(cell) is False)
             if step is not None:
                 return _turn_towards(state, step)
         return int(self.rng.choice([LEFT, RIGHT, FORWARD, FORWARD]))
