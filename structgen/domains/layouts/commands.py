@@ -651,7 +651,8 @@ def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
         "train",
         help="train the maze agent (PPO with a PLR/ACCEL curriculum) in a run folder",
         description="Train the learning maze agent: it sees the 5x5 cells in front of it and its direction, keeps a "
-        "map of what it has seen and where it has walked, and learns by PPO on random 16x16 mazes chosen by a "
+        "map of what it has seen and where it has walked, reads from it which way the goal or the nearest unexplored "
+        "floor lies, and learns by PPO on random 16x16 mazes chosen by a "
         "curriculum that replays and edits the levels it still learns most from. The run folder gets checkpoints "
         "(the same command resumes it; more --updates go on), history.jsonl, learning.png and agent.pt. The defaults "
         "are the settings of the shipped agent (docs/maze_agent.pt).",

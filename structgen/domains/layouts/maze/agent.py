@@ -5,10 +5,12 @@ The agent sees what the paper's agent sees (the 5 x 5 cells in front of it and i
 (a forward step moves it when the cell ahead in its last view was floor, which is exactly when the maze lets it), so
 it knows where it stands relative to where it started, and it writes every view into a map around that start:
 walls and floor seen, the goal if seen, and how many steps it has spent on each cell. The network sees a 9 x 9 patch
-of that map centred on the agent and turned to face its way, and a wider 27 x 27 patch in blocks of 3 x 3 (where it
-has and has not been further off). The memory has no parameters and reads nothing the view
-did not show; what to do with it (go to the goal when it is on the map, prefer floor not yet walked, leave dead ends)
-is learned by PPO.
+of that map centred on the agent and turned to face its way, a wider 27 x 27 patch in blocks of 3 x 3 (where it
+has and has not been further off), and (``way_on``, the default since structgen 0.5) which way the goal, once on the
+map, or else the nearest unexplored floor lies along the floor seen (:mod:`.way_on`): the summary of the whole map
+that lets it keep its bearings in mazes far larger than its patches. The memory has no parameters and reads nothing
+the view did not show; what to do with it (follow the way, look around where it ends, leave dead ends) is learned by
+PPO.
 
 Why explicit: on 2 CPU cores an LSTM agent like the paper's (trained by ACCEL for 20,000 updates on a GPU) is out of
 reach in an hour, and path counting is what such an agent has to learn first anyway.
