@@ -183,3 +183,18 @@ def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_wei
     problem = load_experiment(tmp_path / "run" / "config.toml").make_problem()
     regrown = problem.grow(np.load(tmp_path / "docs" / "tiny_generator.npy")[None])[0]
     assert (regrown == Grid.load(tmp_path / "run" / "best" / "unrepaired.json").tiles).all()
+    # A maze run: against the paper's maze budget (100,000) and Table 4 row, with no throughput or repair to report.
+    code, _, err = cli(
+        capsys, "evolve", "--domain", "maze-v0", "--set", "problem.size=8x8", "--set", "problem.episodes=2",
+        "--set", "optimizer.batch_size=4", "--set", "optimizer.emitters=1", "--generations", "1",
+        "--run-dir", tmp_path / "maze",
+    )  # fmt: skip
+    assert code == 0, err
+    argv, sys.argv = sys.argv, [str(script), str(tmp_path / "maze"), "--name", "maze", "-o", str(tmp_path / "mazes")]
+    try:
+        runpy.run_path(str(script), run_name="__main__")
+    finally:
+        sys.argv = argv
+    summary = json.loads((tmp_path / "mazes" / "maze_summary.json").read_text())
+    assert summary["domain"] == "maze" and summary["share_of_paper_budget"] == 4 / 100_000
+    assert summary["paper"]["qd_score"]["mean"] == 22299.0 and "top_throughput" not in summary
