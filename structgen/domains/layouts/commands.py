@@ -665,7 +665,7 @@ def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
         "--no-way-on",
         action="store_true",
         help="do not tell the network which way the goal or the nearest unexplored floor lies on its map (the agents "
-        "of structgen 0.4 and before; a run folder keeps what it started with)",
+        "of structgen 0.4 and before; give it again to go on with such a run, or use structgen resume)",
     )
     p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
     p.add_argument(
