@@ -55,7 +55,9 @@ def _config_text(settings: Any, table: str, header: str) -> str:
 
 
 def read_training_settings(folder: RunFolder, settings_class: type, table: str) -> Any:
-    """The settings of the training in ``folder`` (its ``config.toml`` has the one table ``table``)."""
+    """The settings of the training in ``folder`` (its ``config.toml`` has the one table ``table``). A setting added
+    after the folder was written takes the value it had in effect before (``settings_class.before_added``), not
+    its new default, so that an older training resumes as it began."""
     from structgen.runs.experiment import parse_toml
 
     where = folder / RunFolder.CONFIG
@@ -63,7 +65,7 @@ def read_training_settings(folder: RunFolder, settings_class: type, table: str) 
     if set(tables) != {table} or not isinstance(tables[table], dict):
         raise InputError(f"{where}: this training's configuration has one table, [{table}]")
     try:
-        return build(settings_class, tables[table], table)
+        return build(settings_class, {**getattr(settings_class, "before_added", {}), **tables[table]}, table)
     except ConfigError as err:
         raise InputError(f"{where}: {err}") from None
 

@@ -189,6 +189,17 @@ def test_training_resumes_to_the_same_weights_and_writes_its_folder(tmp_path):
         train_agent(tmp_path / "parts", dataclasses.replace(TINY, envs=9), progress=False)
 
 
+def test_a_training_begun_before_the_way_on_existed_resumes_without_it(tmp_path):
+    # structgen 0.4 wrote no way_on into a training's config.toml; such a folder ran without the way on, and must go
+    # on so (reading the new default, true, it was refused: its checkpoint's network had no inputs for it).
+    old = dataclasses.replace(TINY, updates=2, way_on=False)
+    train_agent(tmp_path / "run", old, progress=False)
+    config = tmp_path / "run" / "config.toml"
+    config.write_text("".join(line for line in config.read_text().splitlines(keepends=True) if "way_on" not in line))
+    policy, rows = train_agent(tmp_path / "run", dataclasses.replace(old, updates=3), progress=False)
+    assert not policy.way_on and rows[-1]["update"] == 3
+
+
 def test_a_damaged_agent_or_checkpoint_is_refused_naming_the_file(tmp_path):
     bad = tmp_path / "agent.pt"
     bad.write_bytes(b"not torch")

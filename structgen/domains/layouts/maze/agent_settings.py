@@ -23,6 +23,8 @@ class AgentSettings(PPOSettings):
     floor lies on its map, :mod:`.way_on`)."""
 
     section: ClassVar[str] = "agent"
+    #: What a training folder written before a setting existed ran with (structgen 0.4's agents had no way on).
+    before_added: ClassVar[dict[str, object]] = {"way_on": False}
     limits: ClassVar[dict[str, Limit]] = {
         "updates": Limit(1, 10**7, "PPO updates in all (a resumed run goes on to this many)"),
         "envs": Limit(1, 10**6, "mazes played at once"),
