@@ -161,12 +161,16 @@ def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_wei
     code, _, err = cli(capsys, "evolve", config, "--run-dir", tmp_path / "run")
     assert code == 0, err
     script = Path(__file__).parents[2] / "benchmarks" / "layout_run_summary.py"
-    argv, sys.argv = sys.argv, [str(script), str(tmp_path / "run"), "--name", "tiny", "-o", str(tmp_path / "docs")]
-    try:
-        runpy.run_path(str(script), run_name="__main__")
-    finally:
-        sys.argv = argv
-    summary = json.loads((tmp_path / "docs" / "tiny_summary.json").read_text())
+
+    def summed_up(run: str, name: str, out: str) -> dict:
+        argv, sys.argv = sys.argv, [str(script), str(tmp_path / run), "--name", name, "-o", str(tmp_path / out)]
+        try:
+            runpy.run_path(str(script), run_name="__main__")
+        finally:
+            sys.argv = argv
+        return json.loads((tmp_path / out / f"{name}_summary.json").read_text())
+
+    summary = summed_up("run", "tiny", "docs")
     assert summary["evaluations"] == 6 and summary["share_of_paper_budget"] == 6 / 10_000
     assert [row["generation"] for row in summary["curve"]] == [1]
     assert {p.name for p in (tmp_path / "docs").iterdir()} == {
@@ -190,11 +194,6 @@ def test_a_run_summed_up_for_docs_regrows_its_best_layout_from_the_committed_wei
         "--run-dir", tmp_path / "maze",
     )  # fmt: skip
     assert code == 0, err
-    argv, sys.argv = sys.argv, [str(script), str(tmp_path / "maze"), "--name", "maze", "-o", str(tmp_path / "mazes")]
-    try:
-        runpy.run_path(str(script), run_name="__main__")
-    finally:
-        sys.argv = argv
-    summary = json.loads((tmp_path / "mazes" / "maze_summary.json").read_text())
+    summary = summed_up("maze", "maze", "mazes")
     assert summary["domain"] == "maze" and summary["share_of_paper_budget"] == 4 / 100_000
     assert summary["paper"]["qd_score"]["mean"] == 22299.0 and "top_throughput" not in summary
