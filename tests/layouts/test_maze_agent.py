@@ -78,7 +78,8 @@ def test_the_way_on_leads_to_the_nearest_unexplored_floor_and_then_to_the_goal()
         floor, wall = (maze == 0) & known, (maze == 1) & known
         cells = np.argwhere(floor)
         start = tuple(cells[rng.integers(len(cells))])
-        way, length, to_goal = first_steps(floor.reshape(1, -1), wall.reshape(1, -1), np.array([-1]), np.array([start]), 14)
+        maps = np.stack([wall, floor]).reshape(1, 2, -1).astype(np.float32)
+        way, length, to_goal = first_steps(maps, np.array([-1]), np.array([start]), 14)
         expected = _frontier_distance(floor, wall, start)
         assert (length[0] if way[0] >= 0 else None) == expected and not to_goal[0]
         if expected:  # the first step is on a shortest path
@@ -88,7 +89,8 @@ def test_the_way_on_leads_to_the_nearest_unexplored_floor_and_then_to_the_goal()
     floor = np.zeros((5, 5), dtype=bool)
     floor[2, :4] = True
     goal = np.array([2 * 5 + 0])
-    way, length, to_goal = first_steps(floor.reshape(1, -1), np.zeros((1, 25)), goal, np.array([[2, 2]]), 5)
+    maps = np.stack([np.zeros_like(floor), floor]).reshape(1, 2, -1).astype(np.float32)
+    way, length, to_goal = first_steps(maps, goal, np.array([[2, 2]]), 5)
     assert (way[0], length[0], to_goal[0]) == (3, 2, True)
 
 

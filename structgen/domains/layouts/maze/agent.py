@@ -135,7 +135,7 @@ class PathMemory:
         maps = self.maps.detach().cpu()
         goal_seen, goal_cell = maps[:, 3].max(dim=1)
         goal = torch.where(goal_seen > 0, goal_cell, -1).numpy()
-        way, length, to_goal = first_steps(maps[:, 1].numpy(), maps[:, 0].numpy(), goal, self.position.cpu().numpy(), self.side)
+        way, length, to_goal = first_steps(maps.numpy(), goal, self.position.cpu().numpy(), self.side)
         features = torch.zeros(len(way), WAY_FEATURES)
         going = torch.as_tensor(way >= 0)
         relative = (torch.as_tensor(way) - direction.cpu()) % 4

@@ -59,4 +59,4 @@ class AgentSettings(PPOSettings):
     def __post_init__(self) -> None:
         super().__post_init__()
         if not isinstance(self.way_on, bool):
-            raise ValueError(f"way_on must be true or false, got {self.way_on!r}")
+            raise ValueError(f"agent way_on must be true or false, got {self.way_on!r}")

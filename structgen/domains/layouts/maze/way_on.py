@@ -14,19 +14,23 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from structgen.domains.layouts.maze.walkers import _STEPS
+
 __all__ = ["WAY_FEATURES", "first_steps"]
 
 #: The features :func:`first_steps` gives the network: the way relative to the agent's facing (ahead, right,
 #: behind, left; all zero where there is nowhere to go), the path's length as log(1 + steps) / 8, and whether the
 #: path leads to the goal.
 WAY_FEATURES = 6
-_ROW_STEP = np.array([-1, 0, 1, 0], dtype=np.int64)  # the directions of .walkers._STEPS: up, right, down, left
-_COLUMN_STEP = np.array([0, 1, 0, -1], dtype=np.int64)
+_ROW_STEP = np.array([row for row, _ in _STEPS], dtype=np.int64)
+_COLUMN_STEP = np.array([column for _, column in _STEPS], dtype=np.int64)
+#: The channels of the agent's map (:class:`.agent.PathMemory`) the search reads: seen as wall, seen as floor.
+WALL, FLOOR = 0, 1
 
 
 @numba.njit(cache=True)
-def _search(floor, wall, goal, rows, columns, side, way, length, to_goal, visited, first, queue):  # pragma: no cover
-    for agent in range(floor.shape[0]):
+def _search(maps, goal, rows, columns, side, way, length, to_goal, visited, first, queue):  # pragma: no cover
+    for agent in range(maps.shape[0]):
         start = rows[agent] * side + columns[agent]
         visited[start] = True
         head, tail = 0, 1
@@ -50,14 +54,14 @@ def _search(floor, wall, goal, rows, columns, side, way, length, to_goal, visite
             if cell != start and frontier_way < 0:
                 for d in range(4):
                     n = ((row + _ROW_STEP[d]) % side) * side + (column + _COLUMN_STEP[d]) % side
-                    if floor[agent, n] < 0.5 and wall[agent, n] < 0.5:
+                    if maps[agent, FLOOR, n] < 0.5 and maps[agent, WALL, n] < 0.5:
                         frontier_way, frontier_length = first[cell], distance_of
                         break
                 if frontier_way >= 0 and target < 0:
                     break
             for d in range(4):
                 n = ((row + _ROW_STEP[d]) % side) * side + (column + _COLUMN_STEP[d]) % side
-                if not visited[n] and floor[agent, n] > 0.5:
+                if not visited[n] and maps[agent, FLOOR, n] > 0.5:
                     visited[n] = True
                     first[n] = d if cell == start else first[cell]
                     queue[tail] = n
@@ -68,24 +72,22 @@ def _search(floor, wall, goal, rows, columns, side, way, length, to_goal, visite
             visited[queue[k]] = False
 
 
-def first_steps(
-    floor: np.ndarray, wall: np.ndarray, goal: np.ndarray, position: np.ndarray, side: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def first_steps(maps: np.ndarray, goal: np.ndarray, position: np.ndarray, side: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each agent: the direction of its first step (0-3 as :data:`.walkers._STEPS`, -1: nowhere to go), the
     path's length in moves, and whether it leads to the goal.
 
-    ``floor`` and ``wall`` are ``(agents, side * side)`` maps (above 0.5: seen as floor, as wall; a cell seen as
-    neither is unexplored), ``goal`` the goal's cell on each map or -1, ``position`` each agent's ``(row, column)``
-    on its map (taken modulo ``side``: the maps are tori)."""
-    count = floor.shape[0]
+    ``maps`` are the agents' ``(agents, channels, side * side)`` maps, channels as :class:`.agent.PathMemory`'s
+    (:data:`WALL` and :data:`FLOOR` above 0.5: seen as wall, as floor; a cell seen as neither is unexplored), read
+    in place when contiguous (the agent's own, so that a step copies none of it); ``goal`` the goal's cell on each
+    map or -1, ``position`` each agent's ``(row, column)`` on its map (taken modulo ``side``: the maps are tori)."""
+    count = maps.shape[0]
     way = np.empty(count, dtype=np.int64)
     length = np.empty(count, dtype=np.int64)
     to_goal = np.empty(count, dtype=np.bool_)
     cells = side * side
     position = np.asarray(position, dtype=np.int64) % side
     _search(
-        np.ascontiguousarray(floor),
-        np.ascontiguousarray(wall),
+        np.ascontiguousarray(maps),
         np.asarray(goal, dtype=np.int64),
         np.ascontiguousarray(position[:, 0]),
         np.ascontiguousarray(position[:, 1]),
@@ -102,6 +104,6 @@ def first_steps(
 
 def compile_kernels() -> None:
     """Compile the search (or load it from numba's cache) on a 3 x 3 map."""
-    floor = np.zeros((1, 9), dtype=np.float32)
-    floor[0, 4] = floor[0, 5] = 1.0
-    first_steps(floor, np.zeros_like(floor), np.array([-1]), np.array([[1, 1]]), 3)
+    maps = np.zeros((1, 2, 9), dtype=np.float32)
+    maps[0, FLOOR, 4] = maps[0, FLOOR, 5] = 1.0
+    first_steps(maps, np.array([-1]), np.array([[1, 1]]), 3)
