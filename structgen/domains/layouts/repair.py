@@ -27,6 +27,7 @@ independent :func:`~structgen.domains.layouts.measures.violations`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import time
 from dataclasses import dataclass
@@ -354,8 +355,10 @@ def repair(
     if bounded and node_limit is None:
         node_limit = 1
     log.info("repairing a %dx%d %s layout with HiGHS, at most %g s", *tiles.shape, kind.name, time_limit)
+    # The cheap repairs' answer, made at most once: the routing, the greedy start and the fallbacks below share it.
+    cheap = functools.cache(lambda: cheap_repair(tiles, kind, shelves=shelves, agents=agents))
     if greedy_beyond is not None:
-        routed = _greedy_route(tiles, kind, shelves, agents, greedy_beyond, began)
+        routed = _greedy_route(tiles, kind, shelves, agents, greedy_beyond, began, cheap)
         if routed is not None:
             return routed
     model, decode, encode = build(tiles, shelves=shelves, agents=agents)
@@ -376,7 +379,7 @@ def repair(
         )
     greedy, greedy_method = None, ""
     if solution is None and (greedy_first if greedy_first is not None else tiles.size > GREEDY_FIRST_CELLS):
-        greedy, greedy_method = cheap_repair(tiles, kind, shelves=shelves, agents=agents)
+        greedy, greedy_method = cheap()
         if greedy is None:
             raise RepairError(f"the greedy repair cannot place the {kind.name} layout's shelves")
     start = None if greedy is None else encode(greedy)
@@ -406,7 +409,7 @@ def repair(
         elif solution.status == "Infeasible":
             raise RepairError(f"no {kind.name} layout of this size satisfies the rules ({_rules(kind, shelves, agents)})")
         else:  # HiGHS ran out of time without a layout: a cheap repair still gives a valid one
-            result, method = cheap_repair(tiles, kind, shelves=shelves, agents=agents)
+            result, method = cheap()
             if result is None:
                 raise RepairError(
                     f"the repair found no valid layout within {time_limit:g} s ({solution.status}); allow more time"
@@ -414,9 +417,9 @@ def repair(
     else:
         result = decode(solution.values)
         if bounded and not solution.optimal:  # stopped on a count: a cheap repair may have done better
-            cheap, cheap_method = cheap_repair(tiles, kind, shelves=shelves, agents=agents)
-            if cheap is not None and (cheap != tiles).sum() < (result != tiles).sum():
-                result, method = cheap, cheap_method
+            other, other_method = cheap()
+            if other is not None and (other != tiles).sum() < (result != tiles).sum():
+                result, method = other, other_method
     broken = violations(result, kind, shelves=shelves, fixed=tiles if kind.name == "warehouse" else None, agents=agents)
     if broken:  # the model and the checker disagree: never hand out an invalid layout
         raise RepairError(f"the repaired {kind.name} layout is invalid: {'; '.join(broken)}")
@@ -449,11 +452,12 @@ def _shelves_off(tiles: np.ndarray, kind: LayoutKind, shelves: int | None) -> in
     return abs(int((tiles == kind.vocabulary.index("@")).sum()) - shelves)
 
 
-def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float) -> RepairResult | None:
-    """:func:`repair`'s answer without HiGHS (see its ``greedy_beyond``), or None where HiGHS should search."""
+def _greedy_route(tiles, kind, shelves, agents, beyond: int, began: float, cheapest) -> RepairResult | None:
+    """:func:`repair`'s answer without HiGHS (see its ``greedy_beyond``), or None where HiGHS should search;
+    ``cheapest()`` gives :func:`cheap_repair`'s ``(layout, method)`` for ``tiles``."""
     if not (isinstance(beyond, (int, np.integer)) and beyond >= 0):
         raise ValueError(f"greedy_beyond must be a whole number of cells, 0 or more, got {beyond!r}")
-    cheap, method = cheap_repair(tiles, kind, shelves=shelves, agents=agents)
+    cheap, method = cheapest()
     if cheap is None:
         return None
     hamming = int((cheap != tiles).sum())
