@@ -109,6 +109,12 @@ def test_a_run_of_its_dataclass_genomes_killed_midway_resumes_to_the_run_that_ne
 def test_its_own_verbs_and_quality_diversity_work(site, tmp_path):
     done = structgen(site, "dice", "roll", "--faces", "2,4", "--times", 5, cwd=tmp_path)
     assert done.returncode == 0 and set(done.stdout.split()) <= {"2", "4"} and len(done.stdout.split()) == 5
+    # A plugin's declared verb gets what the built-in ones have: its docstring as help, examples, checked ranges.
+    helped = structgen(site, "dice", "roll", "--help", cwd=tmp_path).stdout
+    assert "Roll a die with the given faces" in helped and "how many rolls (default 10)" in helped
+    assert "examples:\n  structgen dice roll --faces 1,1,2,3,5,8 --times 5" in helped
+    refused = structgen(site, "dice", "roll", "--times", 0, cwd=tmp_path)
+    assert refused.returncode == 2 and "--times: expected a whole number from 1 to 1,000,000, got 0" in refused.stderr
     done = structgen(
         site,
         "dice",

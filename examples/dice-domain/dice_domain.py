@@ -16,7 +16,7 @@ import numpy as np
 
 from evolution import Evaluation, Problem, atomic_write
 from structgen.domains import DomainSpec, MainJob
-from structgen.registry.commands import EXIT_OK, DomainCommands, InputError
+from structgen.registry.commands import EXIT_OK, DomainCommands, InputError, number, option, seed, verb, verbs
 
 
 @dataclass(frozen=True)
@@ -86,6 +86,10 @@ class Dice(Problem):
 
 
 def cmd_roll(args) -> int:
+    """roll a die
+
+    Roll a die with the given faces and print the faces rolled.
+    """
     try:
         faces = [int(v) for v in args.faces.split(",")]
     except ValueError:
@@ -96,13 +100,17 @@ def cmd_roll(args) -> int:
 
 
 class DiceCommands(DomainCommands):
-    def add_verbs(self, subparsers, domain, only=None):
-        if only is None or "roll" in only:
-            roll = subparsers.add_parser("roll", help="roll a die", description="Roll a die with the given faces.")
-            roll.add_argument("--faces", default="1,2,3,4,5,6", help="face values, comma-separated")
-            roll.add_argument("--times", type=int, default=10, help="how many rolls (default 10)")
-            roll.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-            roll.set_defaults(handler=cmd_roll)
+    # A verb is its handler (whose docstring is its help) and its options; `structgen dice roll --help` shows them.
+    adders = verbs(
+        verb(
+            "roll",
+            cmd_roll,
+            option("--faces", default="1,2,3,4,5,6", help="face values, comma-separated"),
+            number("--times", 1, 10**6, 10, "how many rolls"),
+            seed("random seed"),
+            examples=["structgen dice roll --faces 1,1,2,3,5,8 --times 5"],
+        )
+    )
 
     def export_elite(self, problem, genome, output: Path, args, origin) -> str:
         if output.suffix != ".json":

@@ -29,15 +29,20 @@ from structgen.registry.commands import (
     EXIT_FAILURE,
     EXIT_INTERRUPTED,
     EXIT_OK,
-    MAX_SEED,
     InputError,
     Parser,
-    VerbHelpFormatter,
-    add_set_option,
-    examples_epilog,
+    Verb,
+    flag,
+    json_flag,
+    number,
+    option,
+    output,
     output_path,
     renamed_verb_note,
-    whole_number,
+    seed,
+    set_option,
+    verb,
+    verbs,
 )
 
 log = logging.getLogger("structgen")
@@ -49,6 +54,10 @@ MAX_GENERATIONS, MAX_WORKERS = 10**9, 1024
 
 # -- generic verbs --------------------------------------------------------------------------------------------------------
 def cmd_list(args: argparse.Namespace) -> int:
+    """list the registered domains or optimizers
+
+    One line for each domain or optimizer.
+    """
     if args.what == "domains":
         rows = [{"id": d.id, "group": d.group_name, "aliases": list(d.aliases), "summary": d.summary} for d in domains.specs()]
         key = "id"
@@ -78,6 +87,16 @@ def _report_run(folder: Any, state: Any) -> None:
 
 
 def cmd_evolve(args: argparse.Namespace) -> int:
+    """run an evolution (with no arguments: the main job)
+
+    Evolve {which} with the configuration in CONFIG (TOML with [run], [problem] and [optimizer] tables), or, without
+    CONFIG, the domain's main job (a run of a few minutes).
+
+    Writes a run folder: config.toml, manifest.json, checkpoint.pkl, metrics.jsonl, best/, plots, and the archive for
+    quality diversity.
+
+    Ctrl-C finishes the generation, checkpoints and exits (130); `structgen resume` continues.
+    """
     from evolution import graceful_interrupt
     from structgen.runs import evolve
     from structgen.runs.experiment import load_experiment
@@ -96,6 +115,12 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 
 
 def cmd_resume(args: argparse.Namespace) -> int:
+    """continue a run from its last checkpoint
+
+    Continue the run in RUN_DIR from its last checkpoint, reading only its config.toml; the result is the same as if
+    it had never stopped. A domain's own kind of run (a tall search) is continued by its domain, with the settings
+    it was started with.
+    """
     from evolution import graceful_interrupt
     from structgen.runs import other_run_kind, resume
 
@@ -112,6 +137,11 @@ def cmd_resume(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
+    """write a file, or an elite of a run, in another format
+
+    Write SOURCE to OUT in the format OUT's suffix names. SOURCE is a run folder (its best candidate, or an archive
+    elite, made again from its genome) or a file of {which}.
+    """
     output = args.output_option or args.output
     if not output:
         raise InputError("export needs an output file: structgen export SOURCE OUT (or -o OUT)")
@@ -130,6 +160,12 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    """summarise a run folder, or a file
+
+    Summarise a run folder of any domain (what the run is, how far it got, its best candidate and archive; a search
+    or an agent training, as its domain tells it) or a file of {which} (a structure: counts, height, bounding box,
+    components).
+    """
     from evolution import RunFolder
 
     path = Path(args.path)
@@ -172,74 +208,18 @@ def _export_elite(run_dir: Path, output: Path, args: argparse.Namespace) -> str:
         problem.close()
 
 
-# -- parser -------------------------------------------------------------------------------------------------------------
-class _Formatter(argparse.RawDescriptionHelpFormatter):
-    """Descriptions keep their line breaks (lists of domains read better that way)."""
-
-
-def _add_evolve(commands: Any, domain: domains.DomainSpec | None) -> None:
-    which = domain.id if domain else f"the domain CONFIG names ({domains.DEFAULT_DOMAIN} if none)"
-    evolve = commands.add_parser(
-        "evolve",
-        help="run an evolution (with no arguments: the main job)",
-        formatter_class=_Formatter,
-        description=f"Evolve {which} with the configuration in CONFIG (TOML with [run], [problem] and [optimizer] "
-        "tables), or, without CONFIG, the domain's main job (a run of a few minutes).\nWrites a run folder: "
-        "config.toml, manifest.json, checkpoint.pkl, metrics.jsonl, best/, plots, and the archive for quality "
-        "diversity.\nCtrl-C finishes the generation, checkpoints and exits (130); `structgen resume` continues.",
-        epilog=examples_epilog(
-            [f"structgen {domain.group_name} evolve", f"structgen {domain.group_name} evolve --generations 5 --seed 1"]
-            if domain
-            else [
-                "structgen evolve",
-                "structgen evolve configs/paper_cutoff.toml --workers 2 --run-dir runs/cutoff",
-                f"structgen evolve --domain {domains.DEFAULT_DOMAIN} --generations 5 --set optimizer.population=20",
-            ]
-        ),
-    )
-    evolve.add_argument("config", nargs="?", metavar="CONFIG.toml", help="run configuration (default: the main job)")
-    if domain is None:
-        evolve.add_argument(
-            "--domain",
-            metavar="ID",
-            help="the domain to evolve (sets problem.name; `structgen list domains` lists them); without CONFIG, its main job",
-        )
-    else:
-        evolve.set_defaults(domain=domain.id)
-    evolve.add_argument("--optimizer", metavar="NAME", help="ga, cma_es, map_elites or cma_mae (sets optimizer.name)")
-    evolve.add_argument(
-        "--generations", type=whole_number(1, MAX_GENERATIONS), metavar="N", help="generations in total (sets run.generations)"
-    )
-    evolve.add_argument("--seed", type=whole_number(0, MAX_SEED), metavar="N", help="the run's seed (sets run.seed)")
-    evolve.add_argument(
-        "--workers", type=whole_number(0, MAX_WORKERS), metavar="N", help="local evaluation processes, 0 for none (run.workers)"
-    )
-    evolve.add_argument("--cluster", metavar="ADDRESS", help="evaluate on the Dask scheduler at ADDRESS (run.cluster)")
-    evolve.add_argument(
-        "--run-dir", metavar="DIR", help="run folder to create (default runs/<domain>-<optimizer>-s<seed>-<time>)"
-    )
-    evolve.add_argument("--overwrite", action="store_true", help="replace RUN_DIR if it is already a run folder")
-    add_set_option(
-        evolve,
-        "the run, the problem or the optimizer",
-        "optimizer.population=100 or run.seed=3 (--print-config shows every setting of the chosen domain)",
-    )
-    evolve.add_argument(
-        "--print-config",
-        action="store_true",
-        help="print the resolved configuration (every setting, as a run would record it) and exit without running",
-    )
-    evolve.set_defaults(handler=cmd_evolve)
-
-
 def cmd_compare(args: argparse.Namespace) -> int:
+    """compare runs: a table of their results and a plot of their progress
+
+    Print a table of each run's generations, evaluations, best objective and (quality diversity) QD score and
+    coverage, and draw their best objective (and QD score and coverage, when every run has an archive) over
+    generations in one picture.
+    """
     from evolution import atomic_write
     from evolution.plots import compare_figure, figure_png
     from structgen.runs import check_numbers, open_run, summary_of
 
     output = Path(args.output)
-    if output.suffix.lower() != ".png":
-        raise InputError(f"{output}: compare draws a PNG image; give a name ending in .png")
     runs, table = {}, []
     for run_dir in args.runs:
         folder, experiment = open_run(run_dir)
@@ -277,118 +257,78 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_compare(commands: Any) -> None:
-    compare = commands.add_parser(
-        "compare",
-        help="compare runs: a table of their results and a plot of their progress",
-        description="Print a table of each run's generations, evaluations, best objective and (quality diversity) "
-        "QD score and coverage, and draw their best objective (and QD score and coverage, when every run has an "
-        "archive) over generations in one picture.",
-        formatter_class=VerbHelpFormatter,
-        epilog=examples_epilog(["structgen compare runs/ga runs/qd -o compare.png", "structgen compare runs/* --json"]),
-    )
-    compare.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run folders, of any domain and optimiser")
-    compare.add_argument(
-        "-o",
-        "--output",
-        type=output_path,
-        default=Path("compare.png"),
-        metavar="OUT.png",
-        help="picture to write (default compare.png)",
-    )
-    compare.add_argument("--json", action="store_true", help="print the table as a JSON list")
-    compare.set_defaults(handler=cmd_compare)
+# -- parser -------------------------------------------------------------------------------------------------------------
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions keep their line breaks (lists of domains read better that way)."""
 
 
-def _add_resume(commands: Any) -> None:
-    resume = commands.add_parser(
-        "resume",
-        help="continue a run from its last checkpoint",
-        description="Continue the run in RUN_DIR from its last checkpoint, reading only its config.toml; the result "
-        "is the same as if it had never stopped. A domain's own kind of run (a tall search) is continued by its "
-        "domain, with the settings it was started with.",
-        formatter_class=VerbHelpFormatter,
-        epilog=examples_epilog(["structgen resume runs/qd", "structgen resume runs/qd --generations 200 --workers 2"]),
-    )
-    resume.add_argument("run_dir", metavar="RUN_DIR", help="run folder")
-    resume.add_argument(
-        "--generations",
-        type=whole_number(1, MAX_GENERATIONS),
-        metavar="N",
-        help="run up to N generations in total (default: as configured)",
-    )
-    resume.add_argument(
-        "--workers",
-        type=whole_number(0, MAX_WORKERS),
-        metavar="N",
-        help="local evaluation processes this time (results do not change)",
-    )
-    resume.add_argument("--cluster", metavar="ADDRESS", help="evaluate on this Dask scheduler this time")
-    resume.set_defaults(handler=cmd_resume)
-
-
-def _add_export(commands: Any, exporters: list[tuple[domains.DomainSpec, Any]], domain: domains.DomainSpec | None) -> None:
+def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[domains.DomainSpec, Any]]) -> dict[str, Verb]:
+    """The verbs every domain has, for ``domain``'s group (its id set) or, with None, at the top (``--domain``
+    chooses)."""
     which = domain.id if domain else f"a domain's (--domain; default {domains.DEFAULT_DOMAIN})"
-    export = commands.add_parser(
-        "export",
-        help="write a file, or an elite of a run, in another format",
-        description=f"Write SOURCE to OUT in the format OUT's suffix names. SOURCE is a run folder (its best "
-        f"candidate, or an archive elite, made again from its genome) or a file of {which}.",
-        formatter_class=VerbHelpFormatter,
-        epilog=examples_epilog(
-            [line for _, hooks in exporters for line in hooks.examples.get("export", ())]
-            if domain
-            else [
-                "structgen export runs/qd best.glb",
-                "structgen export tower.json tower.stl",
-                "structgen export runs/qd -o elite.obj --elite index:12",
-            ]
-        ),
+    me = f"structgen {domain.group_name}" if domain else "structgen"
+    choose = (
+        []
+        if domain
+        else [option("--domain", metavar="ID", help=f"the domain FILE belongs to (default {domains.DEFAULT_DOMAIN})")]
     )
-    export.add_argument("source", metavar="SOURCE", help="run folder or file")
-    export.add_argument("output", nargs="?", type=output_path, metavar="OUT", help="output file (or use -o)")
-    export.add_argument("-o", dest="output_option", type=output_path, metavar="OUT", help="output file")
-    export.add_argument(
-        "--elite",
-        default="best",
-        metavar="best|index:I",
-        help="for a run folder: the best candidate (default) or the archive elite in cell I (see archive.csv)",
-    )
-    if domain is None:
-        export.add_argument("--domain", metavar="ID", help=f"the domain SOURCE belongs to (default {domains.DEFAULT_DOMAIN})")
-    else:
-        export.set_defaults(domain=domain.id)
-    add_set_option(export, "the export", "mesh.sphere_radius=0.2 for a structure")
+    return verbs(
+        verb("list", cmd_list, option("what", choices=("domains", "optimizers"), help="what to list"),
+             json_flag("print a JSON list with more about each"),
+             examples=["structgen list domains", "structgen list optimizers --json"]),
+        verb("evolve", cmd_evolve, option("config", nargs="?", metavar="CONFIG.toml", help="run configuration (default: "
+             "the main job)"),
+             *[] if domain else [option("--domain", metavar="ID", help="the domain to evolve (sets problem.name; "
+                                        "`structgen list domains` lists them); without CONFIG, its main job")],
+             option("--optimizer", metavar="NAME", help="ga, cma_es, map_elites or cma_mae (sets optimizer.name)"),
+             number("--generations", 1, MAX_GENERATIONS, help="generations in total (sets run.generations)"),
+             seed("the run's seed (sets run.seed)", default=None),
+             number("--workers", 0, MAX_WORKERS, help="local evaluation processes, 0 for none (run.workers)"),
+             option("--cluster", metavar="ADDRESS", help="evaluate on the Dask scheduler at ADDRESS (run.cluster)"),
+             option("--run-dir", metavar="DIR", help="run folder to create (default runs/<domain>-<optimizer>-s<seed>-<time>)"),
+             flag("--overwrite", "replace RUN_DIR if it is already a run folder"),
+             set_option("the run, the problem or the optimizer", "optimizer.population=100 or run.seed=3 (--print-config "
+                        "shows every setting of the chosen domain)"),
+             flag("--print-config", "print the resolved configuration (every setting, as a run would record it) and exit "
+                  "without running"),
+             text={"which": domain.id if domain else f"the domain CONFIG names ({domains.DEFAULT_DOMAIN} if none)"},
+             examples=[f"{me} evolve", f"{me} evolve --generations 5 --seed 1"] if domain else [
+                 "structgen evolve", "structgen evolve configs/paper_cutoff.toml --workers 2 --run-dir runs/cutoff",
+                 f"structgen evolve --domain {domains.DEFAULT_DOMAIN} --generations 5 --set optimizer.population=20"]),
+        verb("resume", cmd_resume, option("run_dir", metavar="RUN_DIR", help="run folder"),
+             number("--generations", 1, MAX_GENERATIONS, help="run up to N generations in total (default: as configured)"),
+             number("--workers", 0, MAX_WORKERS, help="local evaluation processes this time (results do not change)"),
+             option("--cluster", metavar="ADDRESS", help="evaluate on this Dask scheduler this time"),
+             examples=["structgen resume runs/qd", "structgen resume runs/qd --generations 200 --workers 2"]),
+        verb("compare", cmd_compare,
+             option("runs", nargs="+", metavar="RUN_DIR", help="run folders, of any domain and optimiser"),
+             output("OUT.png", "picture to write (default compare.png)", required=False, default=Path("compare.png")),
+             json_flag("print the table as a JSON list"),
+             examples=["structgen compare runs/ga runs/qd -o compare.png", "structgen compare runs/* --json"]),
+        verb("export", cmd_export, option("source", metavar="SOURCE", help="run folder or file"),
+             option("output", nargs="?", type=output_path, metavar="OUT", help="output file (or use -o)"),
+             option("-o", dest="output_option", type=output_path, metavar="OUT", help="output file"),
+             option("--elite", default="best", metavar="best|index:I", help="for a run folder: the best candidate "
+                    "(default) or the archive elite in cell I (see archive.csv)"),
+             *choose, set_option("the export", "mesh.sphere_radius=0.2 for a structure"),
+             lambda parser: _add_export_options(parser, exporters), text={"which": which},
+             examples=[line for _, hooks in exporters for line in hooks.examples.get("export", ())] if domain else [
+                 "structgen export runs/qd best.glb", "structgen export tower.json tower.stl",
+                 "structgen export runs/qd -o elite.obj --elite index:12"]),
+        verb("info", cmd_info, option("path", metavar="RUN_DIR|FILE", help="run folder, or a file"), *choose,
+             json_flag("print one JSON object instead of lines to read"), text={"which": which},
+             examples=[f"{me} info runs/{domain.group_name}"] if domain else ["structgen info runs/qd",
+                                                                               "structgen info tower.json --json"]),
+        **({"domain": domain.id} if domain else {}),
+    )  # fmt: skip
+
+
+def _add_export_options(parser: argparse.ArgumentParser, exporters: list[tuple[domains.DomainSpec, Any]]) -> None:
     for spec, hooks in exporters:
         try:
-            hooks.add_export_options(export)
+            hooks.add_export_options(parser)
         except argparse.ArgumentError as err:  # a plugin's option clashes with another domain's
             log.warning("export options of %s left out of this command: %s", spec.id, err)
-    export.set_defaults(handler=cmd_export)
-
-
-def _add_info(commands: Any, domain: domains.DomainSpec | None) -> None:
-    which = domain.id if domain else f"a domain's (--domain; default {domains.DEFAULT_DOMAIN})"
-    info = commands.add_parser(
-        "info",
-        help="summarise a run folder, or a file",
-        formatter_class=_Formatter,
-        description="Summarise a run folder of any domain (what the run is, how far it got, its best candidate "
-        f"and archive; a search or an agent training, as its domain tells it) or a file of {which} (a "
-        "structure: counts, height, bounding box, components).",
-        epilog=examples_epilog(
-            [f"structgen {domain.group_name} info runs/{domain.group_name}"]
-            if domain
-            else ["structgen info runs/qd", "structgen info tower.json --json"]
-        ),
-    )
-    info.add_argument("path", metavar="RUN_DIR|FILE", help="run folder, or a file")
-    if domain is None:
-        info.add_argument("--domain", metavar="ID", help=f"the domain FILE belongs to (default {domains.DEFAULT_DOMAIN})")
-    else:
-        info.set_defaults(domain=domain.id)
-    info.add_argument("--json", action="store_true", help="print one JSON object instead of lines to read")
-    info.set_defaults(handler=cmd_info)
 
 
 def _domain_hooks() -> list[tuple[domains.DomainSpec, Any]]:
@@ -417,22 +357,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    listing_parser = commands.add_parser(
-        "list",
-        help="list the registered domains or optimizers",
-        description="One line for each domain or optimizer.",
-        formatter_class=VerbHelpFormatter,
-        epilog=examples_epilog(["structgen list domains", "structgen list optimizers --json"]),
-    )
-    listing_parser.add_argument("what", choices=("domains", "optimizers"), help="what to list")
-    listing_parser.add_argument("--json", action="store_true", help="print a JSON list with more about each")
-    listing_parser.set_defaults(handler=cmd_list)
-    _add_evolve(commands, None)
-    _add_resume(commands)
-    _add_compare(commands)
     exporters = [(spec, hooks) for spec, hooks in hooked if hooks is not None]
-    _add_export(commands, exporters, None)
-    _add_info(commands, None)
+    for declared in _generic_verbs(None, exporters).values():
+        declared(commands)
 
     taken = set(GENERIC_VERBS)
     for spec, hooks in hooked:
@@ -443,12 +370,13 @@ def build_parser() -> argparse.ArgumentParser:
         group = commands.add_parser(
             spec.group_name, help=f"the {spec.id} domain's verbs", description=f"{spec.id}: {spec.summary}"
         )
-        verbs = group.add_subparsers(dest="verb", metavar="VERB", required=True)
-        _add_evolve(verbs, spec)
-        _add_info(verbs if hooks is None else hooks.verb_parsers(verbs), spec)
+        subparsers = group.add_subparsers(dest="verb", metavar="VERB", required=True)
+        generic = _generic_verbs(spec, [(spec, hooks)] if hooks is not None else [])
+        generic["evolve"](subparsers)
+        generic["info"](subparsers if hooks is None else hooks.verb_parsers(subparsers))
         if hooks is not None:
-            _add_export(verbs, [(spec, hooks)], spec)
-            hooks.add_verbs(verbs, spec)
+            generic["export"](subparsers)
+            hooks.add_verbs(subparsers, spec)
     for spec, hooks in hooked:
         shortcuts = [name for name in spec.shortcuts if name not in taken]
         if hooks is not None and shortcuts:

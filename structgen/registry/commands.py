@@ -10,6 +10,8 @@ through the generic ``structgen export``. This module stays light: it is importe
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import inspect
 import math
 from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from pathlib import Path
@@ -33,7 +35,7 @@ __all__ = [
     "VerbHelpFormatter",
     "InputError",
     "Parser",
-    "add_seed_run_options",
+    "seed_run_options",
     "add_set_option",
     "device_name",
     "examples_epilog",
@@ -44,9 +46,30 @@ __all__ = [
     "settings_from_args",
     "verbs_wanted",
     "whole_number",
+    "write_by_suffix",
     "add_setting_options",
     "given_settings",
     "limit_type",
+    "Adder",
+    "Verb",
+    "device",
+    "dpi",
+    "nca_weights",
+    "flag",
+    "group",
+    "json_flag",
+    "number",
+    "one_of",
+    "option",
+    "output",
+    "overwrite",
+    "real",
+    "seed",
+    "set_option",
+    "settings",
+    "verb",
+    "verbs",
+    "workers",
 ]
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
@@ -169,12 +192,13 @@ RENAMED_VERBS_GO_IN = "0.5"
 
 
 class VerbHelpFormatter(argparse.HelpFormatter):
-    """argparse's formatter, but an epilog of examples keeps its lines as written (descriptions still wrap)."""
+    """argparse's formatter, but an epilog of examples keeps its lines as written, and a description keeps its
+    paragraphs (each still wraps)."""
 
     def _fill_text(self, text: str, width: int, indent: str) -> str:
         if text.startswith("examples:"):
             return "".join(indent + line for line in text.splitlines(keepends=True))
-        return super()._fill_text(text, width, indent)
+        return "\n\n".join(super(VerbHelpFormatter, self)._fill_text(part, width, indent) for part in text.split("\n\n"))
 
 
 def examples_epilog(examples: Iterable[str]) -> str:
@@ -216,12 +240,14 @@ class DomainCommands:
     """What a domain adds to the command line. Subclass it, override what applies, and name an instance in the
     domain's spec (``commands="mypackage.cli:COMMANDS"``). Handlers raise :class:`InputError` for bad input."""
 
-    #: The domain's verbs: name -> a function adding that verb's parser to ``subparsers``. A concept in
+    #: The domain's verbs: name -> a function adding that verb's parser to ``subparsers``, usually a declared
+    #: :class:`Verb` (``adders = verbs(verb("roll", cmd_roll, option(...)), ...)``). A concept in
     #: :data:`SHARED_VERBS` takes its verb there.
     adders: Mapping[str, Callable[[Any], None]] = {}
     #: Old verb names still answered for one release: old name -> its verb now.
     renamed: Mapping[str, str] = {}
-    #: Each verb's examples (whole command lines), shown at the end of its ``--help``.
+    #: Examples (whole command lines) by verb, shown at the end of its ``--help``: for verbs the domain does not
+    #: declare itself (``export``), or those declared without ``examples``.
     examples: Mapping[str, Sequence[str]] = {}
 
     def add_verbs(self, subparsers: Any, domain: DomainSpec, only: Collection[str] | None = None) -> None:
@@ -269,16 +295,19 @@ class DomainCommands:
 
 
 def add_setting_options(
-    parser: argparse.ArgumentParser, settings_class: type, fields: Iterable[str], label: str = "default"
+    parser: argparse.ArgumentParser,
+    settings_class: type,
+    fields: Iterable[str],
+    label: str = "default",
+    defaults: Mapping[str, Any] = {},
 ) -> None:
     """One option for each of ``fields`` of a settings dataclass, made from the field's
     :class:`structgen.config.Limit`: named ``--`` + the field with dashes (or the limit's ``option``), checked by the
     limit (:func:`limit_type`), helped by its text and the field's default as ``(label value)``. Each option defaults
-    to None, so that a field not given keeps the settings' value (:func:`given_settings`); the defaults are read from
-    the class's fields without building it, since building can check more than a parser needs (and load torch)."""
-    import dataclasses
-
-    defaults = {item.name: item.default for item in dataclasses.fields(settings_class)}
+    to None, so that a field not given keeps the settings' value (:func:`given_settings`), unless ``defaults`` names
+    the verb's own default for it; the class's defaults are read from its fields without building it, since building
+    can check more than a parser needs (and load torch)."""
+    shown = {item.name: item.default for item in dataclasses.fields(settings_class)} | dict(defaults)
     limits = limits_of(settings_class)
     for field in fields:
         limit = limits[field]
@@ -286,9 +315,9 @@ def add_setting_options(
             limit.option or "--" + field.replace("_", "-"),
             dest=field,
             type=limit_type(limit),
-            default=None,
+            default=defaults.get(field),
             metavar="N" if limit.whole else "X",
-            help=f"{limit.help} ({label} {defaults[field]})",
+            help=f"{limit.help} ({'default' if field in defaults else label} {shown[field]})",
         )
 
 
@@ -310,19 +339,27 @@ def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_sett
     return settings if args.generations is None else dataclasses.replace(settings, updates=args.generations)
 
 
-def add_seed_run_options(
-    parser: argparse.ArgumentParser, *, config_help: str, config_default: str | None, seeds: list[int], seeds_help: str
-) -> None:
+def seed_run_options(*, config_help: str, config_default: str | None, seeds: list[int], seeds_help: str) -> Adder:
     """The options every ``experiment`` verb shares (one run per seed, several at a time, then a table):
     ``OUT_DIR``, ``--config``, ``--seeds``, ``--parallel`` and ``--json``. The experiment itself and how each run
     uses its processes are the verb's own."""
-    parser.add_argument("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)")
-    parser.add_argument("--config", default=config_default, metavar="TOML", help=f"each run's configuration ({config_help})")
-    parser.add_argument(
-        "--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S", help=f"run seeds ({seeds_help})"
-    )
-    parser.add_argument("--parallel", type=whole_number(1, 1024), default=2, metavar="N", help="runs at once (default 2)")
-    parser.add_argument("--json", action="store_true", help="print the whole table as one JSON object, no progress bars")
+    return _together(lambda parser: parser, [
+        option("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)"),
+        option("--config", default=config_default, metavar="TOML", help=f"each run's configuration ({config_help})"),
+        option("--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S", help=f"run seeds ({seeds_help})"),
+        number("--parallel", 1, 1024, 2, "runs at once"),
+        json_flag("print the whole table as one JSON object, no progress bars"),
+    ])  # fmt: skip
+
+
+def write_by_suffix(output: Path, writers: Mapping[str, Callable[[Path], Any]], what: str) -> str:
+    """Write ``output`` with the writer its suffix names (``{".json": save, ".png": draw}``); any other suffix is
+    refused naming those that work. Returns the line an export prints."""
+    writer = writers.get(output.suffix.lower())
+    if writer is None:
+        raise InputError(f"{output}: {what} exports as {' or '.join(writers)}")
+    writer(output)
+    return f"{output}: {what}"
 
 
 def print_table(report: Mapping[str, Any], args: argparse.Namespace, markdown: Callable[[Any], str]) -> int:
@@ -336,3 +373,159 @@ def print_table(report: Mapping[str, Any], args: argparse.Namespace, markdown: C
 def verbs_wanted(names: Iterable[str], only: Collection[str] | None) -> list[str]:
     """The verbs of ``names`` to add: all, or those in ``only``."""
     return [name for name in names if only is None or name in only]
+
+
+# -- verbs declared: a verb is its handler plus its options, each option one call ---------------------------------------
+#: An option (or a group of them) as a function that adds it to a parser or an argument group.
+Adder = Callable[[Any], None]
+
+
+def option(*names: str, help: str, **kwargs: Any) -> Adder:
+    """One argument, declared: ``names`` and ``kwargs`` as argparse takes them. A default that says something (not
+    None, False or an empty list) is appended to ``help`` as ``(default X)`` unless the help already names one."""
+    default = kwargs.get("default")
+    says_something = default is not None and default is not False and default != []
+    if says_something and "default" not in help:
+        help = f"{help} (default {default:g})" if isinstance(default, float) else f"{help} (default {default})"
+    return lambda parser: parser.add_argument(*names, help=help, **kwargs)
+
+
+def number(name: str, low: float, high: float, default: Any = None, help: str = "", **kwargs: Any) -> Adder:
+    """A whole number from ``low`` to ``high`` (``metavar`` N unless given)."""
+    return option(name, type=whole_number(int(low), int(high)), default=default, help=help, **{"metavar": "N", **kwargs})
+
+
+def real(name: str, low: float, high: float, default: Any = None, help: str = "", *, above: bool = False, **kwargs: Any) -> Adder:
+    """A finite number from ``low`` (or above it, with ``above``) to ``high`` (``metavar`` X unless given)."""
+    kind = finite_number(low, high, above=above)
+    return option(name, type=kind, default=default, help=help, **{"metavar": "X", **kwargs})
+
+
+def flag(name: str, help: str) -> Adder:
+    """An option that is given or not (``store_true``)."""
+    return option(name, action="store_true", help=help)
+
+
+def json_flag(help: str = "print one JSON object") -> Adder:
+    """``--json``: the result as JSON on stdout instead of lines to read."""
+    return flag("--json", help)
+
+
+def output(metavar: str = "OUT", help: str = "file to write", *, required: bool = True, **kwargs: Any) -> Adder:
+    """``-o/--output``: a file the verb writes, checked before any work (a ``.png`` metavar asks for a PNG name)."""
+    kind = png_output_path if metavar.lower().endswith(".png") else output_path
+    return option("-o", "--output", type=kind, metavar=metavar, required=required, help=help, **kwargs)
+
+
+def seed(help: str, default: Any = 0, high: int = MAX_SEED, metavar: str = "N") -> Adder:
+    """``--seed``: a whole number from 0 to ``high``."""
+    return number("--seed", 0, high, default, help, metavar=metavar)
+
+
+def device(default: str | None = None, help: str = "torch device: cpu, cuda, cuda:N") -> Adder:
+    """``--device``: a torch device name (whether the machine has it is checked when the work starts)."""
+    return option("--device", type=device_name, default=default, help=help if default else f"{help} (default: the CPU)")
+
+
+def workers(
+    help: str = "processes that share the work (default 0: this one); the result is the same with any number", default: Any = 0
+) -> Adder:
+    """``--workers``: local processes, 0 for none."""
+    return number("--workers", 0, 1024, default, help)
+
+
+def overwrite(what: str = "a run folder that holds another run") -> Adder:
+    """``--overwrite``: replace ``what``, and never any other folder (the run folders' own check)."""
+    return flag("--overwrite", f"replace {what} (never any other folder)")
+
+
+def dpi() -> Adder:
+    """``--dpi``: a picture's resolution."""
+    return number("--dpi", 10, 1200, 110, "image resolution in dots per inch")
+
+
+def nca_weights() -> Adder:
+    """``--weights``: an NCA's weights, as ``evolution.files.read_weights`` reads them."""
+    return option("--weights", metavar="FILE", help="NCA weights: .npy (1-D array) or .json (list of numbers)")
+
+
+def one_of(*adders: Adder) -> Adder:
+    """Options of which at most one may be given."""
+    return _together(lambda parser: parser.add_mutually_exclusive_group(), adders)
+
+
+def group(title: str, *adders: Adder) -> Adder:
+    """Options shown together under ``title`` in ``--help``."""
+    return _together(lambda parser: parser.add_argument_group(title), adders)
+
+
+def _together(make_group: Callable[[Any], Any], adders: Sequence[Adder]) -> Adder:
+    def add(parser: Any) -> None:
+        grouped = make_group(parser)
+        for add_one in adders:
+            add_one(grouped)
+
+    return add
+
+
+def settings(settings_class: type, fields: Iterable[str], label: str = "default", defaults: Mapping[str, Any] = {}) -> Adder:
+    """One option for each of ``fields`` of a settings dataclass (:func:`add_setting_options`)."""
+    return lambda parser: add_setting_options(parser, settings_class, fields, label, defaults)
+
+
+def set_option(tables: str, example: str) -> Adder:
+    """``--set KEY=VALUE`` (:func:`add_set_option`)."""
+    return lambda parser: add_set_option(parser, tables, example)
+
+
+@dataclasses.dataclass(frozen=True)
+class Verb:
+    """A verb declared: its name, its handler and its options. Called with ``subparsers``, it adds its parser, which
+    runs ``handler`` with ``defaults`` set. The help line is the first paragraph of the handler's docstring and the
+    description the rest (each formatted with ``text`` and ``defaults``, so ``{kind}`` may stand for a value), unless
+    given here: what a verb does is written once, beside the code that does it. ``examples`` (command lines) end its
+    ``--help`` (:attr:`DomainCommands.examples` can also name a verb's, as it does for the generic ``export``)."""
+
+    name: str
+    handler: Callable[[argparse.Namespace], int]
+    adders: Sequence[Adder]
+    help: str | None = None
+    description: str | None = None
+    text: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    defaults: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    examples: Sequence[str] = ()
+
+    def __call__(self, subparsers: Any) -> Any:
+        first, _, rest = inspect.cleandoc(self.handler.__doc__ or "").partition("\n\n")
+        values = {**self.defaults, **self.text}
+        paragraphs = "\n\n".join(" ".join(part.split()) for part in rest.split("\n\n")).format(**values)
+        parser = subparsers.add_parser(
+            self.name,
+            help=self.help if self.help is not None else " ".join(first.split()).format(**values),
+            description=self.description if self.description is not None else paragraphs,
+            formatter_class=VerbHelpFormatter,
+            **({"epilog": examples_epilog(self.examples)} if self.examples else {}),
+        )
+        for add in self.adders:
+            add(parser)
+        parser.set_defaults(handler=self.handler, **self.defaults)
+        return parser
+
+
+def verb(
+    name: str,
+    handler: Callable[[argparse.Namespace], int],
+    *adders: Adder,
+    help: str | None = None,
+    description: str | None = None,
+    text: Mapping[str, Any] = {},
+    examples: Sequence[str] = (),
+    **defaults: Any,
+) -> Verb:
+    """Declare verb ``name`` (:class:`Verb`); ``defaults`` are set in the parsed arguments."""
+    return Verb(name, handler, adders, help, description, dict(text), dict(defaults), tuple(examples))
+
+
+def verbs(*declared: Verb, **defaults: Any) -> dict[str, Verb]:
+    """Declared verbs by name, for :attr:`DomainCommands.adders`; ``defaults`` are set by every one of them."""
+    return {item.name: dataclasses.replace(item, defaults={**defaults, **item.defaults}) for item in declared}

@@ -18,8 +18,7 @@
 from __future__ import annotations
 
 import json
-import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +30,7 @@ from structgen.budget import check_memory
 from structgen.devices import resolve_device
 from structgen.domains.autoverse.engine import EPISODE_STEPS, VIEW, Engine, Mechanics, Observation
 from structgen.domains.autoverse.game import check_game, game_key
+from structgen.domains.autoverse.train_settings import CloneSettings
 from structgen.errors import InputError
 
 __all__ = [
@@ -44,47 +44,6 @@ __all__ = [
     "normalisation",
     "split",
 ]
-
-
-@dataclass(frozen=True)
-class CloneSettings:
-    window: int = -1
-    hide_rules: bool = False
-    padding: str = "zeros"
-    blank_window: bool = False
-    hidden: int = 256
-    steps: int = 2000
-    batch_size: int = 256
-    learning_rate: float = 1e-4
-    seed: int = 0
-    device: str = "cpu"
-    eval_steps: int = 10_000
-    min_fitness: float = 2.0
-    original_pairing: bool = False
-
-    def __post_init__(self) -> None:
-        from structgen.devices import check_device_name
-
-        for name, low in (("steps", 1), ("batch_size", 1), ("eval_steps", 1), ("seed", 0), ("hidden", 1)):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < low:
-                raise InputError(f"clone {name} must be a whole number >= {low}, got {value!r}")
-        if self.window not in (-1, 5, 10, 20):
-            raise InputError(f"clone window must be -1 (the full map), 5, 10 or 20, got {self.window!r}")
-        rate = self.learning_rate
-        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate < math.inf:
-            raise InputError(f"clone learning_rate must be a positive finite number, got {rate!r}")
-        fitness = self.min_fitness
-        if isinstance(fitness, bool) or not isinstance(fitness, (int, float)) or not math.isfinite(fitness):
-            raise InputError(f"clone min_fitness must be a finite number, got {fitness!r}")
-        check_device_name(self.device, "clone device")
-        try:
-            self.observation()
-        except ValueError as err:
-            raise InputError(f"clone {err}") from None
-
-    def observation(self) -> Observation:
-        return Observation(window=self.window, hide_rules=self.hide_rules, padding=self.padding, blank_window=self.blank_window)
 
 
 class Policy(nn.Module):

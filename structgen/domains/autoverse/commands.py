@@ -13,37 +13,31 @@ from typing import Any
 
 import numpy as np
 
+from structgen.domains.autoverse.game import MUTATIONS
+from structgen.domains.autoverse.train_settings import PRESETS, CloneSettings, TrainSettings
 from structgen.ppo_settings import PPO_OPTIONS
 from structgen.registry.commands import (
     MAX_SEED,
     DomainCommands,
     InputError,
-    add_setting_options,
-    device_name,
-    finite_number,
+    device,
+    flag,
     given_settings,
+    json_flag,
+    number,
+    option,
+    output,
     output_path,
+    overwrite,
     resumed_training_settings,
-    whole_number,
+    seed,
+    settings,
+    verb,
+    verbs,
+    write_by_suffix,
 )
 
 EXIT_OK = 0
-
-
-def _game_source(p: argparse.ArgumentParser) -> None:
-    p.add_argument("game", nargs="?", metavar="GAME", help="game JSON file, or a run folder (its best game)")
-    p.add_argument("--random", type=whole_number(0, MAX_SEED), metavar="SEED", help="a random game from this seed instead")
-    p.add_argument(
-        "--builtin",
-        choices=("maze", "lava_maze", "sokoban"),
-        help="a hand-written game instead (after the original's; docs/autoverse.md)",
-    )
-    p.add_argument(
-        "--original",
-        action="store_true",
-        help="the original's mechanics: actions other than placing clear force in front of the player, and rules "
-        "with an empty input fire on every cell",
-    )
 
 
 def _mechanics(args: argparse.Namespace) -> Any:
@@ -90,27 +84,13 @@ def _save(game: dict[str, Any], path: Path | None) -> None:
     atomic_write(path, json.dumps(game_to_json(game)) + "\n")
 
 
-def _observation_options(p: argparse.ArgumentParser) -> None:
-    """What the player sees: every setting of :class:`.engine.Observation`."""
-    p.add_argument(
-        "--window", type=int, default=-1, choices=(-1, 5, 10, 20), help="side of the view around the player (-1: the whole map)"
-    )
-    p.add_argument("--hide-rules", action="store_true", help="zero the rules and rewards in the observation")
-    p.add_argument(
-        "--padding",
-        choices=("zeros", "wrap"),
-        default="zeros",
-        help="beyond the map's edges the view shows zeros (default, as the paper and the original) or wraps around the torus",
-    )
-    p.add_argument(
-        "--blank-window",
-        action="store_true",
-        help="the original environment's windowed view, all zeros for any window but the whole map (to reproduce it)",
-    )
-
-
 # -- play -----------------------------------------------------------------------------------------------------------------
 def cmd_play(args: argparse.Namespace) -> int:
+    """play a game with given or random actions and print the return
+
+    Step GAME with ACTIONS (or --steps random ones) and print the return; optionally save the game and a GIF of the
+    play. Actions: 0 and 1 turn, 2 moves forward, 3 back, 4 places force in front.
+    """
     from structgen.domains.autoverse.show import playtrace_gif, replay
 
     game = load_game(args)
@@ -131,6 +111,11 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 # -- search ---------------------------------------------------------------------------------------------------------------
 def cmd_search(args: argparse.Namespace) -> int:
+    """find a game's best play with best-first search and print its fitness
+
+    Run greedy best-first search on cumulative reward for BUDGET expansions and print the best return, the
+    iteration it was first found at (the evolution's fitness) and the actions that reach it.
+    """
     from structgen.domains.autoverse.search import search, search_fitness
     from structgen.domains.autoverse.show import playtrace_gif
 
@@ -159,6 +144,11 @@ def cmd_search(args: argparse.Namespace) -> int:
 
 # -- show -----------------------------------------------------------------------------------------------------------------
 def cmd_show(args: argparse.Namespace) -> int:
+    """draw a game (PNG: map and rules) or a playtrace (GIF)
+
+    Draw GAME: a .png shows the initial map and each rule as before/after 1x3 patterns with its reward (and, with
+    actions, the final map and the return along the play); a .gif animates a playtrace.
+    """
     from structgen.domains.autoverse.search import search
     from structgen.domains.autoverse.show import draw_game, playtrace_gif
 
@@ -183,23 +173,20 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 # -- clone ----------------------------------------------------------------------------------------------------------------
 def cmd_clone(args: argparse.Namespace) -> int:
-    from structgen.domains.autoverse.clone import CloneSettings, clone_run
+    """train a policy by behaviour cloning on a run's playtraces and evaluate it
 
-    settings = CloneSettings(
-        window=args.window,
-        hide_rules=args.hide_rules,
-        padding=args.padding,
-        blank_window=args.blank_window,
-        hidden=args.hidden,
-        steps=args.steps,
-        batch_size=args.batch_size,
-        learning_rate=args.lr,
-        seed=args.seed,
-        device=args.device,
-        eval_steps=args.eval_steps,
-        min_fitness=args.min_fitness,
-        original_pairing=args.original_pairing,
-    )
+    Collect the best playtrace of every distinct game a run evaluated (fitness at least --min-fitness), split the
+    games into train/val/test as the original does, train the original's network by behaviour cloning on
+    observations of the traces, and evaluate it on every game for --eval-steps steps in the original's normalised
+    return. Writes OUTPUT/policy.pt and OUTPUT/report.json.
+    """
+    from structgen.domains.autoverse.clone import clone_run
+
+    values = given_settings(args, _CLONE_FIELDS) | _observed(args)
+    try:
+        settings = CloneSettings(**values, device=args.device, original_pairing=args.original_pairing)
+    except ValueError as err:
+        raise InputError(str(err)) from None
     report = clone_run(Path(args.run_dir), settings, args.output, progress=not args.json)
     if args.json:
         print(json.dumps(report))
@@ -209,85 +196,6 @@ def cmd_clone(args: argparse.Namespace) -> int:
                 print(f"{split}: {report[f'{split}_games']} games, mean normalised return {report[f'{split}_mean']:.2f}")
         print(f"{args.output}: policy and report")
     return EXIT_OK
-
-
-def _add_play(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "play",
-        help="play a game with given or random actions and print the return",
-        description="Step GAME with ACTIONS (or --steps random ones) and print the return; optionally save the game "
-        "and a GIF of the play. Actions: 0 and 1 turn, 2 moves forward, 3 back, 4 places force in front.",
-    )
-    _game_source(p)
-    p.add_argument("--actions", type=_parse_actions, metavar="A,A,...", help="actions 0-4, comma-separated")
-    p.add_argument("--steps", type=whole_number(1, 10**6), default=101, metavar="N", help="random actions (default 101)")
-    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed of random actions (default 0)")
-    p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animation of the play")
-    p.add_argument("--save", type=output_path, metavar="OUT.json", help="write the game as JSON")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(handler=cmd_play)
-
-
-def _add_search(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "evaluate",
-        help="find a game's best play with best-first search and print its fitness",
-        description="Run greedy best-first search on cumulative reward for BUDGET expansions and print the best "
-        "return, the iteration it was first found at (the evolution's fitness) and the actions that reach it.",
-    )
-    _game_source(p)
-    p.add_argument("--budget", type=whole_number(1, 10**7), default=200, metavar="N", help="expansions (default 200)")
-    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed of the child order (default 0)")
-    p.add_argument(
-        "--device", type=device_name, default="cpu", help="torch device of the engine: cpu, cuda, cuda:N (default cpu)"
-    )
-    p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animation of the best play")
-    p.add_argument("--save", type=output_path, metavar="OUT.json", help="write the game as JSON")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(handler=cmd_search)
-
-
-def _add_show(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "show",
-        help="draw a game (PNG: map and rules) or a playtrace (GIF)",
-        description="Draw GAME: a .png shows the initial map and each rule as before/after 1x3 patterns with its "
-        "reward (and, with actions, the final map and the return along the play); a .gif animates a playtrace.",
-    )
-    _game_source(p)
-    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png|OUT.gif", help="file to write")
-    p.add_argument("--actions", type=_parse_actions, metavar="A,A,...", help="a playtrace to draw")
-    p.add_argument("--search", type=whole_number(1, 10**7), metavar="BUDGET", help="draw the best play search finds")
-    p.set_defaults(handler=cmd_show)
-
-
-def _add_clone(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "clone",
-        help="train a policy by behaviour cloning on a run's playtraces and evaluate it",
-        description="Collect the best playtrace of every distinct game a run evaluated (fitness at least "
-        "--min-fitness), split the games into train/val/test as the original does, train the original's "
-        "network by behaviour cloning on observations of the traces, and evaluate it on every game for "
-        "--eval-steps steps in the original's normalised return. Writes OUTPUT/policy.pt and OUTPUT/report.json.",
-    )
-    p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse run folder")
-    p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="folder to write")
-    _observation_options(p)
-    p.add_argument(
-        "--hidden", type=whole_number(1, 4096), default=256, metavar="N", help="network width (default 256, the original's)"
-    )
-    p.add_argument("--steps", type=whole_number(1, 10**7), default=2000, metavar="N", help="gradient steps (default 2000)")
-    p.add_argument("--batch-size", type=whole_number(1, 10**6), default=256, metavar="N", help="batch (default 256)")
-    p.add_argument(
-        "--lr", type=finite_number(0, 1, above=True), default=1e-4, help="Adam learning rate (default 1e-4, the original's)"
-    )
-    p.add_argument("--eval-steps", type=whole_number(1, 10**7), default=10_000, metavar="N", help="per game (default 10,000)")
-    p.add_argument("--min-fitness", type=finite_number(), default=2.0, help="games below this fitness are left out (default 2)")
-    p.add_argument("--original-pairing", action="store_true", help="pair each observation with the action that led to it")
-    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="seed (default 0)")
-    p.add_argument("--device", type=device_name, default="cpu", help="torch device: cpu, cuda, cuda:N (default cpu)")
-    p.add_argument("--json", action="store_true", help="print the report as one JSON object")
-    p.set_defaults(handler=cmd_clone)
 
 
 # -- train ----------------------------------------------------------------------------------------------------------------
@@ -310,14 +218,23 @@ _TRAIN_FIELDS = (
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    """train a player for a run's games: behaviour cloning, then PPO (optionally on games evolved for it)
+
+    Clone a policy from the search playtraces of the Autoverse run RUN_DIR (its games split into
+    train/validation/test as the original splits them), then train it by PPO on the training games, each episode on
+    a game drawn at random; with --evolve-every K, every K updates the games are mutated and those where the agent's
+    value prediction errs most are kept (the paper's open-ended phase). Evaluates on every split as it goes. OUT_DIR
+    gets checkpoints (the same command resumes it; more --updates go on; so does structgen resume OUT_DIR),
+    history.jsonl, learning.png (evolution.png) and policy.pt. Defaults are the 'cpu' preset (about 4 minutes on 2
+    cores for the games of a 100-generation run); --preset original takes the original's settings (meant for a
+    GPU).
+    """
     from structgen.domains.autoverse.train import train
-    from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
 
     values = dict(PRESETS[args.preset])
     values.update(given_settings(args, (*_TRAIN_FIELDS, "evolve_mutation")))
-    observed = {"window": args.window, "hide_rules": args.hide_rules, "padding": args.padding, "blank_window": args.blank_window}
     try:
-        settings = TrainSettings(**values, **observed, device=args.device)
+        settings = TrainSettings(**values, **_observed(args), device=args.device)
     except ValueError as err:
         raise InputError(str(err)) from None
     rows = train(args.run_dir, args.output, settings, overwrite=args.overwrite, progress=True)
@@ -338,54 +255,75 @@ def _print_training(output: Path, rows: list[dict[str, Any]]) -> None:
     print(f"policy: {Path(output) / POLICY_FILE}; learning curve: {Path(output) / LEARNING_PLOT}")
 
 
-def _add_train(subparsers: Any) -> None:
-    from structgen.domains.autoverse.game import MUTATIONS
-    from structgen.domains.autoverse.train_settings import PRESETS, TrainSettings
+#: Where a verb's game comes from.
+_GAME = (
+    option("game", nargs="?", metavar="GAME", help="game JSON file, or a run folder (its best game)"),
+    number("--random", 0, MAX_SEED, metavar="SEED", help="a random game from this seed instead"),
+    option("--builtin", choices=("maze", "lava_maze", "sokoban"), help="a hand-written game instead (after the "
+           "original's; docs/autoverse.md)"),
+    flag("--original", "the original's mechanics: actions other than placing clear force in front of the player, and "
+         "rules with an empty input fire on every cell"),
+)  # fmt: skip
 
-    p = subparsers.add_parser(
-        "train",
-        help="train a player for a run's games: behaviour cloning, then PPO (optionally on games evolved for it)",
-        description="Clone a policy from the search playtraces of the Autoverse run RUN_DIR (its games split into "
-        "train/validation/test as the original splits them), then train it by PPO on the training games, each "
-        "episode on a game drawn at random; with --evolve-every K, every K updates the games are mutated and those "
-        "where the agent's value prediction errs most are kept (the paper's open-ended phase). Evaluates on every "
-        "split as it goes. OUT_DIR gets checkpoints (the same command resumes it; more --updates go on; so does "
-        "structgen resume OUT_DIR), history.jsonl, learning.png (evolution.png) and policy.pt. Defaults are the "
-        "'cpu' preset (about 4 minutes on 2 cores for the games of a 100-generation run); --preset original "
-        "takes the original's settings (meant for a GPU).",
-    )
-    p.add_argument("run_dir", metavar="RUN_DIR", help="an Autoverse evolution run folder (its playtraces)")
-    p.add_argument("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="training folder (made, or resumed)")
-    p.add_argument("--preset", choices=tuple(PRESETS), default="cpu", help="starting settings (default cpu)")
-    add_setting_options(p, TrainSettings, _TRAIN_FIELDS, "cpu preset:")
-    p.add_argument(
-        "--evolve-mutation",
-        choices=MUTATIONS,
-        default=None,
-        help=f"how evolved games differ from their parents (cpu preset: {TrainSettings.evolve_mutation})",
-    )
-    _observation_options(p)
-    p.add_argument("--device", type=device_name, default="cpu", help="torch device: cpu, cuda, cuda:N (default cpu)")
-    p.add_argument(
-        "--overwrite", action="store_true", help="replace a training folder that holds another training (never any other folder)"
-    )
-    p.set_defaults(handler=cmd_train)
+
+def _observed(args: argparse.Namespace) -> dict[str, Any]:
+    """What the player sees, as the options of :data:`_OBSERVATION` give it."""
+    return {name: getattr(args, name) for name in ("window", "hide_rules", "padding", "blank_window")}
+
+
+#: The settings clone takes as options, each made from the field's limit (CloneSettings.limits).
+_CLONE_FIELDS = ("hidden", "steps", "batch_size", "learning_rate", "eval_steps", "min_fitness", "seed")
+#: What the player sees: every setting of :class:`.engine.Observation`.
+_OBSERVATION = (
+    option("--window", type=int, default=-1, choices=(-1, 5, 10, 20), help="side of the view around the player (-1: the "
+           "whole map)"),
+    flag("--hide-rules", "zero the rules and rewards in the observation"),
+    option("--padding", choices=("zeros", "wrap"), default="zeros", help="beyond the map's edges the view shows zeros "
+           "(default, as the paper and the original) or wraps around the torus"),
+    flag("--blank-window", "the original environment's windowed view, all zeros for any window but the whole map (to "
+         "reproduce it)"),
+)  # fmt: skip
+_ACTIONS = option("--actions", type=_parse_actions, metavar="A,A,...", help="actions 0-4, comma-separated")
+_SAVE = option("--save", type=output_path, metavar="OUT.json", help="write the game as JSON")
 
 
 class AutoverseCommands(DomainCommands):
     renamed = {"search": "evaluate"}  # until 0.5
     examples = {
-        "play": ["structgen autoverse play --builtin maze --actions 2,2,0,2", "structgen autoverse play game.json --steps 50"],
-        "evaluate": [
-            "structgen autoverse evaluate --random 6 --budget 200 --save game.json",
-            "structgen autoverse evaluate --builtin maze --budget 2000",
-        ],
-        "show": ["structgen autoverse show game.json -o game.png", "structgen autoverse show game.json -o play.gif --search 200"],
-        "clone": ["structgen autoverse clone runs/autoverse -o runs/autoverse-bc --window 5"],
-        "train": ["structgen autoverse train runs/autoverse -o runs/av-player"],
-        "export": ["structgen autoverse export runs/autoverse best.json", "structgen autoverse export runs/autoverse best.png"],
+        "export": ["structgen autoverse export runs/autoverse best.json", "structgen autoverse export runs/autoverse best.png"]
     }
-    adders = {"play": _add_play, "evaluate": _add_search, "show": _add_show, "clone": _add_clone, "train": _add_train}
+    adders = verbs(
+        verb("play", cmd_play, *_GAME, _ACTIONS, number("--steps", 1, 10**6, 101, "random actions"),
+             seed("seed of random actions", metavar="S"),
+             option("--gif", type=output_path, metavar="OUT.gif", help="write an animation of the play"), _SAVE, json_flag(),
+             examples=["structgen autoverse play --builtin maze --actions 2,2,0,2",
+                       "structgen autoverse play game.json --steps 50"]),
+        verb("evaluate", cmd_search, *_GAME, number("--budget", 1, 10**7, 200, "expansions"),
+             seed("seed of the child order", metavar="S"), device("cpu", "torch device of the engine: cpu, cuda, cuda:N"),
+             option("--gif", type=output_path, metavar="OUT.gif", help="write an animation of the best play"), _SAVE,
+             json_flag(),
+             examples=["structgen autoverse evaluate --random 6 --budget 200 --save game.json",
+                       "structgen autoverse evaluate --builtin maze --budget 2000"]),
+        verb("show", cmd_show, *_GAME, output("OUT.png|OUT.gif"),
+             option("--actions", type=_parse_actions, metavar="A,A,...", help="a playtrace to draw"),
+             number("--search", 1, 10**7, metavar="BUDGET", help="draw the best play search finds"),
+             examples=["structgen autoverse show game.json -o game.png",
+                       "structgen autoverse show game.json -o play.gif --search 200"]),
+        verb("clone", cmd_clone, option("run_dir", metavar="RUN_DIR", help="an Autoverse run folder"),
+             option("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="folder to write"), *_OBSERVATION,
+             settings(CloneSettings, _CLONE_FIELDS),
+             flag("--original-pairing", "pair each observation with the action that led to it"),
+             device("cpu"), json_flag("print the report as one JSON object"),
+             examples=["structgen autoverse clone runs/autoverse -o runs/autoverse-bc --window 5"]),
+        verb("train", cmd_train, option("run_dir", metavar="RUN_DIR", help="an Autoverse evolution run folder (its playtraces)"),
+             option("-o", "--output", required=True, type=Path, metavar="OUT_DIR", help="training folder (made, or resumed)"),
+             option("--preset", choices=tuple(PRESETS), default="cpu", help="starting settings"),
+             settings(TrainSettings, _TRAIN_FIELDS, "cpu preset:"),
+             option("--evolve-mutation", choices=MUTATIONS, help=f"how evolved games differ from their parents (cpu preset: "
+                    f"{TrainSettings.evolve_mutation})"),
+             *_OBSERVATION, device("cpu"), overwrite("a training folder that holds another training"),
+             examples=["structgen autoverse train runs/autoverse -o runs/av-player"]),
+    )  # fmt: skip
 
     def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
         from structgen.domains.autoverse.train import RUN_KIND, read_settings, source_run, train
@@ -411,16 +349,10 @@ class AutoverseCommands(DomainCommands):
         return summary, text
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
-        suffix = output.suffix.lower()
-        if suffix == ".json":
-            _save(genome, output)
-        elif suffix == ".png":
-            from structgen.domains.autoverse.show import draw_game
+        from structgen.domains.autoverse.show import draw_game
 
-            draw_game(genome, output)
-        else:
-            raise InputError(f"{output}: an Autoverse game exports as .json or .png")
-        return f"{output}: Autoverse game"
+        return write_by_suffix(output, {".json": lambda path: _save(genome, path), ".png": lambda path: draw_game(genome, path)},
+                               "Autoverse game")  # fmt: skip
 
 
 AUTOVERSE_COMMANDS = AutoverseCommands()

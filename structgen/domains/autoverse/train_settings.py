@@ -1,5 +1,5 @@
-"""The settings of ``structgen autoverse train`` (:mod:`.train`), apart from the training so that the command line
-can show their defaults without loading torch."""
+"""The settings of ``structgen autoverse train`` (:mod:`.train`) and ``clone`` (:mod:`.clone`), apart from the
+training so that the command line can show their defaults without loading torch."""
 
 from __future__ import annotations
 
@@ -7,11 +7,61 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from structgen.config import Limit
+from structgen.config import Limit, check_limits
 from structgen.domains.autoverse.game import MUTATIONS
 from structgen.ppo_settings import PPOSettings
 
-__all__ = ["PRESETS", "TrainSettings"]
+__all__ = ["PRESETS", "CloneSettings", "TrainSettings"]
+
+
+@dataclass(frozen=True)
+class CloneSettings:
+    """Behaviour cloning on a run's playtraces (:func:`.clone.clone_run`): what the player sees (``window``,
+    ``hide_rules``, ``padding``, ``blank_window``: :class:`.engine.Observation`), the network's width, the cloning's
+    gradient steps, batch, learning rate and seed, its torch device, the steps each game is played in the evaluation,
+    the fitness below which a game is left out, and ``original_pairing`` (each observation paired with the action that
+    led to it, as the original pairs them)."""
+
+    section: ClassVar[str] = "clone"
+    limits: ClassVar[dict[str, Limit]] = {
+        "hidden": Limit(1, 4096, "network width (the original's 256)"),
+        "steps": Limit(1, 10**7, "gradient steps"),
+        "batch_size": Limit(1, 10**6, "batch"),
+        "learning_rate": Limit(0, 1, "Adam learning rate (the original's 1e-4)", whole=False, above=True, option="--lr"),
+        "seed": Limit(0, 2**63 - 1, "seed"),
+        "eval_steps": Limit(1, 10**7, "steps each game is played in the evaluation"),
+        "min_fitness": Limit(-math.inf, math.inf, "games below this fitness are left out", whole=False),
+    }
+
+    window: int = -1
+    hide_rules: bool = False
+    padding: str = "zeros"
+    blank_window: bool = False
+    hidden: int = 256
+    steps: int = 2000
+    batch_size: int = 256
+    learning_rate: float = 1e-4
+    seed: int = 0
+    device: str = "cpu"
+    eval_steps: int = 10_000
+    min_fitness: float = 2.0
+    original_pairing: bool = False
+
+    def __post_init__(self) -> None:
+        from structgen.devices import check_device_name
+
+        check_limits(self)
+        if self.window not in (-1, 5, 10, 20):
+            raise ValueError(f"clone window must be -1 (the full map), 5, 10 or 20, got {self.window!r}")
+        check_device_name(self.device, "clone device")
+        try:
+            self.observation()
+        except ValueError as err:
+            raise ValueError(f"clone {err}") from None
+
+    def observation(self) -> Any:
+        """The :class:`.engine.Observation` of these settings."""
+        return _observation(self)
 
 
 @dataclass(frozen=True)
@@ -81,9 +131,14 @@ class TrainSettings(PPOSettings):
 
     def observation(self) -> Any:
         """The :class:`.engine.Observation` of these settings."""
-        from structgen.domains.autoverse.engine import Observation
+        return _observation(self)
 
-        return Observation(window=self.window, hide_rules=self.hide_rules, padding=self.padding, blank_window=self.blank_window)
+
+def _observation(settings: CloneSettings | TrainSettings) -> Any:
+    from structgen.domains.autoverse.engine import Observation
+
+    names = ("window", "hide_rules", "padding", "blank_window")
+    return Observation(**{name: getattr(settings, name) for name in names})
 
 
 #: ``cpu``: the defaults, a few minutes on 2 CPU cores for a 100-generation run's games. ``original``: the

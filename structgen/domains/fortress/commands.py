@@ -20,30 +20,20 @@ from structgen.registry.commands import (
     MAX_SEED,
     DomainCommands,
     InputError,
-    add_seed_run_options,
+    flag,
+    json_flag,
+    number,
+    option,
+    output,
     output_path,
     png_output_path,
     print_table,
-    whole_number,
+    seed,
+    seed_run_options,
+    verb,
+    verbs,
+    write_by_suffix,
 )
-
-
-def _world_source(p: argparse.ArgumentParser) -> None:
-    p.add_argument("world", nargs="?", metavar="WORLD", help="fortress file, or a run folder (its best world)")
-    p.add_argument("--elite", default="best", metavar="best|index:I", help="which world of a run folder (default best)")
-    p.add_argument("--random", type=whole_number(0, MAX_SEED), metavar="SEED", help="a random world from this seed instead")
-    p.add_argument("--steps", type=whole_number(0, 10**6), default=100, metavar="N", help="ticks at most (default 100)")
-    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help="simulation seed (default 0)")
-    p.add_argument(
-        "--rules",
-        choices=["code", "af-paper", "qd-paper"],
-        default="code",
-        help="whose rules: the original code's (default); 'af-paper', the first paper's words where they differ "
-        "(nextTo north/south/east/west only, a stop after 20 ticks without an event, more than 120 entities "
-        "overpopulate); 'qd-paper', the quality-diversity paper's (nextTo north/south/east/west only, move_wall "
-        "blocked by any entity of its class). docs/fortress.md quotes the sentence behind each",
-    )
-    p.add_argument("--paper-rules", action="store_const", const="af-paper", dest="rules", help="the same as --rules af-paper")
 
 
 def _rules(args: argparse.Namespace) -> Any:
@@ -98,6 +88,11 @@ def _save(world: Any, path: Path | None) -> None:
 
 # -- run ------------------------------------------------------------------------------------------------------------------
 def cmd_run(args: argparse.Namespace) -> int:
+    """simulate a world and print its final map and the population of each class
+
+    Simulate WORLD for --steps ticks under --seed and print the final map (the original's text form), why it
+    stopped, the share of its machines visited, and how many entities of each class are left.
+    """
     from structgen.domains.fortress.engine import describe
     from structgen.domains.fortress.show import map_text
 
@@ -123,6 +118,11 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 # -- replay ---------------------------------------------------------------------------------------------------------------
 def cmd_replay(args: argparse.Namespace) -> int:
+    """print a simulation tick by tick, or write it as an animated GIF or a strip of frames
+
+    Simulate WORLD and print its map after every --every ticks (or, with --json, every entity of every tick and the
+    nodes and edges visited); --gif writes an animation (one frame a tick), --strip a PNG of evenly spaced frames.
+    """
     from structgen.domains.fortress.show import map_text, trace_gif, trace_strip
 
     world, label = load_world(args)
@@ -156,6 +156,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 # -- show -----------------------------------------------------------------------------------------------------------------
 def cmd_show(args: argparse.Namespace) -> int:
+    """draw a world's initial map and machine sizes, and the population of each class over a simulation
+
+    Write OUT.png with WORLD's initial map and the nodes and edges of each class; --populations also simulates it
+    and plots how many entities of each class there are after each tick.
+    """
     from evolution.files import atomic_write
     from evolution.plots import figure_png
     from structgen.domains.fortress.show import draw_world, population_figure
@@ -173,6 +178,13 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 # -- robustness -----------------------------------------------------------------------------------------------------------
 def cmd_robustness(args: argparse.Namespace) -> int:
+    """re-evaluate runs' archives on new seeds and on longer episodes (the paper's robustness table)
+
+    For one or more fortress MAP-Elites runs: re-simulate every elite of each run on new seeds (as many as the run
+    used, after them) and on new seeds with --longer times longer episodes, average the new results with the stored
+    ones and re-bin them into a fresh archive per run (as the original does); merge the runs' archives (best elite
+    per cell), and print QD score, cells filled, mean and best fitness of every archive.
+    """
     from evolution.files import atomic_write
     from structgen.domains.fortress.robustness import open_runs, reevaluate
 
@@ -192,74 +204,14 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_run(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "evaluate",
-        help="simulate a world and print its final map and the population of each class",
-        description="Simulate WORLD for --steps ticks under --seed and print the final map (the original's text "
-        "form), why it stopped, the share of its machines visited, and how many entities of each class are left.",
-    )
-    _world_source(p)
-    p.add_argument("--save", type=output_path, metavar="OUT.txt", help="write the world as a fortress file")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(handler=cmd_run)
-
-
-def _add_replay(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "replay",
-        help="print a simulation tick by tick, or write it as an animated GIF or a strip of frames",
-        description="Simulate WORLD and print its map after every --every ticks (or, with --json, every entity "
-        "of every tick and the nodes and edges visited); --gif writes an animation (one frame a tick), --strip a "
-        "PNG of evenly spaced frames.",
-    )
-    _world_source(p)
-    p.add_argument("--every", type=whole_number(1, 10**6), default=1, metavar="K", help="print every K-th tick (default 1)")
-    p.add_argument("--quiet", action="store_true", help="print no maps, only the files written")
-    p.add_argument(
-        "--json",
-        action="store_true",
-        help="print one JSON object instead of maps: 'entities', per tick (0 = the start) the live entities as "
-        "[class, x, y, node] in creation order, and 'visits', per class the nodes and edges visited",
-    )
-    p.add_argument("--gif", type=output_path, metavar="OUT.gif", help="write an animated GIF")
-    p.add_argument("--strip", type=png_output_path, metavar="OUT.png", help="write a PNG strip of frames")
-    p.add_argument("--frames", type=whole_number(2, 50), default=6, metavar="N", help="frames in the strip (default 6)")
-    p.set_defaults(handler=cmd_replay)
-
-
-def _add_show(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "show",
-        help="draw a world's initial map and machine sizes, and the population of each class over a simulation",
-        description="Write OUT.png with WORLD's initial map and the nodes and edges of each class; --populations "
-        "also simulates it and plots how many entities of each class there are after each tick.",
-    )
-    _world_source(p)
-    p.add_argument("-o", "--output", required=True, type=png_output_path, metavar="OUT.png", help="picture to write")
-    p.add_argument("--populations", type=png_output_path, metavar="OUT.png", help="also plot populations over time")
-    p.set_defaults(handler=cmd_show)
-
-
-def _add_robustness(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "robustness",
-        help="re-evaluate runs' archives on new seeds and on longer episodes (the paper's robustness table)",
-        description="For one or more fortress MAP-Elites runs: re-simulate every elite of each run on new seeds (as "
-        "many as the run used, after them) and on new seeds with --longer times longer episodes, average the new "
-        "results with the stored ones and re-bin them into a fresh archive per run (as the original does); merge "
-        "the runs' archives (best elite per cell), and print QD score, cells filled, mean and best fitness of "
-        "every archive.",
-    )
-    p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="fortress run folders with archives (same settings)")
-    p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")
-    p.add_argument("--chunk", type=whole_number(1, 10**5), default=256, metavar="N", help="worlds per engine call (default 256)")
-    p.add_argument("-o", "--output", type=output_path, metavar="OUT.json", help="write the table as JSON")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(handler=cmd_robustness)
-
-
 def cmd_experiment(args: argparse.Namespace) -> int:
+    """one of the paper's experiments end to end: 10 MAP-Elites runs, then its half of Table 3
+
+    Run the paper's configuration once per seed (OUT_DIR/seed-S; a folder there is resumed, or kept if finished),
+    several runs at a time, then re-evaluate every archive as the paper's Table 3 does (on new seeds, and on new
+    seeds with --longer times longer episodes; each run re-binned, the runs merged best per cell) and write
+    OUT_DIR/table.json and OUT_DIR/table.md beside the paper's numbers.
+    """
     from structgen.domains.fortress.experiment import run_experiment, table_markdown
 
     report = run_experiment(
@@ -269,33 +221,14 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     return print_table(report, args, table_markdown)
 
 
-def _add_experiment(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "experiment",
-        help="one of the paper's experiments end to end: 10 MAP-Elites runs, then its half of Table 3",
-        description="Run the paper's configuration once per seed (OUT_DIR/seed-S; a folder there is resumed, or kept "
-        "if finished), several runs at a time, then re-evaluate every archive as the paper's Table 3 does (on new "
-        "seeds, and on new seeds with --longer times longer episodes; each run re-binned, the runs merged best per "
-        "cell) and write OUT_DIR/table.json and OUT_DIR/table.md beside the paper's numbers.",
-    )
-    p.add_argument("measures", choices=["entities_nodes", "entities_entropy"], help="the experiment: its measures")
-    add_seed_run_options(
-        p, config_default="configs/fortress_paper.toml", config_help="default configs/fortress_paper.toml: the paper's run",
-        seeds=list(range(20, 30)), seeds_help="default 20 to 29, the original's sweep",
-    )  # fmt: skip
-    p.add_argument(
-        "--threads", type=whole_number(1, 1024), default=1, metavar="T",
-        help="engine threads of each run (default 1: on a few cores, runs side by side use them best)",
-    )  # fmt: skip
-    p.add_argument("--cluster", metavar="ADDRESS", help="run the seeds on the Dask scheduler at ADDRESS instead")
-    p.add_argument(
-        "--generations", type=whole_number(1, 10**7), metavar="N", help="generations of each run (default: the config's)"
-    )
-    p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")
-    p.set_defaults(handler=cmd_experiment)
-
-
 def cmd_figure(args: argparse.Namespace) -> int:
+    """draw one of the paper's result figures from run folders (archive heatmaps, robustness, populations)
+
+    archive: the archive of one run, or the best elite per cell over several, as a heatmap over its measures
+    coloured by --colour (Figures 4, 7a/7b, 8a/8b); robustness: one run's archive as evolved, on new seeds, and on
+    new seeds with --longer times longer episodes (Figure 5); populations: entities of each class over --longer
+    times the evolution episode for the highest-entropy elite and the two ends of the entities measure (Figure 6).
+    """
     from structgen.domains.fortress import figures
 
     if args.kind == "archive":
@@ -310,63 +243,74 @@ def cmd_figure(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_figure(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "figure",
-        help="draw one of the paper's result figures from run folders (archive heatmaps, robustness, populations)",
-        description="archive: the archive of one run, or the best elite per cell over several, as a heatmap over "
-        "its measures coloured by --colour (Figures 4, 7a/7b, 8a/8b); robustness: one run's archive as evolved, on "
-        "new seeds, and on new seeds with --longer times longer episodes (Figure 5); populations: entities of each "
-        "class over --longer times the evolution episode for the highest-entropy elite and the two ends of the "
-        "entities measure (Figure 6).",
-    )
-    p.add_argument("kind", choices=["archive", "robustness", "populations"], help="which figure")
-    p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="fortress MAP-Elites run folders (same settings)")
-    p.add_argument("-o", "--output", required=True, type=png_output_path, metavar="OUT.png", help="picture to write")
-    p.add_argument(
-        "--colour", choices=["fitness", "entropy", "nodes"], default="fitness",
-        help="archive: colour cells by fitness (default), by the entropy of the class sizes or by total nodes",
-    )  # fmt: skip
-    p.add_argument("--longer", type=whole_number(2, 100), default=5, metavar="X", help="episode length factor (default 5)")
-    p.add_argument("--seed", type=whole_number(0, 2**31), default=0, metavar="S", help="populations: simulation seed (default 0)")
-    p.set_defaults(handler=cmd_figure)
+#: Where a verb's world comes from, and how it is simulated.
+_WORLD = (
+    option("world", nargs="?", metavar="WORLD", help="fortress file, or a run folder (its best world)"),
+    option("--elite", default="best", metavar="best|index:I", help="which world of a run folder"),
+    number("--random", 0, MAX_SEED, metavar="SEED", help="a random world from this seed instead"),
+    number("--steps", 0, 10**6, 100, "ticks at most"),
+    seed("simulation seed", metavar="S"),
+    option("--rules", choices=["code", "af-paper", "qd-paper"], default="code", help="whose rules: the original code's "
+           "(default); 'af-paper', the first paper's words where they differ (nextTo north/south/east/west only, a stop "
+           "after 20 ticks without an event, more than 120 entities overpopulate); 'qd-paper', the quality-diversity "
+           "paper's (nextTo north/south/east/west only, move_wall blocked by any entity of its class). docs/fortress.md "
+           "quotes the sentence behind each"),
+    option("--paper-rules", action="store_const", const="af-paper", dest="rules", help="the same as --rules af-paper"),
+)  # fmt: skip
+_LONGER = number("--longer", 2, 100, 5, "episode length factor", metavar="X")
+_RUNS = option("run_dirs", nargs="+", metavar="RUN_DIR", help="fortress MAP-Elites run folders (same settings)")
 
 
 class FortressCommands(DomainCommands):
     renamed = {"run": "evaluate"}  # until 0.5
     examples = {
-        "evaluate": [
-            "structgen fortress evaluate --random 4 --steps 100 --save world.txt",
-            "structgen fortress evaluate runs/af --elite best",
-        ],
-        "replay": ["structgen fortress replay world.txt --steps 50 --every 10", "structgen fortress replay runs/af --gif af.gif"],
-        "show": ["structgen fortress show world.txt -o world.png --populations populations.png"],
-        "robustness": ["structgen fortress robustness runs/exp1/seed-0 -o robustness.json"],
-        "experiment": ["structgen fortress experiment entities_nodes runs/exp1 --seeds 0 1 2"],
-        "figure": ["structgen fortress figure archive runs/exp1/seed-0 -o archive.png"],
-        "export": ["structgen fortress export runs/af best.txt", "structgen fortress export runs/af elite.png --elite index:40"],
+        "export": ["structgen fortress export runs/af best.txt", "structgen fortress export runs/af elite.png --elite index:40"]
     }
-    adders = {
-        "evaluate": _add_run,
-        "replay": _add_replay,
-        "show": _add_show,
-        "robustness": _add_robustness,
-        "experiment": _add_experiment,
-        "figure": _add_figure,
-    }
+    adders = verbs(
+        verb("evaluate", cmd_run, *_WORLD, json_flag(),
+             option("--save", type=output_path, metavar="OUT.txt", help="write the world as a fortress file"),
+             examples=["structgen fortress evaluate --random 4 --steps 100 --save world.txt",
+                       "structgen fortress evaluate runs/af --elite best"]),
+        verb("replay", cmd_replay, *_WORLD,
+             number("--every", 1, 10**6, 1, "print every K-th tick", metavar="K"),
+             flag("--quiet", "print no maps, only the files written"),
+             json_flag("print one JSON object instead of maps: 'entities', per tick (0 = the start) the live entities as "
+                       "[class, x, y, node] in creation order, and 'visits', per class the nodes and edges visited"),
+             option("--gif", type=output_path, metavar="OUT.gif", help="write an animated GIF"),
+             option("--strip", type=png_output_path, metavar="OUT.png", help="write a PNG strip of frames"),
+             number("--frames", 2, 50, 6, "frames in the strip"),
+             examples=["structgen fortress replay world.txt --steps 50 --every 10",
+                       "structgen fortress replay runs/af --gif af.gif"]),
+        verb("show", cmd_show, *_WORLD, output("OUT.png", "picture to write"),
+             option("--populations", type=png_output_path, metavar="OUT.png", help="also plot populations over time"),
+             examples=["structgen fortress show world.txt -o world.png --populations populations.png"]),
+        verb("robustness", cmd_robustness, _RUNS, _LONGER, number("--chunk", 1, 10**5, 256, "worlds per engine call"),
+             output("OUT.json", "write the table as JSON", required=False), json_flag(),
+             examples=["structgen fortress robustness runs/exp1/seed-0 -o robustness.json"]),
+        verb("experiment", cmd_experiment,
+             option("measures", choices=["entities_nodes", "entities_entropy"], help="the experiment: its measures"),
+             seed_run_options(config_default="configs/fortress_paper.toml", config_help="default "
+                              "configs/fortress_paper.toml: the paper's run", seeds=list(range(20, 30)),
+                              seeds_help="default 20 to 29, the original's sweep"),
+             number("--threads", 1, 1024, 1, "engine threads of each run (default 1: on a few cores, runs side by side "
+                    "use them best)", metavar="T"),
+             option("--cluster", metavar="ADDRESS", help="run the seeds on the Dask scheduler at ADDRESS instead"),
+             number("--generations", 1, 10**7, help="generations of each run (default: the config's)"), _LONGER,
+             examples=["structgen fortress experiment entities_nodes runs/exp1 --seeds 0 1 2"]),
+        verb("figure", cmd_figure, option("kind", choices=["archive", "robustness", "populations"], help="which figure"),
+             _RUNS, output("OUT.png", "picture to write"),
+             option("--colour", choices=["fitness", "entropy", "nodes"], default="fitness", help="archive: colour cells "
+                    "by fitness (default), by the entropy of the class sizes or by total nodes"),
+             _LONGER, seed("populations: simulation seed", high=2**31, metavar="S"),
+             examples=["structgen fortress figure archive runs/exp1/seed-0 -o archive.png"]),
+    )  # fmt: skip
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
-        genome = genome.to_file()  # the run's array world, as the original's text
-        suffix = output.suffix.lower()
-        if suffix == ".txt":
-            _save(genome, output)
-        elif suffix == ".png":
-            from structgen.domains.fortress.show import draw_world
+        from structgen.domains.fortress.show import draw_world
 
-            draw_world(genome, output)
-        else:
-            raise InputError(f"{output}: a fortress world exports as .txt (the original's format) or .png")
-        return f"{output}: fortress world"
+        genome = genome.to_file()  # the run's array world, as the original's text (.txt)
+        return write_by_suffix(output, {".txt": lambda path: _save(genome, path), ".png": lambda path: draw_world(genome, path)},
+                               "fortress world")  # fmt: skip
 
 
 FORTRESS_COMMANDS = FortressCommands()

@@ -17,23 +17,38 @@ import numpy as np
 from structgen.domains.layouts.conv_nca import HIDDEN
 from structgen.domains.layouts.grid import Grid
 from structgen.domains.layouts.kinds import KINDS, REPAIR_TIME_LIMIT, LayoutKind
+from structgen.domains.layouts.maze.agent_settings import AgentSettings
+from structgen.domains.layouts.maze.walkers import AGENTS, MAZE_KINDS
+from structgen.domains.layouts.warehouse.simulator import PLANNERS
 from structgen.ppo_settings import PPO_OPTIONS
 from structgen.registry.commands import (
+    EXIT_OK,
+    Adder,
     DomainCommands,
     InputError,
-    add_setting_options,
-    device_name,
-    finite_number,
+    Verb,
+    device,
+    dpi,
+    flag,
     given_settings,
-    output_path,
+    json_flag,
+    nca_weights,
+    number,
+    one_of,
+    option,
+    output,
+    overwrite,
     png_output_path,
+    real,
     resumed_training_settings,
+    seed,
+    settings,
+    verb,
+    verbs,
     verbs_wanted,
-    whole_number,
+    workers,
 )
 
-EXIT_OK = 0
-MAX_SEED = 2**63 - 1
 #: The repair's three-way choices as its keyword arguments take them (None: the repair decides by the map's size).
 AUTO_YES_NO = {"auto": None, "yes": True, "no": False}
 
@@ -61,6 +76,11 @@ def _check_output(path: Path, suffix: str) -> None:
 
 # -- grow -------------------------------------------------------------------------------------------------------------
 def cmd_generate(args: argparse.Namespace) -> int:
+    """grow a {kind} layout with the conv NCA
+
+    Grow a {kind} layout from the seed block with the conv NCA (random weights or saved ones) and write it,
+    unrepaired, as a map JSON file.
+    """
     from evolution.files import read_weights
     from structgen.domains.layouts.conv_nca import ConvNCA
 
@@ -96,6 +116,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 # -- tile -------------------------------------------------------------------------------------------------------------
 def cmd_tile(args: argparse.Namespace) -> int:
+    """repeat a small {kind} layout to fill a larger size (the paper's tiling baseline)
+
+    Repeat the part of FILE that the NCA grows (for warehouses, the storage area between the workstation columns)
+    along both axes until it fills --size, cut it there from the top-left, add the fixed parts and write the result,
+    unrepaired, as a map JSON file. The warehouse paper's baseline against growing large: tile a trained 33x36
+    layout to 101x102, then repair it (the repair command) and evaluate it.
+    """
     kind = _kind(args)
     _check_output(args.output, ".json")
     grid = _load(args.file, kind)
@@ -122,6 +149,12 @@ def _counts(grid: Grid, kind: LayoutKind) -> str:
 
 # -- repair -----------------------------------------------------------------------------------------------------------
 def cmd_repair(args: argparse.Namespace) -> int:
+    """repair a {kind} layout with the fewest tile changes (HiGHS MILP)
+
+    Make FILE a valid {kind} layout changing as few cells as possible, with the MILP solved by HiGHS, and write it
+    with the Hamming distance, similarity, proof status and time in its metadata. Exit 2 if the rules cannot be
+    met.
+    """
     from structgen.domains.layouts.measures import similarity
     from structgen.domains.layouts.repair import repair
 
@@ -222,6 +255,10 @@ def _grown_maze(grid: Grid, kind: LayoutKind) -> np.ndarray:
 
 
 def cmd_measure(args: argparse.Namespace) -> int:
+    """print a {kind} layout's measures
+
+    Print the layout's tile counts and the original's measures {measures}
+    """
     kind = _kind(args)
     grid = _load(args.file, kind)
     values = measure(
@@ -248,6 +285,13 @@ def cmd_measure(args: argparse.Namespace) -> int:
 
 # -- simulate ---------------------------------------------------------------------------------------------------------
 def cmd_simulate(args: argparse.Namespace) -> int:
+    """run robots on a {kind} layout and print its throughput
+
+    Simulate N robots {goals} on the layout in FILE for T steps, planning collision-free paths 10 steps ahead every
+    5 steps, and print the throughput (tasks finished per step), the tasks finished, whether the floor congested
+    (more than half of the robots stood still, not counting tasks, for 5 steps, which stops the run) and the wall
+    time.
+    """
     from structgen.domains.layouts.warehouse.simulator import simulate
 
     kind = _kind(args)
@@ -303,6 +347,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 # -- evaluate ---------------------------------------------------------------------------------------------------------
 def cmd_evaluate(args: argparse.Namespace) -> int:
+    """judge a {kind} layout as the paper's tables do: success rate and throughput over many runs
+
+    Simulate N robots on the {kind} layout in FILE in many runs (seeds drawn from --seed) and report the success
+    rate (runs that did not congest) and the mean and standard error of the throughput over the successful runs,
+    as the paper's tables do (N/A when every run congested). Training averages fewer, shorter runs (the problem's
+    simulations and simulation_steps).
+    """
     import sys
 
     from structgen.domains.layouts.warehouse.simulator import evaluate_layout
@@ -353,6 +404,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 # -- show -------------------------------------------------------------------------------------------------------------
 def cmd_show(args: argparse.Namespace) -> int:
+    """draw one {kind} layout, or two side by side with the changed cells marked
+
+    Draw FILE (and FILE2 beside it, cells that differ outlined in red) to a PNG image, each tile kind in the
+    legend.
+    """
     from structgen.domains.layouts.show import draw
 
     kind = _kind(args)
@@ -370,240 +426,6 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 # -- the parsers ------------------------------------------------------------------------------------------------------
-def _add_generate(subparsers: Any, kind: LayoutKind) -> None:
-    p = subparsers.add_parser(
-        "grow",
-        help=f"grow a {kind.name} layout with the conv NCA",
-        description=f"Grow a {kind.name} layout from the seed block with the conv NCA (random weights or saved ones) "
-        "and write it, unrepaired, as a map JSON file.",
-    )
-    source = p.add_mutually_exclusive_group()
-    source.add_argument(
-        "--seed",
-        type=whole_number(0, MAX_SEED),
-        default=0,
-        metavar="N",
-        help="random NCA (normal, sd 0.2, as the original's search starts) drawn with this seed (default 0)",
-    )
-    source.add_argument("--weights", metavar="FILE", help="NCA weights: .npy (1-D array) or .json (list of numbers)")
-    p.add_argument(
-        "--size",
-        default=kind.default_size,
-        help=f"map size: {', '.join(kind.sizes)}, or ROWSxCOLUMNS of the grown area (default {kind.default_size})",
-    )
-    p.add_argument(
-        "--iterations",
-        type=whole_number(0, 100_000),
-        default=None,
-        metavar="N",
-        help="NCA steps (default: the paper's for the size, 50, or 200 at 101x102)",
-    )
-    p.add_argument(
-        "--hidden", type=whole_number(1, 1024), default=HIDDEN, metavar="N", help=f"hidden channels (default {HIDDEN})"
-    )
-    p.add_argument("--device", type=device_name, default=None, help="torch device: cpu, cuda, cuda:N (default: the CPU)")
-    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
-    p.set_defaults(handler=cmd_generate, kind=kind.name)
-
-
-def _add_tile(subparsers: Any, kind: LayoutKind) -> None:
-    p = subparsers.add_parser(
-        "tile",
-        help=f"repeat a small {kind.name} layout to fill a larger size (the paper's tiling baseline)",
-        description="Repeat the part of FILE that the NCA grows (for warehouses, the storage area between the "
-        "workstation columns) along both axes until it fills --size, cut it there from the top-left, add the fixed "
-        "parts and write the result, unrepaired, as a map JSON file. The warehouse paper's baseline against growing "
-        "large: tile a trained 33x36 layout to 101x102, then repair it (the repair command) and evaluate it.",
-    )
-    p.add_argument("file", metavar="FILE", help="map JSON file to repeat (a whole map)")
-    p.add_argument(
-        "--size",
-        required=True,
-        help=f"size to fill: {', '.join(kind.sizes)}, or ROWSxCOLUMNS of the grown area",
-    )
-    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
-    p.set_defaults(handler=cmd_tile, kind=kind.name)
-
-
-def _add_repair(subparsers: Any, kind: LayoutKind) -> None:
-    p = subparsers.add_parser(
-        "repair",
-        help=f"repair a {kind.name} layout with the fewest tile changes (HiGHS MILP)",
-        description=f"Make FILE a valid {kind.name} layout changing as few cells as possible, with the MILP solved by "
-        "HiGHS, and write it with the Hamming distance, similarity, proof status and time in its metadata. Exit 2 "
-        "if the rules cannot be met.",
-    )
-    p.add_argument("file", metavar="FILE", help="map JSON file (unrepaired)")
-    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.json", help="map file to write")
-    p.add_argument(
-        "--time-limit",
-        type=finite_number(0, 86400, above=True),
-        default=REPAIR_TIME_LIMIT,
-        metavar="S",
-        help=f"seconds for HiGHS (default {REPAIR_TIME_LIMIT:g})",
-    )
-    p.add_argument("--threads", type=whole_number(1, 1024), default=1, metavar="N", help="HiGHS threads (default 1)")
-    p.add_argument("--seed", type=whole_number(0, 2**31 - 1), default=0, metavar="N", help="HiGHS random seed (default 0)")
-    p.add_argument(
-        "--greedy",
-        choices=tuple(AUTO_YES_NO),
-        default="auto",
-        help="start HiGHS from the greedy repair: auto (above 4,000 cells), yes, no",
-    )
-    p.add_argument(
-        "--round-relaxation",
-        choices=tuple(AUTO_YES_NO),
-        default="auto",
-        help="before the full search, solve the linear relaxation and the smaller MILP left by holding the tiles it "
-        "decided; its answer ends the repair when it meets the relaxation's bound: auto (warehouses of 1,000 to "
-        "4,000 cells with a time limit of 30 s or more), yes, no",
-    )
-    p.add_argument(
-        "--good-enough",
-        type=whole_number(0, 10**7),
-        default=None,
-        metavar="N",
-        help="stop at the first valid layout that changes at most N cells, proven optimal or not (default: search "
-        "for the fewest changes until the time limit)",
-    )
-    if kind.name == "warehouse":
-        p.add_argument(
-            "--local",
-            choices=tuple(AUTO_YES_NO),
-            default="auto",
-            help="first solve only around the cells that break a rule (and the cells that can fix a wrong shelf "
-            "count), holding the rest; its answer ends the repair, keeping a large layout's pattern: auto (above "
-            "4,000 cells, when that region is at most 40 %% of the storage area), yes, no",
-        )
-        p.add_argument(
-            "--shelves",
-            type=whole_number(0, 10**7),
-            default=None,
-            metavar="N",
-            help="exact shelf count (default: the paper's for the map's size, 240 at 33x36)",
-        )
-    else:
-        p.add_argument(
-            "--agents",
-            type=whole_number(0, 10**7),
-            default=200,
-            metavar="N",
-            help="cells that must stay free of stations (default 200)",
-        )
-    p.set_defaults(handler=cmd_repair, kind=kind.name)
-
-
-def _add_show(subparsers: Any, kind: LayoutKind) -> None:
-    p = subparsers.add_parser(
-        "show",
-        help=f"draw one {kind.name} layout, or two side by side with the changed cells marked",
-        description="Draw FILE (and FILE2 beside it, cells that differ outlined in red) to a PNG image, each tile "
-        "kind in the legend.",
-    )
-    p.add_argument("files", nargs="+", metavar="FILE", help="one or two map JSON files (unrepaired, then repaired)")
-    p.add_argument("-o", "--output", required=True, type=png_output_path, metavar="OUT.png", help="image to write")
-    p.add_argument("--dpi", type=whole_number(10, 1200), default=110, help="image resolution, 10..1200 (default 110)")
-    p.set_defaults(handler=cmd_show, kind=kind.name)
-
-
-def _add_measure(subparsers: Any, kind: LayoutKind) -> None:
-    p = subparsers.add_parser(
-        "measure",
-        help=f"print a {kind.name} layout's measures",
-        description="Print the layout's tile counts and the original's measures "
-        + (
-            "(pattern entropy, solvability, longest shortest path, and an agent's success rate and path length)."
-            if kind.name == "maze"
-            else "(pattern entropy, shelf components) and whether it is valid."
-        ),
-    )
-    p.add_argument("file", metavar="FILE", help="map JSON file")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    if kind.name == "maze":
-        from structgen.domains.layouts.maze.walkers import AGENTS
-
-        p.add_argument(
-            "--agent",
-            choices=["learned", *sorted(AGENTS)],
-            default="learned",
-            help="agent to run (default learned: the shipped learning agent, the maze domain's judge)",
-        )
-        p.add_argument("--weights", default=None, metavar="FILE", help="the learned agent's weights (default the shipped agent)")
-        p.add_argument("--episodes", type=whole_number(1, 10_000), default=50, metavar="N", help="episodes (default 50)")
-        p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="N", help="episodes' seed (default 0)")
-    p.set_defaults(handler=cmd_measure, kind=kind.name)
-
-
-def _add_robot_arguments(p: argparse.ArgumentParser, kind: LayoutKind, steps: int, planner: str, seed_help: str) -> None:
-    """The arguments ``simulate`` and ``evaluate`` share: the map, robots, steps, planner, seed and task weights."""
-    from structgen.domains.layouts.warehouse.simulator import PLANNERS
-
-    p.add_argument("file", metavar="FILE", help="map JSON file (a repaired, valid layout)")
-    p.add_argument("--agents", type=whole_number(1, 10**6), default=200, metavar="N", help="robots (default 200)")
-    p.add_argument("--steps", type=whole_number(1, 10**7), default=steps, metavar="T", help=f"steps per run (default {steps})")
-    described = {
-        "pp": "windowed prioritized planning, ranks layouts as the paper's simulator does, 2-6 %% below its throughput",
-        "pbs": "windowed priority-based search with RHCR's start-cell rules, the paper's planner: carries the paper's "
-        "robot counts at 101x102 and is within 1 %% of RHCR at 33x36, but jams on DSAGE's layout in some long runs",
-        "pibt": "one step of look-ahead, fastest, but stalls in one-wide dead ends and ranks layouts differently",
-    }
-    p.add_argument(
-        "--planner",
-        choices=PLANNERS,
-        default=planner,
-        help="; ".join(f"{name}: {described[name]}{' (default)' if name == planner else ''}" for name in PLANNERS),
-    )
-    p.add_argument("--seed", type=whole_number(0, MAX_SEED), default=0, metavar="S", help=f"{seed_help} (default 0)")
-    if kind.name == "warehouse":
-        p.add_argument("--uneven", action="store_true", help="left-half workstations five times likelier goals")
-
-
-def _add_simulate(subparsers: Any, kind: LayoutKind) -> None:
-    if kind.name == "manufacturing":
-        goals = (
-            "visiting stations of kind 0, 1, 2, 0, ... in turn and standing 2, 5 or 10 steps on an endpoint beside "
-            "each for its task"
-        )
-    else:
-        goals = "fetching goals (an endpoint, then a workstation, and so on)"
-    p = subparsers.add_parser(
-        "simulate",
-        help=f"run robots on a {kind.name} layout and print its throughput",
-        description=f"Simulate N robots {goals} on the layout in FILE for T steps, planning collision-free paths 10 "
-        "steps ahead every 5 steps, and print the throughput (tasks finished per step), the tasks finished, whether "
-        "the floor congested (more than half of the robots stood still, not counting tasks, for 5 steps, which stops "
-        "the run) and the wall time.",
-    )
-    _add_robot_arguments(
-        p, kind, steps=1000, planner="pp", seed_help="seed of the start cells, the goals and the planners' tie-breaks"
-    )
-    p.add_argument("--frames", type=png_output_path, default=None, metavar="OUT.png", help="also draw six snapshots")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(handler=cmd_simulate, kind=kind.name)
-
-
-def _add_evaluate(subparsers: Any, kind: LayoutKind) -> None:
-    p = subparsers.add_parser(
-        "evaluate",
-        help=f"judge a {kind.name} layout as the paper's tables do: success rate and throughput over many runs",
-        description=f"Simulate N robots on the {kind.name} layout in FILE in many runs (seeds drawn from --seed) and "
-        "report the success rate (runs that did not congest) and the mean and standard error of the throughput over "
-        "the successful runs, as the paper's tables do (N/A when every run congested). Training averages fewer, "
-        "shorter runs (the problem's simulations and simulation_steps).",
-    )
-    p.add_argument("--simulations", type=whole_number(1, 10**5), default=50, metavar="K", help="runs (default 50, as the paper)")
-    p.add_argument(
-        "--workers",
-        type=whole_number(0, 1024),
-        default=0,
-        metavar="N",
-        help="processes that share the runs (default 0: this one); the result is the same with any number",
-    )
-    _add_robot_arguments(p, kind, steps=5000, planner="pbs", seed_help="seed the runs' seeds are drawn from")
-    p.add_argument("--json", action="store_true", help="print one JSON object, with every run's throughput")
-    p.set_defaults(handler=cmd_evaluate, kind=kind.name)
-
-
 # -- the maze agent ---------------------------------------------------------------------------------------------------
 #: The settings maze train takes as options: each made from the field's limit (AgentSettings.limits).
 _AGENT_FIELDS = (
@@ -621,6 +443,15 @@ _AGENT_FIELDS = (
 
 
 def cmd_train_agent(args: argparse.Namespace) -> int:
+    """train the maze agent (PPO with a PLR/ACCEL curriculum) in a run folder
+
+    Train the learning maze agent: it sees the 5x5 cells in front of it and its direction, keeps a map of what it
+    has seen and where it has walked, reads from it which way the goal or the nearest unexplored floor lies, and
+    learns by PPO on random 16x16 mazes chosen by a curriculum that replays and edits the levels it still learns
+    most from. The run folder gets checkpoints (the same command resumes it; more --updates go on),
+    history.jsonl, learning.png and agent.pt. The defaults are the settings of the shipped agent
+    (docs/maze_agent.pt).
+    """
     from structgen.domains.layouts.maze.agent_settings import AgentSettings
     from structgen.domains.layouts.maze.training import AGENT_FILE, train_agent
 
@@ -644,37 +475,14 @@ def cmd_train_agent(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_train_agent(subparsers: Any, kind: LayoutKind) -> None:
-    from structgen.domains.layouts.maze.agent_settings import AgentSettings
-
-    p = subparsers.add_parser(
-        "train",
-        help="train the maze agent (PPO with a PLR/ACCEL curriculum) in a run folder",
-        description="Train the learning maze agent: it sees the 5x5 cells in front of it and its direction, keeps a "
-        "map of what it has seen and where it has walked, reads from it which way the goal or the nearest unexplored "
-        "floor lies, and learns by PPO on random 16x16 mazes chosen by a "
-        "curriculum that replays and edits the levels it still learns most from. The run folder gets checkpoints "
-        "(the same command resumes it; more --updates go on), history.jsonl, learning.png and agent.pt. The defaults "
-        "are the settings of the shipped agent (docs/maze_agent.pt).",
-    )
-    p.add_argument(
-        "--run-dir", required=True, type=Path, metavar="DIR", help="run folder (made, or resumed if it holds this training)"
-    )
-    add_setting_options(p, AgentSettings, _AGENT_FIELDS)
-    p.add_argument(
-        "--no-way-on",
-        action="store_true",
-        help="do not tell the network which way the goal or the nearest unexplored floor lies on its map (the agents "
-        "of structgen 0.4 and before; give it again to go on with such a run, or use structgen resume)",
-    )
-    p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
-    p.add_argument(
-        "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"
-    )
-    p.set_defaults(handler=cmd_train_agent, kind=kind.name)
-
-
 def cmd_test_agent(args: argparse.Namespace) -> int:
+    """run the learning maze agent on maze files or random mazes and print its success rate
+
+    Run the learned maze agent (the shipped docs/maze_agent.pt, or --weights) on the maze JSON files given (all of
+    one size, with or without their outer wall), or on --count random mazes, and print the share of episodes that
+    reached the goal within the horizon (twice the cells of the walled maze), with its standard error (over mazes,
+    or over episodes for a single maze).
+    """
     from structgen.domains.layouts.maze.agent import run_agent
     from structgen.domains.layouts.maze.env import random_maze
     from structgen.domains.layouts.maze.training import agent_policy
@@ -714,43 +522,6 @@ def cmd_test_agent(args: argparse.Namespace) -> int:
             f"(standard error {error:.1%}), in {summary['mean_steps']:.0f} steps on average"
         )
     return EXIT_OK
-
-
-def _add_test_agent(subparsers: Any, kind: LayoutKind) -> None:
-    from structgen.domains.layouts.maze.walkers import MAZE_KINDS
-
-    p = subparsers.add_parser(
-        "test-agent",
-        help="run the learning maze agent on maze files or random mazes and print its success rate",
-        description="Run the learned maze agent (the shipped docs/maze_agent.pt, or --weights) on the maze JSON files "
-        "given (all of one size, with or without their outer wall), or on --count random mazes, and print the share "
-        "of episodes that reached the goal within the horizon (twice the cells of the walled maze), with its "
-        "standard error (over mazes, or over episodes for a single maze).",
-    )
-    p.add_argument("files", nargs="*", metavar="FILE", help="maze JSON files (none: random mazes)")
-    p.add_argument(
-        "--weights", default=None, metavar="FILE", help="agent weights (a run folder's agent.pt; default the shipped agent)"
-    )
-    p.add_argument(
-        "--kind",
-        dest="maze_kind",
-        choices=MAZE_KINDS,
-        default="rooms",
-        help="random mazes' kind (default rooms, never trained on)",
-    )
-    p.add_argument("--size", type=whole_number(4, 256), default=16, metavar="N", help="random mazes' side (default 16)")
-    p.add_argument("--count", type=whole_number(1, 10**6), default=200, metavar="N", help="random mazes (default 200)")
-    p.add_argument("--episodes", type=whole_number(1, 10_000), default=1, metavar="N", help="episodes per maze (default 1)")
-    p.add_argument(
-        "--seed",
-        type=whole_number(0, 2**32 - 1),
-        default=0,
-        metavar="S",
-        help="seed of the mazes and the agent's actions (default 0)",
-    )
-    p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(handler=cmd_test_agent, kind=kind.name)
 
 
 def _size_option(kind: LayoutKind) -> Any:
@@ -829,6 +600,14 @@ def _experiment_elite(run: Any, elite: str, large_problem: Any, seed: int) -> tu
 
 
 def cmd_experiment(args: argparse.Namespace) -> int:
+    """the paper's maze experiment: the agent on small and large grown mazes and on random baselines
+
+    Grow a maze with a generator trained small (an elite of a maze RUN_DIR) at its own size and at --large-size,
+    or take the two mazes from --small and --large files, run the learned agent on each --episodes times, make
+    --baselines random mazes as the original does (as many walls as the large maze, placed uniformly, drawn again
+    until the longest shortest path is within 80-120 % of the large maze's) and run it --baseline-episodes times on
+    each; print the success rates beside the paper's (90 %, 93 %, 22 %).
+    """
     from structgen.domains.layouts.maze.experiment import PAPER, maze_experiment
     from structgen.domains.layouts.maze.training import agent_policy
 
@@ -864,63 +643,119 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_experiment(subparsers: Any, kind: LayoutKind) -> None:
-    p = subparsers.add_parser(
-        "experiment",
-        help="the paper's maze experiment: the agent on small and large grown mazes and on random baselines",
-        description="Grow a maze with a generator trained small (an elite of a maze RUN_DIR) at its own size and at "
-        "--large-size, or take the two mazes from --small and --large files, run the learned agent on each "
-        "--episodes times, make --baselines random mazes as the original does (as many walls as the large maze, "
-        "placed uniformly, drawn again until the longest shortest path is within 80-120 % of the large maze's) and "
-        "run it --baseline-episodes times on each; print the success rates beside the paper's (90 %, 93 %, 22 %).",
-    )
-    p.add_argument(
-        "run_dir", nargs="?", default=None, metavar="RUN_DIR", help="a maze evolution run (its generators trained small)"
-    )
-    p.add_argument(
-        "--elite",
-        default="longest",
-        help="the generator: longest (default: the elite with the longest agent path among those the agent solves in "
-        "90 %% of episodes), best, or index:I (the archive cell)",
-    )
-    p.add_argument(
-        "--large-size", type=_size_option(kind), default="64x64", metavar="RxC",
-        help="size to grow the large maze at: ROWSxCOLUMNS, each at least 4, at most 4096 x 4096 cells (default 64x64)",
+_GOALS = {
+    "manufacturing": "visiting stations of kind 0, 1, 2, 0, ... in turn and standing 2, 5 or 10 steps on an endpoint beside "
+    "each for its task",
+    "warehouse": "fetching goals (an endpoint, then a workstation, and so on)",
+}
+_MEASURES = {
+    "maze": "(pattern entropy, solvability, longest shortest path, and an agent's success rate and path length).",
+    "layout": "(pattern entropy, shelf components) and whether it is valid.",
+}
+_PLANNERS = {
+    "pp": "windowed prioritized planning, ranks layouts as the paper's simulator does, 2-6 %% below its throughput",
+    "pbs": "windowed priority-based search with RHCR's start-cell rules, the paper's planner: carries the paper's robot "
+    "counts at 101x102 and is within 1 %% of RHCR at 33x36, but jams on DSAGE's layout in some long runs",
+    "pibt": "one step of look-ahead, fastest, but stalls in one-wide dead ends and ranks layouts differently",
+}
+_MAP_OUT = output("OUT.json", "map file to write")
+_WEIGHTS = option("--weights", metavar="FILE", help="agent weights (a run folder's agent.pt; default the shipped agent)")
+_MAZE_SEED = dict(high=2**32 - 1, metavar="S")
+
+
+def _robot_options(kind: LayoutKind, steps: int, planner: str, seed_help: str) -> list[Adder]:
+    """The options ``simulate`` and ``evaluate`` share: the map, robots, steps, planner, seed and task weights."""
+    described = "; ".join(f"{name}: {_PLANNERS[name]}{' (default)' * (name == planner)}" for name in PLANNERS)
+    return [
+        option("file", metavar="FILE", help="map JSON file (a repaired, valid layout)"),
+        number("--agents", 1, 10**6, 200, "robots"), number("--steps", 1, 10**7, steps, "steps per run", metavar="T"),
+        option("--planner", choices=PLANNERS, default=planner, help=described), seed(seed_help, metavar="S"),
+        *[flag("--uneven", "left-half workstations five times likelier goals")] * (kind.name == "warehouse"),
+    ]  # fmt: skip
+
+
+def _verbs(kind: LayoutKind) -> dict[str, Verb]:
+    """The verbs of ``kind``'s layouts (a kind's domain adds those it names)."""
+    sizes, maze, me = ", ".join(kind.sizes), kind.name == "maze", f"structgen {kind.name}"
+    three_way = dict(choices=tuple(AUTO_YES_NO), default="auto")
+    return verbs(
+        verb("grow", cmd_generate,
+             one_of(seed("random NCA (normal, sd 0.2, as the original's search starts) drawn with this seed"), nca_weights()),
+             option("--size", default=kind.default_size, help=f"map size: {sizes}, or ROWSxCOLUMNS of the grown area"),
+             number("--iterations", 0, 100_000, help="NCA steps (default: the paper's for the size, 50, or 200 at 101x102)"),
+             number("--hidden", 1, 1024, HIDDEN, "hidden channels"), device(), _MAP_OUT,
+             examples=[f"{me} grow --seed 1 -o layout.json", f"{me} grow --weights generator.npy --size 101x102 -o large.json"]),
+        verb("tile", cmd_tile, option("file", metavar="FILE", help="map JSON file to repeat (a whole map)"),
+             option("--size", required=True, help=f"size to fill: {sizes}, or ROWSxCOLUMNS of the grown area"), _MAP_OUT,
+             examples=[f"{me} tile layout.json --size 101x102 -o tiled.json"]),
+        verb("repair", cmd_repair, option("file", metavar="FILE", help="map JSON file (unrepaired)"), _MAP_OUT,
+             real("--time-limit", 0, 86400, REPAIR_TIME_LIMIT, "seconds for HiGHS", above=True, metavar="S"),
+             number("--threads", 1, 1024, 1, "HiGHS threads"), seed("HiGHS random seed", high=2**31 - 1),
+             option("--greedy", **three_way, help="start HiGHS from the greedy repair: auto (above 4,000 cells), yes, no"),
+             option("--round-relaxation", **three_way, help="before the full search, solve the linear relaxation and the "
+                    "smaller MILP left by holding the tiles it decided; its answer ends the repair when it meets the "
+                    "relaxation's bound: auto (warehouses of 1,000 to 4,000 cells with a time limit of 30 s or more), yes, no"),
+             number("--good-enough", 0, 10**7, help="stop at the first valid layout that changes at most N cells, proven "
+                    "optimal or not (default: search for the fewest changes until the time limit)"),
+             *[option("--local", **three_way, help="first solve only around the cells that break a rule (and the cells "
+                      "that can fix a wrong shelf count), holding the rest; its answer ends the repair, keeping a large "
+                      "layout's pattern: auto (above 4,000 cells, when that region is at most 40 %% of the storage area), "
+                      "yes, no"),
+               number("--shelves", 0, 10**7, help="exact shelf count (default: the paper's for the map's size, 240 at "
+                      "33x36)")] * (kind.name == "warehouse"),
+             *[number("--agents", 0, 10**7, 200, "cells that must stay free of stations")] * (kind.name != "warehouse"),
+             examples=[f"{me} repair layout.json -o repaired.json --time-limit 60"]),
+        verb("simulate", cmd_simulate,
+             *_robot_options(kind, 1000, "pp", "seed of the start cells, the goals and the planners' tie-breaks"),
+             option("--frames", type=png_output_path, metavar="OUT.png", help="also draw six snapshots"), json_flag(),
+             text={"goals": _GOALS.get(kind.name, _GOALS["warehouse"])},
+             examples=[f"{me} simulate repaired.json --agents 200 --planner pbs --frames robots.png"]),
+        verb("evaluate", cmd_evaluate, number("--simulations", 1, 10**5, 50, "runs (default 50, as the paper)", metavar="K"),
+             workers(), *_robot_options(kind, 5000, "pbs", "seed the runs' seeds are drawn from"),
+             json_flag("print one JSON object, with every run's throughput"),
+             examples=[f"{me} evaluate repaired.json --simulations 10 --steps 5000 --planner pbs --workers 2"]),
+        verb("show", cmd_show,
+             option("files", nargs="+", metavar="FILE", help="one or two map JSON files (unrepaired, then repaired)"),
+             output("OUT.png", "image to write"), dpi(),
+             examples=[f"{me} show layout.json -o layout.png", f"{me} show layout.json repaired.json -o changes.png"]),
+        verb("measure", cmd_measure, option("file", metavar="FILE", help="map JSON file"), json_flag(),
+             *[option("--agent", choices=["learned", *sorted(AGENTS)], default="learned", help="agent to run (default "
+                      "learned: the shipped learning agent, the maze domain's judge)"),
+               option("--weights", metavar="FILE", help="the learned agent's weights (default the shipped agent)"),
+               number("--episodes", 1, 10_000, 50, "episodes"), seed("episodes' seed")] * maze,
+             text={"measures": _MEASURES["maze" if maze else "layout"]}, examples=[f"{me} measure layout.json --json"]),
+        verb("train", cmd_train_agent,
+             option("--run-dir", required=True, type=Path, metavar="DIR", help="run folder (made, or resumed if it holds "
+                    "this training)"),
+             settings(AgentSettings, _AGENT_FIELDS),
+             flag("--no-way-on", "do not tell the network which way the goal or the nearest unexplored floor lies on its "
+                  "map (the agents of structgen 0.4 and before; give it again to go on with such a run, or use structgen "
+                  "resume)"),
+             device("cpu"), overwrite(),
+             examples=[f"{me} train --run-dir runs/maze_agent", f"{me} train --run-dir runs/maze_agent --updates 1000"]),
+        verb("test-agent", cmd_test_agent, option("files", nargs="*", metavar="FILE", help="maze JSON files (none: random "
+             "mazes)"), _WEIGHTS,
+             option("--kind", dest="maze_kind", choices=MAZE_KINDS, default="rooms", help="random mazes' kind (default "
+                    "rooms, never trained on)"),
+             number("--size", 4, 256, 16, "random mazes' side"), number("--count", 1, 10**6, 200, "random mazes"),
+             number("--episodes", 1, 10_000, 1, "episodes per maze"),
+             seed("seed of the mazes and the agent's actions", **_MAZE_SEED), device("cpu"), json_flag(),
+             examples=[f"{me} test-agent --kind rooms --size 32 --count 200", f"{me} test-agent maze.json"]),
+        verb("experiment", cmd_experiment,
+             option("run_dir", nargs="?", metavar="RUN_DIR", help="a maze evolution run (its generators trained small)"),
+             option("--elite", default="longest", help="the generator: longest (default: the elite with the longest agent "
+                    "path among those the agent solves in 90 %% of episodes), best, or index:I (the archive cell)"),
+             option("--large-size", type=_size_option(kind), default="64x64", metavar="RxC", help="size to grow the large "
+                    "maze at: ROWSxCOLUMNS, each at least 4, at most 4096 x 4096 cells"),
+             option("--small", metavar="FILE", help="small maze JSON file, instead of a run"),
+             option("--large", metavar="FILE", help="large maze JSON file, instead of a run"), _WEIGHTS,
+             number("--episodes", 1, 100_000, 100, "runs on each grown maze"),
+             number("--baselines", 1, 10_000, 100, "baseline mazes"),
+             number("--baseline-episodes", 1, 10_000, 10, "runs on each baseline"),
+             seed("seed of the baselines and the runs", **_MAZE_SEED), device("cpu"), json_flag(),
+             examples=[f"{me} experiment runs/maze", f"{me} experiment --small small.json --large large.json --json"]),
+        kind=kind.name,
     )  # fmt: skip
-    p.add_argument("--small", default=None, metavar="FILE", help="small maze JSON file, instead of a run")
-    p.add_argument("--large", default=None, metavar="FILE", help="large maze JSON file, instead of a run")
-    p.add_argument("--weights", default=None, metavar="FILE", help="agent weights (default the shipped agent)")
-    p.add_argument(
-        "--episodes", type=whole_number(1, 100_000), default=100, metavar="N", help="runs on each grown maze (default 100)"
-    )
-    p.add_argument("--baselines", type=whole_number(1, 10_000), default=100, metavar="N", help="baseline mazes (default 100)")
-    p.add_argument(
-        "--baseline-episodes", type=whole_number(1, 10_000), default=10, metavar="N", help="runs on each baseline (default 10)"
-    )
-    p.add_argument(
-        "--seed", type=whole_number(0, 2**32 - 1), default=0, metavar="S", help="seed of the baselines and the runs (default 0)"
-    )
-    p.add_argument("--device", type=device_name, default="cpu", help="torch device (default cpu)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(handler=cmd_experiment, kind=kind.name)
-
-
-def _examples(kind: str) -> dict[str, list[str]]:
-    """Each verb's ``--help`` examples for the ``kind`` family member."""
-    verb = f"structgen {kind}"
-    return {
-        "grow": [f"{verb} grow --seed 1 -o layout.json", f"{verb} grow --weights generator.npy --size 101x102 -o large.json"],
-        "tile": [f"{verb} tile layout.json --size 101x102 -o tiled.json"],
-        "repair": [f"{verb} repair layout.json -o repaired.json --time-limit 60"],
-        "simulate": [f"{verb} simulate repaired.json --agents 200 --planner pbs --frames robots.png"],
-        "evaluate": [f"{verb} evaluate repaired.json --simulations 10 --steps 5000 --planner pbs --workers 2"],
-        "show": [f"{verb} show layout.json -o layout.png", f"{verb} show layout.json repaired.json -o changes.png"],
-        "measure": [f"{verb} measure layout.json --json"],
-        "train": [f"{verb} train --run-dir runs/maze_agent", f"{verb} train --run-dir runs/maze_agent --updates 1000"],
-        "test-agent": [f"{verb} test-agent --kind rooms --size 32 --count 200", f"{verb} test-agent maze.json"],
-        "experiment": [f"{verb} experiment runs/maze", f"{verb} experiment --small small.json --large large.json --json"],
-        "export": [f"{verb} export runs/{kind} best.json", f"{verb} export runs/{kind} elite.json --elite index:120"],
-    }
 
 
 class LayoutCommands(DomainCommands):
@@ -930,24 +765,16 @@ class LayoutCommands(DomainCommands):
         self.kind = kind
         self.verbs = verbs
         self.renamed = {old: new for old, new in self.renamed.items() if new in verbs}
-        self.examples = {verb: lines for verb, lines in _examples(kind).items() if verb in (*verbs, "export")}
+        me = f"structgen {kind}"
+        self.examples = {
+            "export": [f"{me} export runs/{kind} best.json", f"{me} export runs/{kind} elite.json --elite index:120"]
+        }
 
     def add_verbs(self, subparsers: Any, domain: Any, only: Collection[str] | None = None) -> None:
-        adders = {
-            "grow": _add_generate,
-            "tile": _add_tile,
-            "repair": _add_repair,
-            "simulate": _add_simulate,
-            "evaluate": _add_evaluate,
-            "show": _add_show,
-            "measure": _add_measure,
-            "train": _add_train_agent,
-            "test-agent": _add_test_agent,
-            "experiment": _add_experiment,
-        }
+        declared = _verbs(KINDS[self.kind])
         subparsers = self.verb_parsers(subparsers)
-        for name in verbs_wanted([v for v in adders if v in self.verbs], only):
-            adders[name](subparsers, KINDS[self.kind])
+        for name in verbs_wanted([v for v in declared if v in self.verbs], only):
+            declared[name](subparsers)
 
     def resume_run(self, kind: str, run_dir: Path, args: argparse.Namespace) -> int:
         from structgen.domains.layouts.maze.training import RUN_KIND, read_settings, train_agent

@@ -11,26 +11,44 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import math
 import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from physics.config import PhysicsConfig
+from structgen.domains.structures.experiment import EXPERIMENTS
+from structgen.domains.structures.tall_settings import TallSettings
+from structgen.mesh import MeshStyle
+from structgen.nca_config import NCAConfig
 from structgen.registry.commands import (
     EXIT_FAILURE,
     EXIT_OK,
-    MAX_SEED,
+    Adder,
     DomainCommands,
     InputError,
-    add_seed_run_options,
-    add_set_option,
-    add_setting_options,
+    dpi,
+    flag,
+    group,
+    json_flag,
+    nca_weights,
+    number,
+    one_of,
+    option,
+    output,
     output_path,
-    png_output_path,
+    overwrite,
     print_table,
+    real,
+    seed,
+    seed_run_options,
+    set_option,
+    settings,
     settings_from_args,
+    verb,
+    verbs,
     whole_number,
+    workers,
 )
 from structgen.structure import Structure
 
@@ -56,80 +74,7 @@ NCA_OPTIONS = {
 }
 
 
-# -- option groups ------------------------------------------------------------------------------------------------------
-def _add_mesh_options(parser: argparse.ArgumentParser, title: str) -> None:
-    from structgen.mesh import MeshStyle
-
-    group = parser.add_argument_group(title)
-    add_setting_options(
-        group, MeshStyle, ("sphere_radius", "cylinder_radius", "spacing", "sphere_subdivisions", "cylinder_sections")
-    )
-    group.add_argument(
-        "--solid",
-        action="store_true",
-        help="union every sphere and cylinder into one closed, watertight shell (for 3D printing; slower)",
-    )
-
-
-def _add_nca_options(parser: argparse.ArgumentParser) -> None:
-    from structgen.nca_config import NCAConfig
-
-    group = parser.add_argument_group("NCA (defaults follow the paper)")
-    add_setting_options(group, NCAConfig, ("iterations", "cutoff", "hidden"))
-    group.add_argument(
-        "--no-build-down",
-        dest="build_down",
-        action="store_const",
-        const=False,
-        help="never grow below the seed's level (the paper's special rule)",
-    )
-    add_setting_options(group, NCAConfig, ("max_vertices", "max_extent"))
-
-
-def _add_physics_options(parser: argparse.ArgumentParser) -> None:
-    from physics import PhysicsConfig
-
-    presets = PhysicsConfig.presets()
-    default = next(name for name, preset in presets.items() if preset == PhysicsConfig())
-
-    def describe(name: str, preset: PhysicsConfig) -> str:
-        stop = f"stop when settled, at most {preset.horizon:g} s" if preset.early_stop else f"{preset.horizon:g} s"
-        return f"{name}: 1/{1 / preset.timestep:.0f} s steps, {preset.solver_iterations} solver iterations, {stop}"
-
-    group = parser.add_argument_group("physics")
-    group.add_argument(
-        "--preset",
-        choices=list(presets),
-        help="; ".join(describe(name, preset) for name, preset in presets.items())
-        + f" (default {default}; --set physics.preset=NAME is the same)",
-    )
-    add_set_option(group, "the physics (physics.*)", "break_force=60 or physics.horizon=10")
-    judge = group.add_mutually_exclusive_group()
-    judge.add_argument(
-        "--statics",
-        action="store_true",
-        help="predict with the static frame solve (milliseconds, no size cap) instead of simulating",
-    )
-    judge.add_argument(
-        "--transient",
-        type=_seconds,
-        metavar="SECONDS",
-        help="simulate only the first SECONDS (0.3 covers the spawn transient) with joints that hold, and rate the "
-        "largest joint force against the break force: integrity becomes min(1, break force / peak force)",
-    )
-
-
 # -- helpers ------------------------------------------------------------------------------------------------------------
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0 < value <= 3600:
-        raise argparse.ArgumentTypeError(f"expected a number of seconds above 0 and at most 3600, got {text!r}")
-    return value
-
-
 def _mesh_style(args: argparse.Namespace) -> Any:
     from structgen.mesh import MeshStyle
 
@@ -185,6 +130,11 @@ def _checked(args: argparse.Namespace) -> tuple[Structure, Any]:
 
 # -- verbs --------------------------------------------------------------------------------------------------------------
 def cmd_grow(args: argparse.Namespace) -> int:
+    """grow a structure from a random or saved NCA
+
+    Grow a structure from one seed vertex with the paper's local NCA and write it to OUT (structure JSON, or a mesh:
+    .glb, .obj, .stl, .ply).
+    """
     from structgen.mesh import MeshStyle
     from structgen.nca import LocalNCA, NCAConfig, load_weights
 
@@ -293,6 +243,13 @@ _METHODS = {
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """simulate a structure under gravity and report whether it stands
+
+    Build FILE as rigid bodies (a sphere per vertex, a cylinder per edge, breakable fixed joints), rest it on the
+    ground under gravity, and report integrity I (share of joints unbroken), height H, complexity C (vertex count)
+    and the score Q = I + (Wh*H + Wc*C)*I. Exits 0 whether or not it stands (1 with --strict unless it stands: no
+    joint broke and it came to rest).
+    """
     _, report = _checked(args)
     if args.json:
         print(json.dumps({"file": str(args.file), **report.to_dict()}))
@@ -346,11 +303,14 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
+    """draw a structure before and after its stability check
+
+    Judge FILE as 'evaluate' does (by simulation, or by the static analysis with --statics) and draw it as placed and
+    as it ended up, broken joints in red, to a PNG image (no display needed).
+    """
     from structgen.domains.structures.render import render_check
 
     output = Path(args.output)
-    if output.suffix.lower() != ".png":
-        raise InputError(f"{output}: show writes PNG images; give a name ending in .png")
     _, report = _checked(args)
     render_check(report, output, dpi=args.dpi)
     print(f"{output}: {report.verdict()}; I = {report.integrity:.3f}, Q = {report.score:.3f}")
@@ -358,72 +318,6 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 # -- the hooks ----------------------------------------------------------------------------------------------------------
-def _add_grow(subparsers: Any) -> None:
-    grow = subparsers.add_parser(
-        "grow",
-        help="grow a structure from a random or saved NCA",
-        description="Grow a structure from one seed vertex with the paper's local NCA and write it to OUT "
-        "(structure JSON, or a mesh: .glb, .obj, .stl, .ply).",
-    )
-    source = grow.add_mutually_exclusive_group()
-    source.add_argument(
-        "--seed", type=whole_number(0, MAX_SEED), default=0, metavar="N", help="random NCA drawn with this seed (default 0)"
-    )
-    source.add_argument("--weights", metavar="FILE", help="NCA weights: .npy (1-D array) or .json (list of numbers)")
-    source.add_argument(
-        "--run",
-        metavar="RUN_DIR",
-        help="an evolution run's NCA (its settings, then any NCA options given here, e.g. more --iterations)",
-    )
-    grow.add_argument("--elite", default="best", metavar="best|index:I", help="with --run: which NCA (default best)")
-    grow.add_argument(
-        "-o", "--output", required=True, type=output_path, metavar="OUT", help="output file; format from the suffix"
-    )
-    grow.add_argument(
-        "--frames",
-        type=_frames_folder,
-        metavar="DIR",
-        help="also draw the structure after every growth step, from the lone seed on, as DIR/step_000.png, ...",
-    )
-    grow.add_argument("--gif", type=_gif_path, metavar="FILE.gif", help="also write the growth steps as an animated GIF")
-    _add_nca_options(grow)
-    _add_mesh_options(grow, "mesh dimensions (mesh formats only; defaults match the physics model)")
-    add_set_option(grow, "the NCA (nca.*) and the mesh (mesh.*)", "nca.cutoff=0.6 or sphere_radius=0.2")
-    grow.set_defaults(handler=cmd_grow)
-
-
-def _add_check(subparsers: Any) -> None:
-    check = subparsers.add_parser(
-        "evaluate",
-        help="simulate a structure under gravity and report whether it stands",
-        description="Build FILE as rigid bodies (a sphere per vertex, a cylinder per edge, breakable fixed joints), "
-        "rest it on the ground under gravity, and report integrity I (share of joints unbroken), height H, "
-        "complexity C (vertex count) and the score Q = I + (Wh*H + Wc*C)*I. Exits 0 whether or not it stands "
-        "(1 with --strict unless it stands: no joint broke and it came to rest).",
-    )
-    check.add_argument("file", metavar="FILE", help="structure JSON file")
-    check.add_argument("--json", action="store_true", help="print the whole report as one JSON object")
-    check.add_argument(
-        "--strict", action="store_true", help="exit with 1 unless it stands (a joint broke, or it never came to rest)"
-    )
-    _add_physics_options(check)
-    check.set_defaults(handler=cmd_check)
-
-
-def _add_render(subparsers: Any) -> None:
-    render = subparsers.add_parser(
-        "show",
-        help="draw a structure before and after its stability check",
-        description="Judge FILE as 'evaluate' does (by simulation, or by the static analysis with --statics) and draw "
-        "it as placed and as it ended up, broken joints in red, to a PNG image (no display needed).",
-    )
-    render.add_argument("file", metavar="FILE", help="structure JSON file")
-    render.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT.png", help="image to write")
-    render.add_argument("--dpi", type=whole_number(10, 1200), default=110, help="image resolution, 10..1200 (default 110)")
-    _add_physics_options(render)
-    render.set_defaults(handler=cmd_render)
-
-
 def _seed_vertex(text: str) -> int | str:
     if text == "top":
         return text
@@ -445,6 +339,13 @@ def _grow_command(weights: Path, config: Any, output: str) -> str:
 
 
 def cmd_teach(args: argparse.Namespace) -> int:
+    """fit NCA weights that grow a given structure
+
+    Fit the paper's local NCA (52 inputs, a hidden ReLU layer, 26 outputs) so that it grows FILE from one of its
+    vertices, then stops: vertices appear in order of their distance from the seed, each step one layer. Refused,
+    naming two vertices, when the NCA's shared rule cannot do it (two vertices see the same neighbourhood but must
+    act differently). Prints the 'structgen grow' command that grows it.
+    """
     from structgen.domains.structures.teach import teach
     from structgen.nca import save_weights
 
@@ -466,40 +367,6 @@ def cmd_teach(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_teach(subparsers: Any) -> None:
-    teach = subparsers.add_parser(
-        "teach",
-        help="fit NCA weights that grow a given structure",
-        description="Fit the paper's local NCA (52 inputs, a hidden ReLU layer, 26 outputs) so that it grows FILE "
-        "from one of its vertices, then stops: vertices appear in order of their distance from the seed, each step "
-        "one layer. Refused, naming two vertices, when the NCA's shared rule cannot do it (two vertices see the "
-        "same neighbourhood but must act differently). Prints the 'structgen grow' command that grows it.",
-    )
-    teach.add_argument("file", metavar="FILE", help="structure JSON file to grow")
-    teach.add_argument(
-        "-o", "--output", required=True, type=output_path, metavar="OUT.npy", help="weights to write (.npy or .json)"
-    )
-    teach.add_argument(
-        "--seed-vertex",
-        type=_seed_vertex,
-        default="top",
-        metavar="top|INDEX",
-        help="the vertex growth starts from: 'top' (the single highest vertex, the default) or its index in FILE",
-    )
-    teach.add_argument("--hidden", type=whole_number(1, 100_000), default=60, metavar="N", help="hidden layer size (default 60)")
-    teach.add_argument(
-        "--cutoff", type=float, default=0.5, metavar="X", help="an output fires above this sigmoid value (default 0.5)"
-    )
-    teach.add_argument(
-        "--margin",
-        type=float,
-        default=1.0,
-        metavar="X",
-        help="how far (in logits) every output must clear its threshold (default 1.0)",
-    )
-    teach.set_defaults(handler=cmd_teach)
-
-
 TALL_OPTIONS = {
     "levels": "search.levels",
     "beam": "search.beam",
@@ -510,6 +377,17 @@ TALL_OPTIONS = {
 
 
 def cmd_tall(args: argparse.Namespace) -> int:
+    """find the tallest tower an NCA can grow that stands, and teach it
+
+    Search level-by-level designs (one rule per level from a top vertex) for the tallest whose levels the NCA's
+    shared local rule can tell apart: a beam search from the top ranked by static joint load, the best of each
+    height simulated for the physics' first 0.3 s (the lowest peak force wins), then every change of two levels'
+    rules of the tallest tried (and of the next lower while none above holds). Each height's design is taught to the
+    paper's 52-60-26 network. The run folder holds config.toml (every setting), designs.csv (a row per height),
+    tall_<levels>.npy (weights), tall_<levels>.json (what they grow), tallest.png, and checkpoint.json (after each
+    height): `structgen resume DIR` or the same command goes on after an interruption. The defaults reach eight
+    levels in about 8 minutes on 2 cores.
+    """
     from structgen.domains.structures.tall import find_tallest
     from structgen.domains.structures.tall_settings import TallSettings
 
@@ -567,49 +445,15 @@ def _report_tall(result: Any, run_dir: Path) -> int:
     return EXIT_OK
 
 
-def _add_tall(subparsers: Any) -> None:
-    from structgen.domains.structures.tall_settings import TallSettings
-
-    tall = subparsers.add_parser(
-        "tall",
-        help="find the tallest tower an NCA can grow that stands, and teach it",
-        description="Search level-by-level designs (one rule per level from a top vertex) for the tallest whose "
-        "levels the NCA's shared local rule can tell apart: a beam search from the top ranked by static joint load, "
-        "the best of each height simulated for the physics' first 0.3 s (the lowest peak force wins), then "
-        "every change of two levels' rules of the tallest tried (and of the next lower while none above holds). "
-        "Each height's design is taught to the paper's 52-60-26 network. The run folder holds config.toml (every "
-        "setting), designs.csv (a row per height), tall_<levels>.npy (weights), tall_<levels>.json (what they grow), "
-        "tallest.png, and checkpoint.json (after each height): `structgen resume DIR` or the same command goes on "
-        "after an interruption. The defaults reach eight levels in about 8 minutes on 2 cores.",
-    )
-    tall.add_argument(
-        "--run-dir",
-        metavar="DIR",
-        help="run folder: new, empty, or one a search with the same settings started (it resumes; with more --levels "
-        "it goes on from there); default runs/tall-<levels>",
-    )
-    tall.add_argument(
-        "--overwrite", action="store_true", help="replace a run folder that holds another run (never any other folder)"
-    )
-    add_setting_options(tall, TallSettings, ("levels", "beam", "candidates", "max_vertices"))
-    tall.add_argument(
-        "--refine",
-        action=argparse.BooleanOptionalAction,
-        help="try every change of two levels' rules of the tallest design (default on, a few minutes at eight levels; "
-        "search.refine)",
-    )
-    tall.add_argument(
-        "--workers",
-        type=whole_number(0, 256),
-        default=2,
-        metavar="N",
-        help="processes for the simulations, 0 for this one; results do not depend on it (default 2)",
-    )
-    add_set_option(tall, "the search (search.*, the physics in search.physics.*)", "break_force=60 or search.beam=10")
-    tall.set_defaults(handler=cmd_tall)
-
-
 def cmd_experiment(args: argparse.Namespace) -> int:
+    """one of the stable-structures paper's four experiments at its settings: runs per seed, then the table
+
+    Run configs/paper_NAME.toml once per seed (OUT_DIR/seed-S; a folder there is resumed, or kept if it got far
+    enough), several runs at a time, keeping each run's best structure at the paper's spawn numbers
+    (OUT_DIR/seed-S-spawns/), then write OUT_DIR/table.json and OUT_DIR/table.md beside the paper's numbers: the
+    first structure standing whole, the tallest standing by spawns 5,800, 6,811, 7,480 and 28,577, the best score,
+    and the paper's Table 1 (time per generation by the population's mean integrity) measured here.
+    """
     from structgen.domains.structures.experiment import run_experiment, table_markdown
 
     report = run_experiment(
@@ -619,91 +463,106 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     return print_table(report, args, table_markdown)
 
 
-def _add_experiment(subparsers: Any) -> None:
-    from structgen.domains.structures.experiment import EXPERIMENTS
-
-    p = subparsers.add_parser(
-        "experiment",
-        help="one of the stable-structures paper's four experiments at its settings: runs per seed, then the table",
-        description="Run configs/paper_NAME.toml once per seed (OUT_DIR/seed-S; a folder there is resumed, or kept if "
-        "it got far enough), several runs at a time, keeping each run's best structure at the paper's spawn numbers "
-        "(OUT_DIR/seed-S-spawns/), then write OUT_DIR/table.json and OUT_DIR/table.md beside the paper's numbers: the "
-        "first structure standing whole, the tallest standing by spawns 5,800, 6,811, 7,480 and 28,577, the best "
-        "score, and the paper's Table 1 (time per generation by the population's mean integrity) measured here.",
-    )
-    p.add_argument("name", choices=list(EXPERIMENTS), help="the experiment")
-    add_seed_run_options(
-        p, config_default=None, config_help="default configs/paper_NAME.toml", seeds=[0, 1, 2], seeds_help="default 0 1 2"
-    )
-    p.add_argument(
-        "--spawns", type=whole_number(1, 10**8), metavar="N",
-        help="networks each run evaluates (default the paper's: 28,577 for baseline and average-height, 5,800 for "
-        "cutoff, 6,811 for no-build-down); the run goes to the end of the generation holding spawn N",
-    )  # fmt: skip
-    p.add_argument(
-        "--workers", type=whole_number(0, 256), default=1, metavar="W",
-        help="evaluation processes of each run, 0 for the run's own process (default 1: on a few cores, runs side by side "
-        "use them best); results do not depend on it",
-    )  # fmt: skip
-    p.add_argument(
-        "--results", metavar="STEM",
-        help="also put the table into STEM.json and STEM.md, the tables of all four experiments (the project keeps "
-        "them in docs/results/structures-paper-table)",
-    )  # fmt: skip
-    p.add_argument(
-        "--table-only", action="store_true",
-        help="run nothing: write the table from the seeds' runs as they stand (an unfinished run with the spawns it "
-        "reached; resume it later without this option)",
-    )  # fmt: skip
-    p.set_defaults(handler=cmd_experiment)
-
-
 def cmd_figure(args: argparse.Namespace) -> int:
+    """the paper's figures from an experiment: each run's best structure at the paper's spawn numbers
+
+    Lay out the pictures an experiment kept (OUT_DIR/seed-S-spawns/spawn-N/structure.png) in one PNG, a row per seed
+    and a column per spawn number, as the paper's figures 4 to 9 show its structures.
+    """
     from structgen.domains.structures.experiment import figure
 
     print(figure(args.out_dir, args.output))
     return EXIT_OK
 
 
-def _add_figure(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "figure",
-        help="the paper's figures from an experiment: each run's best structure at the paper's spawn numbers",
-        description="Lay out the pictures an experiment kept (OUT_DIR/seed-S-spawns/spawn-N/structure.png) in one "
-        "PNG, a row per seed and a column per spawn number, as the paper's figures 4 to 9 show its structures.",
+def _mesh_options(title: str) -> Adder:
+    return group(
+        title,
+        settings(MeshStyle, [name for name in MESH_OPTIONS]),
+        flag("--solid", "union every sphere and cylinder into one closed, watertight shell (for 3D printing; slower)"),
     )
-    p.add_argument("out_dir", metavar="OUT_DIR", help="an experiment's folder")
-    p.add_argument(
-        "-o", "--output", type=png_output_path, metavar="PNG", help="where to write the figure (default OUT_DIR/figure.png)"
-    )
-    p.set_defaults(handler=cmd_figure)
+
+
+def _describe_preset(name: str, preset: PhysicsConfig) -> str:
+    stop = f"stop when settled, at most {preset.horizon:g} s" if preset.early_stop else f"{preset.horizon:g} s"
+    return f"{name}: 1/{1 / preset.timestep:.0f} s steps, {preset.solver_iterations} solver iterations, {stop}"
+
+
+_DEFAULT_PRESET = next(name for name, preset in PhysicsConfig.presets().items() if preset == PhysicsConfig())
+_PHYSICS = group(
+    "physics",
+    option("--preset", choices=list(PhysicsConfig.presets()), help="; ".join(_describe_preset(name, preset) for name, preset
+           in PhysicsConfig.presets().items()) + f" (default {_DEFAULT_PRESET}; --set physics.preset=NAME is the same)"),
+    set_option("the physics (physics.*)", "break_force=60 or physics.horizon=10"),
+    one_of(flag("--statics", "predict with the static frame solve (milliseconds, no size cap) instead of simulating"),
+           real("--transient", 0, 3600, help="simulate only the first SECONDS (0.3 covers the spawn transient) with joints "
+                "that hold, and rate the largest joint force against the break force: integrity becomes min(1, break "
+                "force / peak force)", above=True, metavar="SECONDS")),
+)  # fmt: skip
+_FILE = option("file", metavar="FILE", help="structure JSON file")
 
 
 class StructureCommands(DomainCommands):
     renamed = {"check": "evaluate", "render": "show"}  # until 0.5
     # In the top-level form; `structgen structures VERB` is the same verb.
-    examples = {
-        "grow": ["structgen grow --seed 1 -o tower.json", "structgen grow --run runs/qd -o best.glb --gif growth.gif"],
-        "evaluate": ["structgen evaluate tower.json --preset fast", "structgen evaluate tower.json --statics --json"],
-        "show": ["structgen show tower.json -o tower.png --preset fast"],
-        "teach": ["structgen teach tower.json -o tower_nca.npy"],
-        "tall": ["structgen tall --run-dir runs/tall --levels 5 --workers 2"],
-        "experiment": [
-            "structgen structures experiment cutoff runs/cutoff --seeds 0 1 2",
-            "structgen structures experiment baseline runs/baseline --table-only",
-        ],
-        "figure": ["structgen structures figure runs/cutoff -o cutoff.png"],
-        "export": ["structgen structures export runs/qd best.glb", "structgen structures export tower.json tower.stl"],
-    }
-    adders = {
-        "experiment": _add_experiment,
-        "figure": _add_figure,
-        "grow": _add_grow,
-        "evaluate": _add_check,
-        "show": _add_render,
-        "teach": _add_teach,
-        "tall": _add_tall,
-    }
+    examples = {"export": ["structgen structures export runs/qd best.glb", "structgen structures export tower.json tower.stl"]}
+    # Examples in the top-level form; `structgen structures VERB` is the same verb.
+    adders = verbs(
+        verb("experiment", cmd_experiment, option("name", choices=list(EXPERIMENTS), help="the experiment"),
+             seed_run_options(config_default=None, config_help="default configs/paper_NAME.toml", seeds=[0, 1, 2],
+                              seeds_help="default 0 1 2"),
+             number("--spawns", 1, 10**8, help="networks each run evaluates (default the paper's: 28,577 for baseline and "
+                    "average-height, 5,800 for cutoff, 6,811 for no-build-down); the run goes to the end of the generation "
+                    "holding spawn N"),
+             workers("evaluation processes of each run, 0 for the run's own process (default 1: on a few cores, runs side "
+                     "by side use them best); results do not depend on it", default=1),
+             option("--results", metavar="STEM", help="also put the table into STEM.json and STEM.md, the tables of all "
+                    "four experiments (the project keeps them in docs/results/structures-paper-table)"),
+             flag("--table-only", "run nothing: write the table from the seeds' runs as they stand (an unfinished run with "
+                  "the spawns it reached; resume it later without this option)"),
+             examples=["structgen structures experiment cutoff runs/cutoff --seeds 0 1 2",
+                       "structgen structures experiment baseline runs/baseline --table-only"]),
+        verb("figure", cmd_figure, option("out_dir", metavar="OUT_DIR", help="an experiment's folder"),
+             output("OUT.png", "where to write the figure (default OUT_DIR/figure.png)", required=False),
+             examples=["structgen structures figure runs/cutoff -o cutoff.png"]),
+        verb("grow", cmd_grow,
+             one_of(seed("random NCA drawn with this seed"), nca_weights(),
+                    option("--run", metavar="RUN_DIR", help="an evolution run's NCA (its settings, then any NCA options "
+                           "given here, e.g. more --iterations)")),
+             option("--elite", default="best", metavar="best|index:I", help="with --run: which NCA"),
+             output(help="output file; format from the suffix"),
+             option("--frames", type=_frames_folder, metavar="DIR", help="also draw the structure after every growth "
+                    "step, from the lone seed on, as DIR/step_000.png, ..."),
+             option("--gif", type=_gif_path, metavar="FILE.gif", help="also write the growth steps as an animated GIF"),
+             group("NCA (defaults follow the paper)", settings(NCAConfig, ("iterations", "cutoff", "hidden")),
+                   option("--no-build-down", dest="build_down", action="store_const", const=False,
+                          help="never grow below the seed's level (the paper's special rule)"),
+                   settings(NCAConfig, ("max_vertices", "max_extent"))),
+             _mesh_options("mesh dimensions (mesh formats only; defaults match the physics model)"),
+             set_option("the NCA (nca.*) and the mesh (mesh.*)", "nca.cutoff=0.6 or sphere_radius=0.2"),
+             examples=["structgen grow --seed 1 -o tower.json", "structgen grow --run runs/qd -o best.glb --gif growth.gif"]),
+        verb("evaluate", cmd_check, _FILE, json_flag("print the whole report as one JSON object"),
+             flag("--strict", "exit with 1 unless it stands (a joint broke, or it never came to rest)"), _PHYSICS,
+             examples=["structgen evaluate tower.json --preset fast", "structgen evaluate tower.json --statics --json"]),
+        verb("show", cmd_render, _FILE, output("OUT.png", "image to write"), dpi(), _PHYSICS,
+             examples=["structgen show tower.json -o tower.png --preset fast"]),
+        verb("teach", cmd_teach, option("file", metavar="FILE", help="structure JSON file to grow"),
+             output("OUT.npy", "weights to write (.npy or .json)"),
+             option("--seed-vertex", type=_seed_vertex, default="top", metavar="top|INDEX", help="the vertex growth starts "
+                    "from: 'top' (the single highest vertex, the default) or its index in FILE"),
+             settings(NCAConfig, ("hidden", "cutoff"), defaults={"hidden": 60, "cutoff": 0.5}),
+             real("--margin", 0, 100, 1.0, "how far (in logits) every output must clear its threshold", above=True),
+             examples=["structgen teach tower.json -o tower_nca.npy"]),
+        verb("tall", cmd_tall,
+             option("--run-dir", metavar="DIR", help="run folder: new, empty, or one a search with the same settings "
+                    "started (it resumes; with more --levels it goes on from there); default runs/tall-<levels>"),
+             overwrite(), settings(TallSettings, ("levels", "beam", "candidates", "max_vertices")),
+             option("--refine", action=argparse.BooleanOptionalAction, help="try every change of two levels' rules of the "
+                    "tallest design (default on, a few minutes at eight levels; search.refine)"),
+             workers("processes for the simulations, 0 for this one; results do not depend on it (default 2)", default=2),
+             set_option("the search (search.*, the physics in search.physics.*)", "break_force=60 or search.beam=10"),
+             examples=["structgen tall --run-dir runs/tall --levels 5 --workers 2"]),
+    )  # fmt: skip
 
     def describe_path(self, path: Path) -> tuple[dict[str, Any], str] | None:
         return describe_structure(path)
@@ -724,7 +583,7 @@ class StructureCommands(DomainCommands):
         return resume_tall(run_dir, args.workers)
 
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
-        _add_mesh_options(parser, "structures: mesh dimensions (mesh formats only; defaults match the physics model)")
+        _mesh_options("structures: mesh dimensions (mesh formats only; defaults match the physics model)")(parser)
 
     def export_file(self, source: Path, output: Path, args: argparse.Namespace) -> str:
         structure = _load_structure(source)
