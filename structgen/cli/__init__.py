@@ -352,9 +352,7 @@ def build_parser() -> argparse.ArgumentParser:
         f"evolve the generators.\n\nDomains (structgen <domain> --help for their verbs):\n{listing}",
     )
     parser.add_argument("--version", action="version", version=f"structgen {__version__}")
-    parser.add_argument(
-        "-v", "--verbose", action="store_true", help="log more, and show tracebacks on errors (anywhere on the line)"
-    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="log more, and show tracebacks on errors (anywhere)")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     exporters = [(spec, hooks) for spec, hooks in hooked if hooks is not None]
@@ -367,9 +365,7 @@ def build_parser() -> argparse.ArgumentParser:
             log.warning("domain %s: its command group %r is taken; reach it through the generic verbs", spec.id, spec.group_name)
             continue
         taken.add(spec.group_name)
-        group = commands.add_parser(
-            spec.group_name, help=f"the {spec.id} domain's verbs", description=f"{spec.id}: {spec.summary}"
-        )
+        group = commands.add_parser(spec.group_name, help=f"the {spec.id} domain's verbs", description=spec.summary)
         subparsers = group.add_subparsers(dest="verb", metavar="VERB", required=True)
         generic = _generic_verbs(spec, [(spec, hooks)] if hooks is not None else [])
         generic["evolve"](subparsers)

@@ -303,10 +303,9 @@ def add_setting_options(
 ) -> None:
     """One option for each of ``fields`` of a settings dataclass, made from the field's
     :class:`structgen.config.Limit`: named ``--`` + the field with dashes (or the limit's ``option``), checked by the
-    limit (:func:`limit_type`), helped by its text and the field's default as ``(label value)``. Each option defaults
-    to None, so that a field not given keeps the settings' value (:func:`given_settings`), unless ``defaults`` names
-    the verb's own default for it; the class's defaults are read from its fields without building it, since building
-    can check more than a parser needs (and load torch)."""
+    limit (:func:`limit_type`), helped by its text and the field's default as ``(label value)``. Each defaults to None
+    (a field not given keeps the settings' value: :func:`given_settings`) unless ``defaults`` names the verb's own.
+    The class is not built: building can check more than a parser needs (and load torch)."""
     shown = {item.name: item.default for item in dataclasses.fields(settings_class)} | dict(defaults)
     limits = limits_of(settings_class)
     for field in fields:
@@ -427,9 +426,7 @@ def device(default: str | None = None, help: str = "torch device: cpu, cuda, cud
     return option("--device", type=device_name, default=default, help=help if default else f"{help} (default: the CPU)")
 
 
-def workers(
-    help: str = "processes that share the work (default 0: this one); the result is the same with any number", default: Any = 0
-) -> Adder:
+def workers(help: str = "processes that share the work (default 0: this one); results do not depend on it", default=0) -> Adder:
     """``--workers``: local processes, 0 for none."""
     return number("--workers", 0, 1024, default, help)
 
