@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import torch
 
-from structgen.domains.layouts.maze.agent import CROP, MazePolicy, RememberingMazes, run_agent
+from structgen.domains.layouts.maze.agent import BLOCK, CHANNELS, CROP, MazePolicy, RememberingMazes, run_agent
 from structgen.domains.layouts.maze.env import _MARGIN, TorchMazes, random_maze
 from structgen.domains.layouts.maze.experiment import baseline_mazes
 from structgen.domains.layouts.maze.training import (
@@ -138,6 +138,27 @@ def test_the_map_around_the_agent_holds_only_what_it_saw_and_faces_its_way():
                         assert bool(walls[r, c]) == bool(seen_wall[i, j])
             # the agent's own cell is floor it has stood on
             assert seen_floor[CROP // 2, CROP // 2] == 1 and patch[row, 2, CROP // 2, CROP // 2] > 0
+
+
+def test_the_coarse_patch_pools_the_square_around_the_agent_turned_its_way():
+    # The reference turns every cell of the CROP * BLOCK square to the agent's facing, then pools it in blocks.
+    rng = np.random.default_rng(6)
+    mazes = [random_maze(rng, 20, kind) for kind in ("rooms", "perfect", "carved", "rooms")]
+    env = RememberingMazes(TorchMazes(mazes, seed=1))
+    env.reset()
+    side = CROP * BLOCK
+    reach = side // 2
+    forward, sideways = np.meshgrid(reach - np.arange(side), np.arange(side) - reach, indexing="ij")
+    for (_, coarse, direction), _, _ in _random_walk(env, 40, seed=8):
+        memory = env.memory
+        for row in range(len(mazes)):
+            facing = int(direction[row])
+            ahead, right = [(-1, 0), (0, 1), (1, 0), (0, -1)][facing], [(-1, 0), (0, 1), (1, 0), (0, -1)][(facing + 1) % 4]
+            r = (int(memory.position[row, 0]) + forward * ahead[0] + sideways * right[0]) % memory.side
+            c = (int(memory.position[row, 1]) + forward * ahead[1] + sideways * right[1]) % memory.side
+            turned = memory.maps[row].reshape(CHANNELS, memory.side, memory.side)[:, r, c]
+            turned[2] = (turned[2] > 0).float()
+            assert torch.equal(torch.nn.functional.avg_pool2d(turned[None], BLOCK)[0], coarse[row])
 
 
 def test_a_forward_step_into_a_wall_does_not_move_the_memory():

@@ -60,8 +60,17 @@ def _frame_deltas(rows: int, columns: int, ahead_of_top: int, left_of_first: int
 
 
 _VIEW_DELTAS = _frame_deltas(VIEW, VIEW, VIEW - 1, VIEW // 2)
-_CROP_DELTAS = _frame_deltas(CROP, CROP, CROP // 2, CROP // 2)
-_COARSE_DELTAS = _frame_deltas(CROP * BLOCK, CROP * BLOCK, _REACH, _REACH)
+
+
+def _turns() -> torch.Tensor:
+    """``turns[facing, square]``: where each square of the patch the agent carries (or block of its coarse patch),
+    turned to its facing, lies in the maze-aligned ``CROP`` x ``CROP`` square of cells (or blocks) around it, row by
+    row."""
+    deltas = _frame_deltas(CROP, CROP, CROP // 2, CROP // 2)
+    return (deltas[..., 0] + CROP // 2) * CROP + deltas[..., 1] + CROP // 2
+
+
+_TURN = _turns()
 # The view square just ahead of the agent: its row is one up from the bottom, in the middle column.
 _AHEAD = (VIEW - 2, VIEW // 2)
 
@@ -77,8 +86,7 @@ class PathMemory:
         self.position = torch.zeros(count, 2, dtype=torch.int64, device=device)
         self._steps = torch.as_tensor(_STEPS, device=device)
         self._view_deltas = _VIEW_DELTAS.to(device)
-        self._crop_deltas = _CROP_DELTAS.to(device)
-        self._coarse_deltas = _COARSE_DELTAS.to(device)
+        self._turn = _TURN.to(device)
 
     def state_dict(self) -> dict[str, torch.Tensor]:
         return {"maps": self.maps.cpu(), "position": self.position.cpu()}
@@ -113,20 +121,32 @@ class PathMemory:
     def move(self, moved: torch.Tensor, direction: torch.Tensor) -> None:
         self.position += moved[:, None].long() * self._steps[direction]
 
+    def _square(self, reach: int) -> torch.Tensor:
+        """``(B, (2 reach + 1)^2)``: the cells of the square around each agent, maze-aligned, row by row. Indexed
+        by rows and columns apart, it costs a fraction of turning every square's delta (:meth:`_cells`)."""
+        offsets = torch.arange(-reach, reach + 1, device=self.position.device)
+        rows = (self.position[:, :1] + offsets) % self.side
+        columns = (self.position[:, 1:] + offsets) % self.side
+        return (rows[:, :, None] * self.side + columns[:, None, :]).flatten(1)
+
+    def _gather(self, cells: torch.Tensor) -> torch.Tensor:
+        return self.maps.gather(2, cells[:, None, :].expand(-1, CHANNELS, -1))
+
     def patch(self, direction: torch.Tensor) -> torch.Tensor:
         """``(B, CHANNELS, CROP, CROP)``: the map around each agent, turned so that it faces up."""
-        cells = self._cells(self._crop_deltas[direction])  # (B, 81)
-        seen = self.maps.gather(2, cells[:, None, :].expand(-1, CHANNELS, -1))
-        seen = torch.cat([seen[:, :2], torch.log1p(seen[:, 2:3]), seen[:, 3:]], dim=1)
+        seen = self._gather(self._square(CROP // 2).gather(1, self._turn[direction]))
+        seen[:, 2] = torch.log1p(seen[:, 2])
         return seen.reshape(len(seen), CHANNELS, CROP, CROP)
 
     def coarse(self, direction: torch.Tensor) -> torch.Tensor:
-        """``(B, CHANNELS, CROP, CROP)``: the wider map around each agent in blocks, turned so that it faces up."""
-        cells = self._cells(self._coarse_deltas[direction])
-        seen = self.maps.gather(2, cells[:, None, :].expand(-1, CHANNELS, -1))
-        seen = torch.cat([seen[:, :2], (seen[:, 2:3] > 0).to(seen.dtype), seen[:, 3:]], dim=1)
+        """``(B, CHANNELS, CROP, CROP)``: the wider map around each agent in blocks, turned so that it faces up.
+        The blocks are pooled before they are turned: a block is the same cells either way, and as every channel
+        pooled holds 0 or 1, the sum is exact in any order, so the result equals pooling the turned square."""
         side = CROP * BLOCK
-        return torch.nn.functional.avg_pool2d(seen.reshape(len(seen), CHANNELS, side, side), BLOCK)
+        seen = self._gather(self._square(_REACH))
+        seen[:, 2] = (seen[:, 2] > 0).to(seen.dtype)
+        blocks = torch.nn.functional.avg_pool2d(seen.reshape(len(seen), CHANNELS, side, side), BLOCK).flatten(2)
+        return blocks.gather(2, self._turn[direction][:, None, :].expand(-1, CHANNELS, -1)).reshape(-1, CHANNELS, CROP, CROP)
 
     def way_on(self, direction: torch.Tensor) -> torch.Tensor:
         """``(B, WAY_FEATURES)``: which way the goal (once on the map and reachable) or else the nearest unexplored
