@@ -13,8 +13,11 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import re
 import shlex
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -115,3 +118,28 @@ def test_the_layer_picture_is_drawn_from_the_code():
         group = hooks._group(name)
         assert (group.removeprefix("domains/") or "domains/__init__") in svg, group
     assert "layouts/ (" in svg and "#cc0000" not in svg.lower()  # no arrow up
+
+
+def test_a_broken_link_fails_the_docs_build(tmp_path):
+    # `make docs`'s own command, on a copy of the pages: as they are it builds; with one broken link it must fail
+    # (mkdocs' --quiet once hid the very warnings that --strict counts).
+    makefile = (ROOT / "Makefile").read_text().splitlines()
+    recipe = makefile[makefile.index("docs: install") + 1].strip()
+    words = shlex.split(recipe.replace("$(BIN)/mkdocs", "MKDOCS"))
+    env = dict(word.split("=", 1) for word in words if "=" in word and not word.startswith("-"))
+    command = [sys.executable, "-m", "mkdocs", *(w for w in words[words.index("MKDOCS") + 1 :])]
+    command[command.index("--site-dir") + 1] = str(tmp_path / "site")
+    docs = tmp_path / "docs"
+    shutil.copytree(ROOT / "docs", docs)
+    config = tmp_path / "mkdocs.yml"
+    config.write_text(f"INHERIT: {ROOT / 'mkdocs.yml'}\ndocs_dir: {docs}\nhooks:\n  - {ROOT / 'docs' / 'hooks.py'}\n")
+
+    def build() -> subprocess.CompletedProcess:
+        run_env = {**os.environ, **env}
+        return subprocess.run([*command, "-f", str(config)], capture_output=True, text=True, cwd=ROOT, env=run_env, timeout=600)
+
+    assert build().returncode == 0, build().stderr
+    page = docs / "runs.md"
+    page.write_text(page.read_text() + "\nSee [a page that is gone](no-such-page.md).\n")
+    broken = build()
+    assert broken.returncode != 0 and "no-such-page.md" in broken.stderr
