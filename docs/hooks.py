@@ -1,7 +1,8 @@
 """MkDocs hooks (mkdocs.yml): the site shows some of the repository's own Markdown files as pages.
 
 README.md is the landing page (``index.md``), CONTRIBUTING.md is ``contributing.md``, and ``benchmarks/*.md`` are
-``benchmarks/*.md`` (their README the section's ``index.md``, the anchors' README ``benchmarks/anchors.md``). Each file keeps one home, the repository; the site
+``benchmarks/*.md`` (their README the section's ``index.md``, the anchors' README
+``benchmarks/anchors.md``). Each file keeps one home, the repository; the site
 reads it at build time. Their relative links, written for reading the repository, are turned into the site's, and so
 are the docs pages' links to those files: ``docs/layouts.md`` from the README is ``layouts.md`` on the site.
 

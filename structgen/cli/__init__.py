@@ -14,10 +14,12 @@ message naming the file and the problem; ``--verbose`` adds the traceback). Noth
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import os
 import sys
+import time
 import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -44,10 +46,11 @@ from structgen.registry.commands import (
     verb,
     verbs,
 )
+from structgen.runs.report import ELITES
 
 log = logging.getLogger("structgen")
 
-GENERIC_VERBS = ("list", "evolve", "resume", "export", "info", "compare")
+GENERIC_VERBS = ("list", "evolve", "resume", "export", "info", "compare", "report")
 # Bounds of the run options given by name (RunSettings checks the same settings however they are given).
 MAX_GENERATIONS, MAX_WORKERS = 10**9, 1024
 
@@ -250,11 +253,56 @@ def cmd_compare(args: argparse.Namespace) -> int:
             f"| {row['run']} | {row['domain']} | {row['optimizer']} | {row['generations']} | {row['evaluations']:,} | "
             f"{row['best_objective']:.4g} | {qd} | {coverage} |"
         )
-    # Everything is read and checked before the picture is written: a refusal leaves no file behind.
+    # Everything is read and checked before anything is written: a refusal leaves no file behind.
     atomic_write(output, figure_png(compare_figure(runs)))
+    if args.html is not None:
+        from structgen.runs.report import compare_page, write_page
+
+        log.info("wrote %s", write_page(compare_page(runs, table), args.html))
     print(json.dumps(table) if args.json else "\n".join(lines))
     log.info("wrote %s", output)
     return EXIT_OK
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    """write a report: one HTML page, opened offline in any browser, of a run or of a file
+
+    For a run folder of any domain: its settings and timing, its progress (best objective; QD score and coverage for
+    quality diversity), its archive as a heatmap where a click on a cell shows its elite, and its best candidate, each
+    drawn as its domain draws it (a structure in 3D to turn, members coloured by load; a layout, a game or a world as
+    its picture). For a file of a domain (a structure, or what `structgen evaluate --json` printed): its view
+    alone. Nothing is written when the input is bad.
+    """
+    from evolution import RunFolder
+    from structgen.runs.report import item_page, run_page, write_page
+
+    source, started = Path(args.source), time.perf_counter()
+    if source.is_dir():
+        if not (source / RunFolder.MANIFEST).is_file():
+            raise InputError(f"{source}: no run folder (no manifest.json)")
+        with _progress_bar(args.elites, "elites drawn") as advance:
+            page = run_page(source, elites=args.elites, progress=advance)
+    elif source.is_file():
+        page = item_page(source, domains.spec(args.domain or domains.DEFAULT_DOMAIN))
+    else:
+        raise InputError(f"{source}: no such file or folder")
+    path = write_page(page, args.output)
+    print(f"{path}: {len(page.encode()) / 1e6:.1f} MB in {time.perf_counter() - started:.1f} s")
+    return EXIT_OK
+
+
+@contextlib.contextmanager
+def _progress_bar(total: int, unit: str) -> Any:
+    """A function ``(done, of)`` that moves a bar on stderr (shown only on a terminal)."""
+    from tqdm import tqdm
+
+    with tqdm(total=total, unit=" " + unit, disable=not sys.stderr.isatty(), leave=False) as bar:
+
+        def advance(done: int, of: int) -> None:
+            bar.total = of
+            bar.update(done - bar.n)
+
+        yield advance
 
 
 # -- parser -------------------------------------------------------------------------------------------------------------
@@ -303,6 +351,8 @@ def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[doma
         verb("compare", cmd_compare,
              option("runs", nargs="+", metavar="RUN_DIR", help="run folders, of any domain and optimiser"),
              output("OUT.png", "picture to write (default compare.png)", required=False, default=Path("compare.png")),
+             option("--html", type=output_path, metavar="OUT.html", help="also write the table and the curves as one HTML "
+                    "page to open in a browser"),
              json_flag("print the table as a JSON list"),
              examples=["structgen compare runs/ga runs/qd -o compare.png", "structgen compare runs/* --json"]),
         verb("export", cmd_export, option("source", metavar="SOURCE", help="run folder or file"),
@@ -315,6 +365,11 @@ def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[doma
              examples=[line for _, hooks in exporters for line in hooks.examples.get("export", ())] if domain else [
                  "structgen export runs/qd best.glb", "structgen export tower.json tower.stl",
                  "structgen export runs/qd -o elite.obj --elite index:12"]),
+        verb("report", cmd_report, option("source", metavar="RUN_DIR|FILE", help="run folder, or a file"),
+             output("OUT.html", "page to write (default report.html)", required=False, default=Path("report.html")),
+             *choose, number("--elites", 0, 10**6, ELITES, "archive elites given a view, the best first (the others show "
+                             "their numbers only)"),
+             examples=["structgen report runs/qd -o qd.html", "structgen report tower.json -o tower.html"]),
         verb("info", cmd_info, option("path", metavar="RUN_DIR|FILE", help="run folder, or a file"), *choose,
              json_flag("print one JSON object instead of lines to read"), text={"which": which},
              examples=[f"{me} info runs/{domain.group_name}"] if domain else ["structgen info runs/qd",

@@ -279,6 +279,17 @@ class DomainCommands:
         ``--json`` and the text to print; None when ``path`` is none of the domain's (the default)."""
         return None
 
+    def report_view(self, problem: Any, genome: Any) -> dict[str, Any] | None:
+        """How ``structgen report`` shows one elite (:mod:`structgen.runs.report`): ``{"figure": a Plotly figure as
+        plain data (:func:`structgen.runs.report.plain_figure`), "verdict": a line, "fields": {name: number}}``, any
+        of them left out. None (the default): the report shows the elite's objective, measures and fields only."""
+        return None
+
+    def report_file(self, path: Path) -> dict[str, Any] | None:
+        """``structgen report FILE`` on a file of the domain: a view as :meth:`report_view` makes; None when ``path``
+        is none of the domain's (the default)."""
+        return None
+
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         """Options for exporting this domain's files and elites; they appear in ``structgen export --help``, so
         give them names no other domain is likely to use."""

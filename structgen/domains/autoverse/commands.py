@@ -287,6 +287,17 @@ _ACTIONS = option("--actions", type=_parse_actions, metavar="A,A,...", help="act
 _SAVE = option("--save", type=output_path, metavar="OUT.json", help="write the game as JSON")
 
 
+def game_view(game: dict[str, Any]) -> dict[str, Any]:
+    """A game as a report shows it: its initial map, and how many rules and what rewards it has."""
+    from structgen.domains.autoverse.show import map_image
+    from structgen.runs.report import image_figure
+
+    picture = map_image(game["map"], scale=1)  # a cell a square: the player white, several tiles their mean colour
+    rewards = np.asarray(game["rewards"], dtype=float)
+    fields = {"rules": int(len(rewards)), "rewards (sum)": float(rewards.sum())}
+    return {"figure": image_figure(picture, f"initial map: {picture.shape[0]} x {picture.shape[1]}"), "fields": fields}
+
+
 class AutoverseCommands(DomainCommands):
     renamed = {"search": "evaluate"}  # until 0.5
     examples = {
@@ -347,6 +358,17 @@ class AutoverseCommands(DomainCommands):
             + ("; policy.pt written" if summary["finished"] else "; resume with structgen resume")
         )
         return summary, text
+
+    def report_view(self, problem: Any, genome: Any) -> dict[str, Any]:
+        return game_view(genome)
+
+    def report_file(self, path: Path) -> dict[str, Any] | None:
+        from evolution.files import parse_json, read_text
+        from structgen.domains.autoverse.game import game_from_json
+
+        if path.is_dir():
+            return None
+        return game_view(game_from_json(parse_json(read_text(path, 10 << 20, what="a game JSON file"), str(path)), str(path)))
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         from structgen.domains.autoverse.show import draw_game

@@ -305,6 +305,17 @@ class FortressCommands(DomainCommands):
              examples=["structgen fortress figure archive runs/exp1/seed-0 -o archive.png"]),
     )  # fmt: skip
 
+    def report_view(self, problem: Any, genome: Any) -> dict[str, Any]:
+        from structgen.domains.fortress.show import world_view
+
+        return world_view(genome.to_file())
+
+    def report_file(self, path: Path) -> dict[str, Any] | None:
+        from structgen.domains.fortress.formats import read_fortress_file
+        from structgen.domains.fortress.show import world_view
+
+        return None if path.is_dir() else world_view(read_fortress_file(path))
+
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         from structgen.domains.fortress.show import draw_world
 

@@ -112,6 +112,19 @@ def population_figure(trace: Trace, chars: Sequence[str], title: str = "") -> ob
     return figure
 
 
+def world_view(world: FortressFile) -> dict[str, Any]:
+    """A world as a report shows it (:mod:`structgen.runs.report`): its initial map, a cell a square (walls dark,
+    floor light, a tile with entities in the colour of the first created there), and each class's machine size."""
+    from structgen.runs.report import image_figure
+
+    entities = placements(world.initial)
+    colours = {"#": (60, 60, 60), ".": (235, 232, 225), **_colours(list(world.classes))}
+    rows = map_text(entities).splitlines()
+    picture = np.array([[colours[c] for c in row] for row in rows], dtype=np.uint8)
+    fields = {"entities": len(entities), **{f"class {c}: nodes": len(e.nodes) for c, e in world.classes.items()}}
+    return {"figure": image_figure(picture, f"initial map: {len(entities)} entities"), "fields": fields}
+
+
 def draw_world(world: FortressFile, path: str | Path) -> Path:
     """A PNG of a world's initial map and the size of each class's machine."""
     entities = placements(world.initial)

@@ -758,6 +758,15 @@ def _verbs(kind: LayoutKind) -> dict[str, Verb]:
     )  # fmt: skip
 
 
+def layout_view(tiles: np.ndarray, kind: LayoutKind, title: str) -> dict[str, Any]:
+    """A layout as a report shows it: its picture, each tile in its kind's colour, and its tile counts."""
+    from structgen.runs.report import hex_rgb, image_figure
+
+    palette = np.array([hex_rgb(kind.colours[c]) for c in kind.vocabulary], dtype=np.uint8)
+    counts = {f"tiles '{c}' ({kind.tile_names[c]})": int((tiles == i).sum()) for i, c in enumerate(kind.vocabulary)}
+    return {"figure": image_figure(palette[tiles], f"{title}: {tiles.shape[0]} x {tiles.shape[1]}"), "fields": counts}
+
+
 class LayoutCommands(DomainCommands):
     renamed = {"generate": "grow", "train-agent": "train"}  # until 0.5
 
@@ -799,6 +808,15 @@ class LayoutCommands(DomainCommands):
             + ("; agent.pt written" if summary["finished"] else "; resume with the same command or structgen resume")
         )
         return summary, text
+
+    def report_view(self, problem: Any, genome: Any) -> dict[str, Any]:
+        return layout_view(problem.grow(np.asarray(genome)[None])[0], problem.kind, "as grown (unrepaired)")
+
+    def report_file(self, path: Path) -> dict[str, Any] | None:
+        if path.is_dir():
+            return None
+        kind = KINDS[self.kind]
+        return layout_view(_load(str(path), kind).tiles, kind, path.name)
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin) -> str:
         _check_output(output, ".json")

@@ -582,6 +582,25 @@ class StructureCommands(DomainCommands):
             raise InputError(f"{run_dir}: a tall search has no generations and runs on this machine; give --workers only")
         return resume_tall(run_dir, args.workers)
 
+    def report_view(self, problem: Any, genome: Any) -> dict[str, Any]:
+        from structgen.domains.structures.view import structure_view
+
+        return structure_view(problem.structure_of(genome), problem.settings.physics)
+
+    def report_file(self, path: Path) -> dict[str, Any] | None:
+        """A structure file, or what ``structgen evaluate --json`` printed (its structure drawn, its numbers beside)."""
+        from evolution.files import parse_json, read_text
+        from structgen.domains.structures.view import structure_view
+
+        if path.is_dir():
+            return None
+        data = parse_json(read_text(path, 1 << 28, what="a JSON file"), str(path))
+        if isinstance(data, dict) and "method" in data and isinstance(data.get("file"), str):
+            checked = {key: data.get(key) for key in ("method", "integrity", "height", "complexity", "score", "stands")}
+            view = structure_view(_load_structure(data["file"]))
+            return {**view, "fields": {**view["fields"], **{f"check: {k}": v for k, v in checked.items()}}}
+        return structure_view(_load_structure(path))
+
     def add_export_options(self, parser: argparse.ArgumentParser) -> None:
         _mesh_options("structures: mesh dimensions (mesh formats only; defaults match the physics model)")(parser)
 
