@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from structgen import domains
 from tests.helpers import cli
 
 TINY = """\
@@ -89,6 +90,24 @@ def test_a_structure_file_and_a_check_result_get_their_own_page(tmp_path, capsys
         (view,) = views_of(output.read_text())
         assert view["figure"]["data"][0]["type"] == "scatter3d"
         assert extra is None or extra in view["fields"]
+
+
+@pytest.mark.parametrize("spec", [s for s in domains.specs() if s.command_hooks()], ids=lambda spec: spec.id)
+def test_every_domain_draws_its_elites_as_figures_plotly_accepts(spec):
+    import plotly.graph_objects as go
+
+    from structgen.config import build
+
+    problem = spec.make(build(spec.settings_type(), spec.test_settings, "problem"))
+    try:
+        genome = problem.initial_genomes(1, np.random.default_rng(0))[0]
+        view = spec.command_hooks().report_view(problem, genome)
+    finally:
+        problem.close()
+    if view is None:  # a domain may draw nothing: its elites show their numbers
+        return
+    go.Figure(view["figure"])  # Plotly's own check of every property
+    json.dumps(view.get("fields", {}))
 
 
 @pytest.mark.parametrize(
