@@ -75,7 +75,9 @@ __all__ = [
     "INIT_SCALE",
     "LocalNCA",
     "NCAConfig",
+    "check_seed",
     "grow",
+    "grow_on",
     "grow_population",
     "grow_steps",
     "load_weights",
@@ -137,6 +139,26 @@ def grow(weights: Any, config: NCAConfig | None = None) -> Structure:
     if len(weights) != 1:
         raise ValueError(f"grow() takes one weight vector; use grow_population() for {len(weights)}")
     return grow_population(weights, config)[0]
+
+
+def check_seed(structure: Structure) -> None:
+    """ValueError unless ``structure`` has a vertex at the origin, where an NCA's seed stands (as in every structure
+    an NCA grew: its coordinates count from the seed)."""
+    if not (structure.vertices == 0).all(axis=1).any():
+        raise ValueError("the structure has no vertex at the origin, where the NCA's seed stands (not grown by an NCA?)")
+
+
+def grow_on(weights: Any, start: Structure, config: NCAConfig | None = None) -> Structure:
+    """Let one NCA grow on from ``start`` (a structure whose seed vertex is at the origin, such as a damaged copy
+    of what the NCA grew) for ``config.iterations`` more steps, or until nothing changes: the same local rule, read
+    from the structure as it is. An NCA whose rule only adds what is missing regrows what was cut away."""
+    config = config or NCAConfig()
+    weights = _check_weights(weights, config)
+    if len(weights) != 1:
+        raise ValueError(f"grow_on() takes one weight vector, got {len(weights)}")
+    check_seed(start)
+    with torch.no_grad():
+        return _Growth(weights, config, start).run()[0][0]
 
 
 class LocalNCA:
@@ -222,7 +244,7 @@ class _Growth:
     trust, and only those rows are recomputed in float64. So the result does not depend on how rows are batched.
     """
 
-    def __init__(self, weights: np.ndarray, config: NCAConfig) -> None:
+    def __init__(self, weights: np.ndarray, config: NCAConfig, start: Structure | None = None) -> None:
         self.config = config
         self.population = len(weights)
         self.threshold = math.log(config.cutoff / (1 - config.cutoff))
@@ -239,7 +261,11 @@ class _Growth:
         # The margin is compared in float32; a relative slack of a few roundoffs keeps that comparison on the safe side.
         self.tolerance = ((1 + 8 * _U32) * tolerance[:, None, :]).float()
 
-        self.radius = min(config.iterations, config.max_extent)
+        # A start structure's vertices lie up to ``reach`` cells from the seed; growth adds a cell a step to that.
+        self.reach = 0 if start is None else int(np.abs(start.vertices).max(initial=0))
+        if self.reach > config.max_extent:
+            raise ValueError(f"the structure reaches {self.reach} cells from its seed, beyond max_extent {config.max_extent}")
+        self.radius = min(self.reach + config.iterations, config.max_extent)
         side = self.side = 2 * self.radius + 3
         self.volume = side**3
         check_memory(
@@ -272,12 +298,26 @@ class _Growth:
 
         self.state = torch.zeros((1 + N_DIRECTIONS, n_cells), dtype=torch.bool)
         self.state[0, self.seed_cells] = True
+        if start is not None:
+            self._place(start)
         self.wished = torch.zeros((N_NEIGHBOURS, n_cells), dtype=torch.bool)
         self.active = torch.ones(self.population, dtype=torch.bool)
         self.hit_max_vertices = torch.zeros(self.population, dtype=torch.bool)
         self.hit_max_extent = torch.zeros(self.population, dtype=torch.bool)
         self.reached_fixed_point = torch.zeros(self.population, dtype=torch.bool)
         self.steps_run = torch.zeros(self.population, dtype=torch.int64)
+
+    def _place(self, start: Structure) -> None:
+        """Start every structure of the population from ``start`` (its vertex at the origin on the seed)."""
+        side, centre = self.side, self.radius + 1
+        cells = ((start.vertices[:, 0] + centre) * side + start.vertices[:, 1] + centre) * side + start.vertices[:, 2] + centre
+        step = {int(d): m for m, d in enumerate(self.forward_step)}
+        anchors = np.minimum(cells[start.edges[:, 0]], cells[start.edges[:, 1]])
+        rows = 1 + np.array([step[int(d)] for d in np.abs(cells[start.edges[:, 1]] - cells[start.edges[:, 0]])], dtype=np.int64)
+        for p in range(self.population):
+            offset = p * self.volume
+            self.state[0, torch.as_tensor(cells + offset)] = True
+            self.state[torch.as_tensor(rows), torch.as_tensor(anchors + offset)] = True
 
     def run(self, every_step: bool = False) -> list[list[Structure]]:
         """The structures at the end (one list), or after every step from the lone seed on (one list a step, until
@@ -337,7 +377,7 @@ class _Growth:
     def _step(self) -> None:
         rows, flags = self._read()
         wishes = self._decide(flags) & (rows != self.padding_cell)[..., None]  # (P, rows, 26)
-        if int(self.steps_run.max()) < self.radius:  # vertices lie within steps_run of the seed: wishes stay inside
+        if self.reach + int(self.steps_run.max()) < self.radius:  # vertices lie within reach + steps_run of the seed
             leaves_box = torch.zeros_like(self.active)
         else:
             leaves_box = (wishes & ~torch.take(self.in_box, rows[..., None] + self.delta)).flatten(1).any(1)

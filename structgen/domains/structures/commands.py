@@ -18,6 +18,7 @@ from typing import Any
 
 from physics.config import PhysicsConfig
 from structgen.domains.structures.experiment import EXPERIMENTS
+from structgen.domains.structures.regrow import CUTS
 from structgen.domains.structures.tall_settings import TallSettings
 from structgen.mesh import MeshStyle
 from structgen.nca_config import NCAConfig
@@ -38,6 +39,7 @@ from structgen.registry.commands import (
     output,
     output_path,
     overwrite,
+    png_output_path,
     print_table,
     real,
     seed,
@@ -318,6 +320,52 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 # -- the hooks ----------------------------------------------------------------------------------------------------------
+def cmd_regrow(args: argparse.Namespace) -> int:
+    """cut members out of a structure an NCA grew and let the same NCA grow on
+
+    Remove --damage of FILE's members (--cut mid: those nearest its middle height; random: drawn at random), let the
+    NCA in --weights grow on from what is left for its growth steps (or until nothing changes), and print the share
+    of the original's members that came back, how many members grew that it lacked, and whether the regrown structure
+    stands (the static analysis, faithful preset). The NCA's settings are those FILE was grown with (its growth
+    metadata), where not given here.
+    """
+    from structgen.domains.structures.regrow import regrow
+    from structgen.nca import load_weights
+
+    if args.weights is None:
+        raise InputError("regrow needs the NCA that grew FILE: --weights FILE.npy")
+    structure = _load_structure(args.file)
+    growth = structure.metadata.get("growth") or {}
+    grown_with = {name: growth[name] for name in NCA_OPTIONS if name in growth}
+    config = settings_from_args({"nca": NCAConfig(**grown_with)}, args, NCA_OPTIONS)["nca"]
+    try:
+        result = regrow(load_weights(args.weights, config), structure, config, args.damage, args.cut, args.seed)
+    except ValueError as err:
+        raise InputError(f"{args.file}: {err}") from None
+    summary = {
+        "file": str(args.file), "damage": args.damage, "cut": args.cut, "members": structure.n_edges,
+        "cut_out": structure.n_edges - result.damaged.n_edges, "regrown_members": result.regrown.n_edges,
+        "restored": result.restored, "extra": result.extra, "stands": result.stands,
+    }  # fmt: skip
+    if args.output:
+        _write(result.regrown.with_metadata(regrown_from=str(args.file)), args.output, MeshStyle())
+    if args.picture:
+        from structgen.domains.structures.render import render_regrowth
+
+        cut = f"{args.cut} cut of {args.damage:.0%}"
+        render_regrowth(result.original, result.damaged, result.regrown, args.picture, cut=cut)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"{args.file}: cut {summary['cut_out']} of {structure.n_edges} members ({args.cut}); the NCA regrew "
+            f"{result.restored:.1%} of the original's members and {result.extra} it lacked; the regrown structure "
+            + ("stands" if result.stands else "does not stand")
+            + " (static analysis, faithful preset)"
+        )
+    return EXIT_OK
+
+
 def _seed_vertex(text: str) -> int | str:
     if text == "top":
         return text
@@ -483,6 +531,16 @@ def _mesh_options(title: str) -> Adder:
     )
 
 
+def _nca_options(title: str) -> Adder:
+    return group(
+        title,
+        settings(NCAConfig, ("iterations", "cutoff", "hidden")),
+        option("--no-build-down", dest="build_down", action="store_const", const=False,
+               help="never grow below the seed's level (the paper's special rule)"),
+        settings(NCAConfig, ("max_vertices", "max_extent")),
+    )  # fmt: skip
+
+
 def _describe_preset(name: str, preset: PhysicsConfig) -> str:
     stop = f"stop when settled, at most {preset.horizon:g} s" if preset.early_stop else f"{preset.horizon:g} s"
     return f"{name}: 1/{1 / preset.timestep:.0f} s steps, {preset.solver_iterations} solver iterations, {stop}"
@@ -534,10 +592,7 @@ class StructureCommands(DomainCommands):
              option("--frames", type=_frames_folder, metavar="DIR", help="also draw the structure after every growth "
                     "step, from the lone seed on, as DIR/step_000.png, ..."),
              option("--gif", type=_gif_path, metavar="FILE.gif", help="also write the growth steps as an animated GIF"),
-             group("NCA (defaults follow the paper)", settings(NCAConfig, ("iterations", "cutoff", "hidden")),
-                   option("--no-build-down", dest="build_down", action="store_const", const=False,
-                          help="never grow below the seed's level (the paper's special rule)"),
-                   settings(NCAConfig, ("max_vertices", "max_extent"))),
+             _nca_options("NCA (defaults follow the paper)"),
              _mesh_options("mesh dimensions (mesh formats only; defaults match the physics model)"),
              set_option("the NCA (nca.*) and the mesh (mesh.*)", "nca.cutoff=0.6 or sphere_radius=0.2"),
              examples=["structgen grow --seed 1 -o tower.json", "structgen grow --run runs/qd -o best.glb --gif growth.gif"]),
@@ -553,6 +608,15 @@ class StructureCommands(DomainCommands):
              settings(NCAConfig, ("hidden", "cutoff"), defaults={"hidden": 60, "cutoff": 0.5}),
              real("--margin", 0, 100, 1.0, "how far (in logits) every output must clear its threshold", above=True),
              examples=["structgen teach tower.json -o tower_nca.npy"]),
+        verb("regrow", cmd_regrow, _FILE, nca_weights(),
+             real("--damage", 0, 1, 0.25, "share of the members to cut out", above=True),
+             option("--cut", choices=CUTS, default="mid", help="mid: the members nearest the middle height (one cut "
+                    "through it); random: drawn at random with --seed"),
+             seed("the random cut's seed"), output(help="the regrown structure (json, glb, obj, stl, ply)", required=False),
+             option("--picture", type=png_output_path, metavar="OUT.png", help="draw it grown, damaged and regrown"),
+             json_flag(), _nca_options("NCA (defaults: the settings FILE was grown with)"),
+             examples=["structgen regrow eight.json --weights docs/tall_grown_8.npy --damage 0.25 --cut mid "
+                       "--picture regrown.png"]),
         verb("tall", cmd_tall,
              option("--run-dir", metavar="DIR", help="run folder: new, empty, or one a search with the same settings "
                     "started (it resumes; with more --levels it goes on from there); default runs/tall-<levels>"),

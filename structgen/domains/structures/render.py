@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from physics import StabilityReport
     from structgen.structure import Structure
 
-__all__ = ["check_figure", "render_check", "render_growth", "render_structure"]
+__all__ = ["check_figure", "render_check", "render_growth", "render_regrowth", "render_structure"]
 
 INTACT, BROKEN, VERTEX, GROUND = "#5b6f8a", "#d62728", "#e0703c", "#d9d4c7"
 # Beyond this many broken joints, crosses would hide the structure; the red edges still show where it failed.
@@ -160,6 +160,36 @@ def render_growth(
         images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:], duration=durations, loop=0)
         written.append(atomic_write(gif, buffer.getvalue()))
     return written
+
+
+def render_regrowth(
+    original: Structure, damaged: Structure, regrown: Structure, path: str | os.PathLike, *, cut: str = "", dpi: int = 100
+) -> Path:
+    """Grown, damaged (by ``cut``, words for the caption) and regrown side by side, in one frame of view (the
+    original's ground at height 0); members that regrew where the original had none are red. Written as a PNG to
+    ``path`` atomically."""
+    from structgen.domains.structures.regrow import member_keys
+
+    ground = original.vertices[:, 2].min() if original.n_vertices else 0
+    scene = _scene(original.vertices - [0, 0, ground])
+    figure = new_figure(figsize=(15, 5.2), layout="constrained")
+    before, after = set(member_keys(original)), member_keys(regrown)
+    back = len(before & set(after)) / max(1, len(before))
+    captions = (
+        f"grown: {original.n_edges} members",
+        f"damaged{f' ({cut})' if cut else ''}: {damaged.n_edges} members",
+        f"regrown: {regrown.n_edges} members, {back:.1%} of the grown ones, {len(set(after) - before)} new (red)",
+    )
+    for column, (structure, caption) in enumerate(zip((original, damaged, regrown), captions), start=1):
+        vertices = (structure.vertices - [0, 0, ground]).astype(float)
+        edges = structure.edges
+        segments = np.stack([vertices[edges[:, 0]], vertices[edges[:, 1]]], axis=1) if len(edges) else np.zeros((0, 2, 3))
+        new = np.array([key not in before for key in after] if structure is regrown else [False] * len(edges), dtype=bool)
+        axes = figure.add_subplot(1, 3, column, projection="3d")
+        middle, half, top, size = scene
+        _stage(axes, middle, half, top)
+        _draw(axes, vertices, segments, new, size, caption, top)
+    return atomic_write(path, figure_png(figure, dpi))
 
 
 def _after_segments(report: StabilityReport) -> np.ndarray:
