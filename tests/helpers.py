@@ -1,5 +1,5 @@
-"""Helpers several test files use: the command line in this process, run folders compared, and a run killed midway
-in a process of its own."""
+"""Helpers several test files use: the command line in this process, tiny structures runs' configurations, run
+folders compared, and a run killed midway in a process of its own."""
 
 from __future__ import annotations
 
@@ -63,3 +63,34 @@ def kill_during_evolve(config: Path, run: Path, generations: int, *options: str,
     process.send_signal(signal.SIGKILL)
     process.wait()
     assert process.returncode == -signal.SIGKILL
+
+
+# A structures run of four generations with a 16-vertex cap: seconds, for any optimiser.
+TINY = """\
+[run]
+generations = 4
+seed = 3
+workers = 0
+
+[problem]
+name = "structures"
+
+[problem.nca]
+max_vertices = 16
+
+[optimizer]
+name = "{optimizer}"
+{optimizer_settings}
+"""
+OPTIMIZER_SETTINGS = {
+    "ga": "population = 6\nparents = 2",
+    "cma_es": "population = 6",
+    "map_elites": "batch_size = 6\ncells = [6, 8]",
+    "cma_mae": "emitters = 2\nbatch_size = 3\ncells = [6, 8]",
+}
+
+
+def tiny_config(tmp_path: Path, optimizer: str = "ga") -> Path:
+    path = tmp_path / f"{optimizer}.toml"
+    path.write_text(TINY.format(optimizer=optimizer, optimizer_settings=OPTIMIZER_SETTINGS[optimizer]))
+    return path

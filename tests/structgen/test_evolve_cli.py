@@ -14,39 +14,10 @@ import pytest
 import trimesh
 
 from structgen.cli import main
-from tests.helpers import cli, kill_during_evolve, outcome, structgen_command, wait_for_lines
+from tests.helpers import OPTIMIZER_SETTINGS, cli, kill_during_evolve, outcome, structgen_command, tiny_config, wait_for_lines
+
 
 # The paper's problem in miniature: growth capped at 16 vertices, 4 children a generation, fast physics.
-TINY = """\
-[run]
-generations = 4
-seed = 3
-workers = 0
-
-[problem]
-name = "structures"
-
-[problem.nca]
-max_vertices = 16
-
-[optimizer]
-name = "{optimizer}"
-{optimizer_settings}
-"""
-OPTIMIZER_SETTINGS = {
-    "ga": "population = 6\nparents = 2",
-    "cma_es": "population = 6",
-    "map_elites": "batch_size = 6\ncells = [6, 8]",
-    "cma_mae": "emitters = 2\nbatch_size = 3\ncells = [6, 8]",
-}
-
-
-def tiny_config(tmp_path: Path, optimizer: str = "ga") -> Path:
-    path = tmp_path / f"{optimizer}.toml"
-    path.write_text(TINY.format(optimizer=optimizer, optimizer_settings=OPTIMIZER_SETTINGS[optimizer]))
-    return path
-
-
 # -- evolve ---------------------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("optimizer", list(OPTIMIZER_SETTINGS))
 def test_evolve_writes_a_complete_run_folder(tmp_path, capsys, optimizer):

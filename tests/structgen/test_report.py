@@ -16,25 +16,8 @@ import numpy as np
 import pytest
 
 from structgen import domains
-from tests.helpers import cli
+from tests.helpers import cli, tiny_config
 
-TINY = """\
-[run]
-generations = 4
-seed = 3
-workers = 0
-
-[problem]
-name = "structures"
-
-[problem.nca]
-max_vertices = 16
-
-[optimizer]
-name = "map_elites"
-batch_size = 6
-cells = [6, 8]
-"""
 #: Set where the browser test must run (CI installs Chromium): a missing browser then fails instead of skipping.
 REQUIRE_BROWSER = "STRUCTGEN_REQUIRE_BROWSER"
 
@@ -42,10 +25,9 @@ REQUIRE_BROWSER = "STRUCTGEN_REQUIRE_BROWSER"
 @pytest.fixture(scope="module")
 def qd_run(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("report")
-    (folder / "tiny.toml").write_text(TINY)
     from structgen.cli import main
 
-    assert main(["evolve", str(folder / "tiny.toml"), "--run-dir", str(folder / "run")]) == 0
+    assert main(["evolve", str(tiny_config(folder, "map_elites")), "--run-dir", str(folder / "run")]) == 0
     return folder / "run"
 
 

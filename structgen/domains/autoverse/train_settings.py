@@ -14,8 +14,28 @@ from structgen.ppo_settings import PPOSettings
 __all__ = ["PRESETS", "CloneSettings", "TrainSettings"]
 
 
+class _Observed:
+    """What the player sees, for settings that have the fields ``window``, ``hide_rules``, ``padding`` and
+    ``blank_window`` (:class:`.engine.Observation`'s) and a ``section`` that names them in errors."""
+
+    section: ClassVar[str]
+
+    def observation(self) -> Any:
+        """The :class:`.engine.Observation` of these settings."""
+        from structgen.domains.autoverse.engine import Observation
+
+        names = ("window", "hide_rules", "padding", "blank_window")
+        return Observation(**{name: getattr(self, name) for name in names})
+
+    def _check_observation(self) -> None:
+        try:
+            self.observation()
+        except ValueError as err:
+            raise ValueError(f"{self.section} {err}") from None
+
+
 @dataclass(frozen=True)
-class CloneSettings:
+class CloneSettings(_Observed):
     """Behaviour cloning on a run's playtraces (:func:`.clone.clone_run`): what the player sees (``window``,
     ``hide_rules``, ``padding``, ``blank_window``: :class:`.engine.Observation`), the network's width, the cloning's
     gradient steps, batch, learning rate and seed, its torch device, the steps each game is played in the evaluation,
@@ -54,18 +74,11 @@ class CloneSettings:
         if self.window not in (-1, 5, 10, 20):
             raise ValueError(f"clone window must be -1 (the full map), 5, 10 or 20, got {self.window!r}")
         check_device_name(self.device, "clone device")
-        try:
-            self.observation()
-        except ValueError as err:
-            raise ValueError(f"clone {err}") from None
-
-    def observation(self) -> Any:
-        """The :class:`.engine.Observation` of these settings."""
-        return _observation(self)
+        self._check_observation()
 
 
 @dataclass(frozen=True)
-class TrainSettings(PPOSettings):
+class TrainSettings(PPOSettings, _Observed):
     """PPO's settings (:class:`structgen.ppo_settings.PPOSettings`; ``hidden`` is the network's width, the original's
     256, its convolution having as many channels), with their defaults for 2 CPU cores, and:
 
@@ -124,21 +137,7 @@ class TrainSettings(PPOSettings):
         super().__post_init__()
         if self.evolve_mutation not in MUTATIONS:
             raise ValueError(f"train evolve_mutation must be one of {', '.join(MUTATIONS)}, got {self.evolve_mutation!r}")
-        try:
-            self.observation()
-        except ValueError as err:
-            raise ValueError(f"train {err}") from None
-
-    def observation(self) -> Any:
-        """The :class:`.engine.Observation` of these settings."""
-        return _observation(self)
-
-
-def _observation(settings: CloneSettings | TrainSettings) -> Any:
-    from structgen.domains.autoverse.engine import Observation
-
-    names = ("window", "hide_rules", "padding", "blank_window")
-    return Observation(**{name: getattr(settings, name) for name in names})
+        self._check_observation()
 
 
 #: ``cpu``: the defaults, a few minutes on 2 CPU cores for a 100-generation run's games. ``original``: the
