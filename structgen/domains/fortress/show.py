@@ -122,7 +122,8 @@ def world_view(world: FortressFile) -> dict[str, Any]:
     rows = map_text(entities).splitlines()
     picture = np.array([[colours[c] for c in row] for row in rows], dtype=np.uint8)
     fields = {"entities": len(entities), **{f"class {c}: nodes": len(e.nodes) for c, e in world.classes.items()}}
-    return {"figure": image_figure(picture, f"initial map: {len(entities)} entities"), "fields": fields}
+    labels = [[{"#": "wall", ".": "floor"}.get(c, f"class {c}") for c in row] for row in rows]
+    return {"figure": image_figure(picture, f"initial map: {len(entities)} entities", labels), "fields": fields}
 
 
 def draw_world(world: FortressFile, path: str | Path) -> Path:
