@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from structgen.nca import NCAConfig, check_seed, grow_on
+from structgen.nca_config import NCAConfig
 from structgen.structure import Structure
 
 __all__ = ["CUTS", "Regrowth", "damage", "member_keys", "regrow"]
@@ -30,6 +30,8 @@ def damage(structure: Structure, share: float, cut: str = "mid", seed: int = 0) 
     (:data:`CUTS`); vertices left with no member go too, but the seed (the vertex at the origin) stays."""
     if cut not in CUTS:
         raise ValueError(f"cut must be one of {', '.join(CUTS)}, got {cut!r}")
+    from structgen.nca import check_seed  # (growth loads torch; the command line names the cuts without it)
+
     if not 0 < share <= 1:
         raise ValueError(f"damage must be a share above 0 and at most 1, got {share!r}")
     check_seed(structure)
@@ -70,6 +72,7 @@ def regrow(
     """Damage ``structure`` (:func:`damage`), let ``weights`` grow on from what is left, and compare."""
     from physics import PhysicsConfig
     from physics.statics import check_statics
+    from structgen.nca import grow_on
 
     damaged = damage(structure, share, cut, seed)
     regrown = grow_on(weights, damaged, config)
