@@ -33,15 +33,19 @@ def structure_view(structure: Structure, config: Any = None) -> dict[str, Any]:
     # Each member is a separate stretch of one line: its two ends, then a gap; all three points carry its share.
     points = np.full((len(edges) * 3, 3), np.nan)
     points[0::3], points[1::3] = vertices[edges[:, 0]], vertices[edges[:, 1]]
-    colour = np.repeat(np.where(np.isnan(share), -1.0, np.minimum(share, 1.0)), 3)
-    text = np.repeat([f"load {s:.0%} of the break force" if np.isfinite(s) else "no static answer" for s in share], 3)
+    # Single precision and a hover template over the shares keep a view a few kilobytes: an archive has thousands.
+    colour = np.repeat(np.where(np.isnan(share), -1.0, np.minimum(share, 1.0)), 3).astype(np.float32)
+    points = points.astype(np.float32)
     members = go.Scatter3d(
-        x=points[:, 0], y=points[:, 1], z=points[:, 2], mode="lines", name="members", text=text, hoverinfo="text",
+        x=points[:, 0], y=points[:, 1], z=points[:, 2], mode="lines", name="members",
+        customdata=np.repeat(np.where(np.isnan(share), -1.0, share), 3).astype(np.float32),
+        hovertemplate="load %{customdata:.0%} of the break force (negative: no static answer)<extra></extra>",
         line={"color": colour, "colorscale": LOAD_COLOURS, "cmin": 0.0, "cmax": 1.0, "width": 7,
               "colorbar": {"title": "load / break force", "tickformat": ".0%"}},
     )  # fmt: skip
+    corners = vertices.astype(np.int16)
     joints = go.Scatter3d(
-        x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], mode="markers", name="vertices", hoverinfo="skip",
+        x=corners[:, 0], y=corners[:, 1], z=corners[:, 2], mode="markers", name="vertices", hoverinfo="skip",
         marker={"size": 3, "color": "#37474f"},
     )  # fmt: skip
     figure = go.Figure([members, joints])
