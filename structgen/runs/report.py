@@ -1,0 +1,309 @@
+"""Reports: one self-contained HTML page for a run folder, a single item, or several runs side by side.
+
+The page opens offline in any modern browser: Plotly's JavaScript is written into it, and every figure and every
+elite's view is data in it (no server, no network at view time). A run's page holds its settings and timing, its
+progress (best objective, and QD score and coverage for quality diversity), its archive as a heatmap, and a panel
+that shows one elite: the best on opening, then whichever archive cell is clicked. How an elite is drawn is its
+domain's (:meth:`structgen.registry.commands.DomainCommands.report_view`): a structure as a 3D view to turn, its
+members coloured by load; a layout, a maze, a game or a world as its picture; a domain that draws nothing shows its
+measures and fields. Views are compact data (a structure's points and loads, a picture's cells), drawn by Plotly
+when shown: an archive of a thousand structures stays a few megabytes.
+
+Plotly writes the figures; the page's own script only wires them together (a click on a cell shows its elite).
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from structgen.errors import InputError
+
+__all__ = ["ELITES", "compare_page", "hex_rgb", "image_figure", "item_page", "plain_figure", "run_page", "write_page"]
+
+#: Elites of an archive given a view at most (the best by objective); the others show their numbers only.
+ELITES = 1000
+#: Columns of archive.csv that place an elite rather than describe it.
+_BOOKKEEPING = ("index", "objective", "threshold")
+
+
+def image_figure(rgb: np.ndarray, title: str = "", labels: Any = None) -> dict[str, Any]:
+    """A Plotly figure (as a dict) of an ``(rows, columns, 3)`` picture of 0-255 colours, one square per cell;
+    ``labels`` (rows x columns of text) names each cell on hover."""
+    import plotly.graph_objects as go
+
+    shown = {"hoverinfo": "x+y"} if labels is None else {"hovertext": np.asarray(labels).tolist(), "hoverinfo": "x+y+text"}
+    figure = go.Figure(go.Image(z=np.asarray(rgb, dtype=np.uint8), **shown))
+    figure.update_layout(title=title, margin={"l": 10, "r": 10, "t": 40, "b": 10}, height=420)
+    figure.update_xaxes(visible=False)
+    figure.update_yaxes(visible=False, scaleanchor="x")
+    return plain_figure(figure)
+
+
+def hex_rgb(colour: str) -> tuple[int, int, int]:
+    """``"#d95f02"`` as ``(217, 95, 2)``."""
+    value = colour.lstrip("#")
+    return int(value[0:2], 16), int(value[2:4], 16), int(value[4:6], 16)
+
+
+def plain_figure(figure: Any) -> dict[str, Any]:
+    """A Plotly figure as plain data, without the template Plotly would repeat in every one (the page sets it once)."""
+    data = figure.to_plotly_json()
+    data.get("layout", {}).pop("template", None)
+    return {"data": data.get("data", []), "layout": data.get("layout", {})}
+
+
+# -- pages ----------------------------------------------------------------------------------------------------------------
+def run_page(run_dir: str | Path, *, elites: int = ELITES, progress: Callable[[int, int], None] | None = None) -> str:
+    """The report of the run in ``run_dir``, as HTML. ``elites`` caps the archive elites given a view (the best
+    first); ``progress(done, total)`` is told as views are made."""
+    from evolution import RunFolder
+    from structgen.runs import open_run, summary_of
+
+    folder, experiment = open_run(run_dir)
+    rows = folder.metrics()
+    summary = summary_of(folder, experiment, rows)
+    hooks = experiment.spec.command_hooks()
+    problem = experiment.make_problem()
+    try:
+        views, best_view = [], None
+        if (folder / RunFolder.BEST / "best.json").is_file():
+            best = summary.get("best") or {}
+            best_view = _view(hooks, problem, folder.best_genome(problem), "best", best.get("objective"), best)
+            views.append(best_view)
+        heatmap = None
+        if (folder / RunFolder.ARCHIVE).is_file():
+            archive = folder.load_archive(problem)
+            order = np.argsort(-archive.objective, kind="stable")[: max(0, elites)]
+            shown = np.full(len(archive), -1)
+            for done, row in enumerate(order, start=1):
+                numbers = {name: float(values[row]) for name, values in archive.columns.items() if name not in _BOOKKEEPING and not name.startswith("cell_")}
+                name = f"cell {int(archive.columns['index'][row])}"
+                genome = archive.genomes[row]
+                shown[row] = len(views)
+                views.append(_view(hooks, problem, genome, name, float(archive.objective[row]), {"measures": numbers}))
+                if progress is not None:
+                    progress(done, len(order))
+            heatmap = _heatmap(archive, shown, getattr(experiment.optimizer_settings, "cells", None))
+    finally:
+        problem.close()
+    title = f"{folder.path.name}: {experiment.domain}, {experiment.optimizer_name}"
+    sections = [_settings_section(summary, folder), _figure_section("progress", "Progress", _progress_figure({title: rows}))]
+    if heatmap is not None:
+        sections.append(_figure_section("archive", "Archive (click a cell to see its elite)", heatmap))
+    sections.append(_elite_section())
+    return _page(title, sections, views)
+
+
+def item_page(path: str | Path, spec: Any) -> str:
+    """The report of a single file of the domain ``spec`` describes (a structure, or a structure's check result), as
+    HTML."""
+    source = Path(path)
+    hooks = spec.command_hooks()
+    view = hooks.report_file(source) if hooks is not None else None
+    if view is None:
+        raise InputError(f"{source}: not a file the {spec.id} domain reports on (--domain names another)")
+    view.setdefault("name", source.name)
+    return _page(f"{source.name}: {spec.id}", [_elite_section()], [view])
+
+
+def compare_page(runs: Mapping[str, Sequence[Mapping[str, Any]]], table: Sequence[Mapping[str, Any]]) -> str:
+    """Several runs' progress on one page: ``runs`` maps a label to its metrics rows; ``table`` is compare's table."""
+    columns = list(table[0]) if table else []
+    rows = "".join("<tr>" + "".join(f"<td>{html.escape(_shown(row[c]))}</td>" for c in columns) + "</tr>" for row in table)
+    head = "".join(f"<th>{html.escape(c.replace('_', ' '))}</th>" for c in columns)
+    sections = [
+        f'<section><h2>Runs</h2><table class="numbers"><tr>{head}</tr>{rows}</table></section>',
+        _figure_section("progress", "Progress", _progress_figure(runs)),
+    ]
+    return _page(f"{len(runs)} runs compared", sections, [])
+
+
+def write_page(page: str, output: str | Path) -> Path:
+    """Write ``page`` to ``output`` whole or not at all (a file that was there is kept until the new one is
+    complete)."""
+    from evolution.files import atomic_write
+
+    path = Path(output)
+    if path.suffix.lower() not in (".html", ".htm"):
+        raise InputError(f"{path}: a report is an HTML page; give a name ending in .html")
+    atomic_write(path, page)
+    return path
+
+
+# -- pieces ---------------------------------------------------------------------------------------------------------------
+def _view(hooks: Any, problem: Any, genome: Any, name: str, objective: Any, numbers: Mapping[str, Any]) -> dict[str, Any]:
+    view = (hooks.report_view(problem, genome) if hooks is not None else None) or {}
+    fields = {"objective": objective, **(numbers.get("measures") or {}), **(numbers.get("fields") or {})}
+    return {"name": name, **view, "fields": {**fields, **view.get("fields", {})}}
+
+
+def _progress_figure(runs: Mapping[str, Sequence[Mapping[str, Any]]]) -> dict[str, Any]:
+    """Best objective, and QD score and coverage where runs have them, over generations: one trace per run."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    panels = [("best_objective", "best objective")]
+    panels += [(key, label) for key, label in (("qd_score", "QD score"), ("coverage", "coverage")) if _any(runs, key)]
+    figure = make_subplots(rows=len(panels), cols=1, shared_xaxes=True, vertical_spacing=0.06)
+    palette = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
+    for number, (label, rows) in enumerate(runs.items()):
+        colour = palette[number % len(palette)]
+        generations = [row.get("generation") for row in rows]
+        for panel, (key, title) in enumerate(panels, start=1):
+            values = [row.get(key) for row in rows]
+            figure.add_trace(
+                go.Scatter(x=generations, y=values, name=label, legendgroup=label, showlegend=panel == 1, line={"color": colour}),
+                row=panel,
+                col=1,
+            )
+            figure.update_yaxes(title_text=title, row=panel, col=1)
+    figure.update_xaxes(title_text="generation", row=len(panels), col=1)
+    figure.update_layout(height=260 * len(panels) + 60, margin={"l": 60, "r": 20, "t": 20, "b": 40})
+    return plain_figure(figure)
+
+
+def _any(runs: Mapping[str, Sequence[Mapping[str, Any]]], key: str) -> bool:
+    return any(key in row for rows in runs.values() for row in rows)
+
+
+def _heatmap(archive: Any, shown: np.ndarray, shape: Sequence[int] | None) -> dict[str, Any]:
+    """The archive's objective over its first two measures' cells (``shape``, the archive's cells per measure); a
+    cell's custom data is its elite's view (-1: none). One measure is drawn as a single row."""
+    import plotly.graph_objects as go
+
+    cells = archive.cells
+    names = list(archive.measure_names)
+    if cells.shape[1] == 1:
+        cells, names = np.concatenate([cells, np.zeros_like(cells)], axis=1), [names[0], ""]
+    size = cells[:, :2].max(axis=0) + 1 if len(cells) else np.array([1, 1])
+    if shape is not None:
+        size = np.maximum(size, [*list(shape)[:2], 1][:2])
+    z = np.full((int(size[1]), int(size[0])), np.nan)
+    custom = np.full(z.shape, -1, dtype=np.int64)
+    z[cells[:, 1], cells[:, 0]] = archive.objective
+    custom[cells[:, 1], cells[:, 0]] = shown
+    figure = go.Figure(
+        go.Heatmap(
+            z=z,
+            customdata=custom,
+            colorscale="Viridis",
+            colorbar={"title": "objective"},
+            hovertemplate=f"{names[0]} cell %{{x}}<br>{names[1]} cell %{{y}}<br>objective %{{z:.4g}}<extra></extra>",
+        )
+    )
+    figure.update_layout(
+        xaxis_title=f"{names[0]} (cell)", yaxis_title=f"{names[1]} (cell)", height=480, margin={"l": 60, "r": 20, "t": 20}
+    )
+    return plain_figure(figure)
+
+
+def _settings_section(summary: Mapping[str, Any], folder: Any) -> str:
+    seconds = summary.get("wall_s")
+    rows = [
+        ("domain", summary["domain"]),
+        ("optimizer", summary["optimizer"]),
+        ("seed", summary["seed"]),
+        ("generations", f"{summary['generations']:,} of {summary['generations_configured']:,}"),
+        ("evaluations", f"{summary['evaluations']:,}"),
+        ("time", f"{seconds:,.1f} s" if isinstance(seconds, (int, float)) else "-"),
+        ("started", summary.get("created") or "-"),
+        ("structgen", summary.get("structgen") or "-"),
+    ]
+    archive = summary.get("archive")
+    if archive:
+        rows += [("elites", f"{archive['elites']:,}"), ("coverage", f"{archive['coverage']:.1%}")]
+        rows.append(("QD score", archive["qd_score"]))
+    cells = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(_shown(v))}</td></tr>" for k, v in rows)
+    config = (folder / "config.toml").read_text() if (folder / "config.toml").is_file() else ""
+    return (
+        f'<section><h2>The run</h2><table class="numbers">{cells}</table>'
+        f"<details><summary>Settings (config.toml)</summary><pre>{html.escape(config)}</pre></details></section>"
+    )
+
+
+def _figure_section(key: str, title: str, figure: Mapping[str, Any]) -> str:
+    return f'<section><h2>{html.escape(title)}</h2><div id="{key}" class="figure" data-figure="{key}"></div></section>' + (
+        f'<script type="application/json" id="{key}-data">{_json(figure)}</script>'
+    )
+
+
+def _elite_section() -> str:
+    return (
+        '<section id="elite"><h2 id="elite-title">Elite</h2><p id="elite-verdict"></p>'
+        '<div class="elite"><div id="elite-view" class="figure"></div><table id="elite-fields" class="numbers"></table></div>'
+        "</section>"
+    )
+
+
+def _shown(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}" if math.isfinite(value) else "-"
+    return str(value)
+
+
+def _json(value: Any) -> str:
+    """JSON safe inside a script element (``</`` cannot close it); NaN and infinities as null."""
+    from plotly.io.json import to_json_plotly
+
+    return to_json_plotly(value).replace("</", "<\\/")
+
+
+_STYLE = """
+body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1200px; padding: 0 1em; color: #222; }
+h1 { font-size: 1.4em; } h2 { font-size: 1.15em; margin-top: 1.4em; }
+table.numbers { border-collapse: collapse; } table.numbers th, table.numbers td { padding: 2px 10px; text-align: left;
+  border-bottom: 1px solid #eee; font-variant-numeric: tabular-nums; }
+.elite { display: flex; gap: 1.5em; align-items: flex-start; flex-wrap: wrap; }
+#elite-view { flex: 1 1 640px; min-height: 200px; }
+pre { background: #f6f8fa; padding: 0.8em; overflow-x: auto; } footer { margin-top: 2em; color: #777; font-size: 0.85em; }
+"""
+
+# The page's own script: it draws the figures the page holds and shows an elite's view when its cell is clicked.
+_SCRIPT = """
+const VIEWS = JSON.parse(document.getElementById("views-data").textContent);
+const CONFIG = {responsive: true, displaylogo: false};
+function showElite(index) {
+  const view = VIEWS[index];
+  if (!view) return;
+  document.getElementById("elite-title").textContent = "Elite: " + view.name;
+  document.getElementById("elite-verdict").textContent = view.verdict || "";
+  const rows = Object.entries(view.fields || {}).map(([name, value]) =>
+    "<tr><th>" + name + "</th><td>" + (typeof value === "number" ? Number(value.toPrecision(6)) : value) + "</td></tr>");
+  document.getElementById("elite-fields").innerHTML = rows.join("");
+  const target = document.getElementById("elite-view");
+  if (view.figure) Plotly.react(target, view.figure.data, view.figure.layout, CONFIG);
+  else { Plotly.purge(target); target.textContent = "This domain draws no picture of its elites."; }
+}
+for (const div of document.querySelectorAll("div[data-figure]")) {
+  const figure = JSON.parse(document.getElementById(div.dataset.figure + "-data").textContent);
+  Plotly.newPlot(div, figure.data, figure.layout, CONFIG).then((plot) => {
+    if (div.id === "archive") plot.on("plotly_click", (event) => {
+      const index = event.points[0].customdata;
+      if (index >= 0) showElite(index);
+    });
+  });
+}
+if (VIEWS.length) showElite(0);
+"""
+
+
+def _page(title: str, sections: Sequence[str], views: Sequence[Mapping[str, Any]]) -> str:
+    from plotly.offline import get_plotlyjs
+
+    from structgen import __version__
+
+    stamp = time.strftime("%Y-%m-%d %H:%M")
+    return (
+        f'<!doctype html>\n<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+        f"<style>{_STYLE}</style><script>{get_plotlyjs()}</script></head>\n<body><h1>{html.escape(title)}</h1>\n"
+        + "\n".join(sections)
+        + f'\n<script type="application/json" id="views-data">{_json(list(views))}</script>'
+        + f"\n<script>{_SCRIPT}</script>\n<footer>structgen {__version__}, {stamp}</footer></body></html>\n"
+    )
