@@ -224,8 +224,8 @@ def _check_round_trip(problem, genomes, seeds, result, folder: Path) -> None:
 def _check_resume(spec: registry.DomainSpec, folder: Path) -> None:
     from evolution.run import comparable_metrics
     from structgen.config import flatten
-    from structgen.runs.experiment import load_experiment
     from structgen.runs import evolve, resume
+    from structgen.runs.experiment import load_experiment
 
     overrides = [*flatten(spec.test_settings, "problem.").items(), ("optimizer.population", 4), ("optimizer.parents", 2)]
     experiment = load_experiment(domain=spec.id, optimizer="ga", overrides=overrides, run_changes={"workers": 0, "seed": 5})

@@ -83,7 +83,11 @@ def run_page(run_dir: str | Path, *, elites: int = ELITES, progress: Callable[[i
             order = np.argsort(-archive.objective, kind="stable")[: max(0, elites)]
             shown = np.full(len(archive), -1)
             for done, row in enumerate(order, start=1):
-                numbers = {name: float(values[row]) for name, values in archive.columns.items() if name not in _BOOKKEEPING and not name.startswith("cell_")}
+                numbers = {
+                    name: float(values[row])
+                    for name, values in archive.columns.items()
+                    if name not in _BOOKKEEPING and not name.startswith("cell_")
+                }
                 name = f"cell {int(archive.columns['index'][row])}"
                 genome = archive.genomes[row]
                 shown[row] = len(views)

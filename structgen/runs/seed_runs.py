@@ -16,8 +16,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from structgen.registry.commands import EXIT_BAD_INPUT, EXIT_INTERRUPTED
 from structgen.errors import InputError
+from structgen.registry.commands import EXIT_BAD_INPUT, EXIT_INTERRUPTED
 
 __all__ = ["ADDRESS", "RunStopped", "check_seed_folder", "expected_run", "finished", "run_all", "run_seed"]
 
