@@ -170,3 +170,18 @@ def test_importing_a_library_does_not_load_structgen(package):
 def test_import_evolution_stays_light():
     # pyribs pulls in numba; it loads only when a quality-diversity optimiser is built.
     assert not loaded_after("import evolution") & {"ribs", "numba", "torch", "pybullet", "structgen", "physics"}
+
+
+def test_git_ignores_no_file_of_the_code_docs_or_tests():
+    # A pattern meant for the run folders the commands write (runs/) once hid every new module of structgen/runs/
+    # from git, so a clone lacked it, and from ruff, which skips what git ignores.
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout: nothing for git to ignore")
+    folders = ["structgen", "physics", "evolution", "tests", "benchmarks", "docs", "examples", "configs"]
+    # New files an ignore pattern hides, and files in git that one matches (their new siblings would be hidden).
+    for which in ("--others", "--cached"):
+        listed = subprocess.run(
+            ["git", "ls-files", which, "--ignored", "--exclude-standard", "--", *folders],
+            capture_output=True, text=True, check=True, cwd=ROOT,
+        ).stdout.split()  # fmt: skip
+        assert [path for path in listed if "__pycache__" not in path and ".egg-info" not in path] == [], which
