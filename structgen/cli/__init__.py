@@ -14,7 +14,6 @@ message naming the file and the problem; ``--verbose`` adds the traceback). Noth
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import logging
 import os
@@ -280,8 +279,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     if source.is_dir():
         if not (source / RunFolder.MANIFEST).is_file():
             raise InputError(f"{source}: no run folder (no manifest.json)")
-        with _progress_bar(args.elites, "elites drawn") as advance:
-            page = run_page(source, elites=args.elites, progress=advance)
+        page = run_page(source, elites=args.elites, progress=sys.stderr.isatty())
     elif source.is_file():
         page = item_page(source, domains.spec(args.domain or domains.DEFAULT_DOMAIN))
     else:
@@ -289,20 +287,6 @@ def cmd_report(args: argparse.Namespace) -> int:
     path = write_page(page, args.output)
     print(f"{path}: {len(page.encode()) / 1e6:.1f} MB in {time.perf_counter() - started:.1f} s")
     return EXIT_OK
-
-
-@contextlib.contextmanager
-def _progress_bar(total: int, unit: str) -> Any:
-    """A function ``(done, of)`` that moves a bar on stderr (shown only on a terminal)."""
-    from tqdm import tqdm
-
-    with tqdm(total=total, unit=" " + unit, disable=not sys.stderr.isatty(), leave=False) as bar:
-
-        def advance(done: int, of: int) -> None:
-            bar.total = of
-            bar.update(done - bar.n)
-
-        yield advance
 
 
 # -- parser -------------------------------------------------------------------------------------------------------------

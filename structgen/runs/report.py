@@ -17,7 +17,7 @@ from __future__ import annotations
 import html
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -76,7 +76,7 @@ def line_set(
             "points": _typed(np.asarray(points), np.int16),
             "pairs": _typed(np.asarray(pairs), np.int32),
             "values": _typed(steps, np.uint8),
-            "style": {"lines": plain_trace(lines), "markers": plain_trace(markers), "layout": plain_layout(layout)},
+            "style": {"lines": lines.to_plotly_json(), "markers": markers.to_plotly_json(), "layout": plain_layout(layout)},
         }
     }
 
@@ -91,27 +91,24 @@ def _typed(array: np.ndarray, dtype: type) -> dict[str, str]:
     return {"dtype": np.dtype(dtype).str.lstrip("<|"), "bdata": base64.b64encode(converted.tobytes()).decode()}
 
 
-def plain_trace(trace: Any) -> dict[str, Any]:
-    return trace.to_plotly_json()
-
-
 def plain_layout(layout: Any) -> dict[str, Any]:
+    """A Plotly layout as plain data, without the template Plotly would repeat in every figure."""
     data = layout.to_plotly_json()
     data.pop("template", None)
     return data
 
 
 def plain_figure(figure: Any) -> dict[str, Any]:
-    """A Plotly figure as plain data, without the template Plotly would repeat in every one (the page sets it once)."""
-    data = figure.to_plotly_json()
-    data.get("layout", {}).pop("template", None)
-    return {"data": data.get("data", []), "layout": data.get("layout", {})}
+    """A Plotly figure as plain data (:func:`plain_layout`)."""
+    return {"data": [trace.to_plotly_json() for trace in figure.data], "layout": plain_layout(figure.layout)}
 
 
 # -- pages ----------------------------------------------------------------------------------------------------------------
-def run_page(run_dir: str | Path, *, elites: int = ELITES, progress: Callable[[int, int], None] | None = None) -> str:
+def run_page(run_dir: str | Path, *, elites: int = ELITES, progress: bool = False) -> str:
     """The report of the run in ``run_dir``, as HTML. ``elites`` caps the archive elites given a view (the best
-    first); ``progress(done, total)`` is told as views are made."""
+    first); ``progress`` shows a bar on stderr as they are drawn."""
+    from tqdm import tqdm
+
     from evolution import RunFolder
     from structgen.runs import open_run, summary_of
 
@@ -121,17 +118,16 @@ def run_page(run_dir: str | Path, *, elites: int = ELITES, progress: Callable[[i
     hooks = experiment.spec.command_hooks()
     problem = experiment.make_problem()
     try:
-        views, best_view = [], None
+        views = []
         if (folder / RunFolder.BEST / "best.json").is_file():
             best = summary.get("best") or {}
-            best_view = _view(hooks, problem, folder.best_genome(problem), "best", best.get("objective"), best)
-            views.append(best_view)
+            views.append(_view(hooks, problem, folder.best_genome(problem), "best", best.get("objective"), best))
         heatmap = None
         if (folder / RunFolder.ARCHIVE).is_file():
             archive = folder.load_archive(problem)
             order = np.argsort(-archive.objective, kind="stable")[: max(0, elites)]
             shown = np.full(len(archive), -1)
-            for done, row in enumerate(order, start=1):
+            for row in tqdm(order, desc="elites drawn", unit="elite", disable=not progress, leave=False):
                 numbers = {
                     name: float(values[row])
                     for name, values in archive.columns.items()
@@ -141,8 +137,6 @@ def run_page(run_dir: str | Path, *, elites: int = ELITES, progress: Callable[[i
                 genome = archive.genomes[row]
                 shown[row] = len(views)
                 views.append(_view(hooks, problem, genome, name, float(archive.objective[row]), {"measures": numbers}))
-                if progress is not None:
-                    progress(done, len(order))
             heatmap = _heatmap(archive, shown, getattr(experiment.optimizer_settings, "cells", None))
     finally:
         problem.close()
