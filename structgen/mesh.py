@@ -206,8 +206,11 @@ def _placed(template: _Template, offsets: np.ndarray) -> tuple[np.ndarray, np.nd
     return positions, normals, faces
 
 
-def _soup(structure: Meshable, style: MeshStyle) -> tuple[trimesh.Trimesh, trimesh.Trimesh | None]:
-    """Spheres and cylinders as two meshes with vertex normals (cylinders None without edges), z-up."""
+def _soup(
+    structure: Meshable, style: MeshStyle, edge_colors: np.ndarray | None = None
+) -> tuple[trimesh.Trimesh, trimesh.Trimesh | None]:
+    """Spheres and cylinders as two meshes with vertex normals (cylinders None without edges), z-up; each cylinder
+    in its own colour where ``edge_colors`` (E, 4 RGBA bytes) is given."""
     import trimesh
 
     parts = _parts(structure, style)
@@ -224,7 +227,12 @@ def _soup(structure: Meshable, style: MeshStyle) -> tuple[trimesh.Trimesh, trime
         vertex_normals=np.concatenate([p[1] for p in pieces]),
         process=False,
     )
-    cylinders.visual.face_colors = style.edge_color
+    if edge_colors is None:
+        cylinders.visual.face_colors = style.edge_color
+    else:  # the cylinders are listed axis by axis, as by_axis places them
+        order = np.concatenate([np.flatnonzero(parts.axis_of_edge == a) for a in range(len(parts.steps))])
+        faces_each = [len(template.faces) for _, template, middles in parts.by_axis() for _ in range(len(middles))]
+        cylinders.visual.face_colors = np.repeat(edge_colors[order], faces_each, axis=0)
     return spheres, cylinders
 
 
@@ -268,15 +276,32 @@ def _solid(structure: Meshable, style: MeshStyle) -> trimesh.Trimesh:
     return result
 
 
-def structure_mesh(structure: Meshable, style: MeshStyle | None = None, *, solid: bool = False) -> trimesh.Trimesh:
+def _check_edge_colors(structure: Meshable, edge_colors: np.ndarray | None, solid: bool) -> np.ndarray | None:
+    if edge_colors is None:
+        return None
+    if solid:
+        raise StructureError("a solid shell has one colour: member colours (--stress) need the separate parts")
+    colours = np.asarray(edge_colors)
+    if colours.shape != (structure.n_edges, 4) or colours.dtype != np.uint8:
+        raise StructureError(
+            f"edge colours must be ({structure.n_edges}, 4) RGBA bytes, one per edge; got {colours.shape} of {colours.dtype}"
+        )
+    return colours
+
+
+def structure_mesh(
+    structure: Meshable, style: MeshStyle | None = None, *, solid: bool = False, edge_colors: np.ndarray | None = None
+) -> trimesh.Trimesh:
     """One z-up triangle mesh of the structure standing on the ground (spheres first, then cylinders), coloured per
-    face, with vertex normals; ``solid=True``: the parts unioned into one watertight shell."""
+    face, with vertex normals; ``solid=True``: the parts unioned into one watertight shell. ``edge_colors`` (E, 4
+    RGBA bytes) colours each edge's cylinder on its own (the load colours of ``--stress``)."""
     import trimesh
 
     style = style or MeshStyle()
+    edge_colors = _check_edge_colors(structure, edge_colors, solid)
     if solid:
         return _solid(structure, style)
-    spheres, cylinders = _soup(structure, style)
+    spheres, cylinders = _soup(structure, style, edge_colors)
     return spheres if cylinders is None else trimesh.util.concatenate([spheres, cylinders])
 
 
@@ -327,6 +352,13 @@ class _GlbWriter:
         self.meshes.append({"name": name, "primitives": [primitive]})
         return len(self.meshes) - 1
 
+    def recoloured(self, mesh: int, material: int) -> int:
+        """A mesh sharing ``mesh``'s geometry (no data written again) in another material."""
+        (primitive,) = self.meshes[mesh]["primitives"]
+        name = f"{self.meshes[mesh]['name']} m{material}"
+        self.meshes.append({"name": name, "primitives": [{**primitive, "material": material}]})
+        return len(self.meshes) - 1
+
     def glb(self, document: dict) -> bytes:
         document = {**document, "meshes": self.meshes, "accessors": self.accessors, "bufferViews": self.views}
         document["buffers"] = [{"byteLength": self.length}]
@@ -349,7 +381,9 @@ def _y_up(points: np.ndarray) -> np.ndarray:
     return points @ Z_UP_TO_Y_UP.T
 
 
-def _glb_bytes(structure: Meshable, style: MeshStyle, solid: bool) -> bytes:
+def _glb_bytes(
+    structure: Meshable, style: MeshStyle, solid: bool, edge_colors: np.ndarray | None = None, colour_key: Any = None
+) -> bytes:
     from structgen._version import __version__
 
     writer = _GlbWriter()
@@ -382,9 +416,25 @@ def _glb_bytes(structure: Meshable, style: MeshStyle, solid: bool) -> bytes:
         add_group("vertices", [(sphere, parts.centres)])
         if parts.cylinders:
             placements = []
+            # Own colours: one material per colour in use, each axis's cylinder shared by every colour it takes.
+            palette, colour_of_edge = (
+                (np.zeros((1, 4), np.uint8), np.zeros(structure.n_edges, np.int64))
+                if (edge_colors is None)
+                else np.unique(edge_colors, axis=0, return_inverse=True)
+            )
+            if edge_colors is not None:
+                first = len(materials)
+                materials += [{"name": f"edge #{bytes(c[:3]).hex()}",
+                               "pbrMetallicRoughness": {"baseColorFactor": _linear(tuple(int(v) for v in c)), **look}}
+                              for c in palette]  # fmt: skip
             for a, (_, template, middles) in enumerate(parts.by_axis()):
                 mesh = writer.mesh(f"edge {a}", _y_up(template.positions), _y_up(template.normals), template.faces, 1)
-                placements.append((mesh, middles))
+                if edge_colors is None:
+                    placements.append((mesh, middles))
+                    continue
+                colours = colour_of_edge.ravel()[parts.axis_of_edge == a]
+                for colour in np.unique(colours):
+                    placements.append((writer.recoloured(mesh, first + int(colour)), middles[colours == colour]))
             add_group("edges", placements)
     metadata = {
         "generator": f"structgen {__version__}",
@@ -396,6 +446,7 @@ def _glb_bytes(structure: Meshable, style: MeshStyle, solid: bool) -> bytes:
         "solid": solid,
         "mesh_style": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(style).items()},
         "structure_metadata": structure.metadata,
+        **({"edge_colours": colour_key} if colour_key is not None else {}),
     }
     document = {
         "asset": {"version": "2.0", "generator": f"structgen {__version__}"},
@@ -408,17 +459,28 @@ def _glb_bytes(structure: Meshable, style: MeshStyle, solid: bool) -> bytes:
 
 
 def export_structure(
-    structure: Meshable, path: str | os.PathLike, style: MeshStyle | None = None, *, solid: bool = False
+    structure: Meshable,
+    path: str | os.PathLike,
+    style: MeshStyle | None = None,
+    *,
+    solid: bool = False,
+    edge_colors: np.ndarray | None = None,
+    colour_key: Any = None,
 ) -> Path:
     """Write a mesh of ``structure`` to ``path`` in the format its suffix names (``.glb``, ``.obj``, ``.stl``,
-    ``.ply``); ``solid=True`` writes one watertight shell instead of separate parts."""
+    ``.ply``); ``solid=True`` writes one watertight shell instead of separate parts. ``edge_colors`` (E, 4 RGBA
+    bytes) colours each edge's cylinder on its own (GLB, OBJ as vertex colours, PLY; STL holds no colour), and
+    ``colour_key``, what those colours mean, goes into a GLB's metadata."""
     path = Path(path)
     style = style or MeshStyle()
     suffix = path.suffix.lower()
+    edge_colors = _check_edge_colors(structure, edge_colors, solid)
+    if edge_colors is not None and suffix == ".stl":
+        raise StructureError(f"{path}: STL holds no colours; write member colours to .glb, .obj or .ply")
     if suffix == ".glb":
-        payload: bytes | str = _glb_bytes(structure, style, solid)
+        payload: bytes | str = _glb_bytes(structure, style, solid, edge_colors, colour_key)
     elif suffix in (".obj", ".stl", ".ply"):
-        mesh = structure_mesh(structure, style, solid=solid)
+        mesh = structure_mesh(structure, style, solid=solid, edge_colors=edge_colors)
         payload = mesh.export(file_type=suffix[1:], **({"include_normals": True} if suffix == ".obj" else {}))
     else:
         raise StructureError(

@@ -325,21 +325,27 @@ class Structure:
 
         return structure_mesh(self, MeshStyle(**dimensions), solid=solid)
 
-    def export(self, path: str | os.PathLike, *, solid: bool = False, **dimensions: float) -> Path:
+    def export(
+        self, path: str | os.PathLike, *, solid: bool = False, edge_colors: Any = None, colour_key: Any = None,
+        **dimensions: float,
+    ) -> Path:  # fmt: skip
         """Write the structure to ``path``, format chosen by suffix: ``.json``, ``.glb``, ``.obj``, ``.stl``, ``.ply``.
 
         GLB is converted to y-up as glTF requires, shares one sphere and one cylinder per direction between all
         parts, and carries the metadata; the others keep z-up. ``solid=True`` writes one watertight shell (for
-        printing). Keyword arguments are mesh dimensions as in :meth:`to_mesh`. The file is written atomically.
+        printing). ``edge_colors`` (E, 4 RGBA bytes) colours each edge's cylinder (mesh formats but STL), with
+        ``colour_key`` saying what they mean in a GLB's metadata (see :mod:`structgen.mesh`). Keyword arguments
+        are mesh dimensions as in :meth:`to_mesh`. The file is written atomically.
         """
         path = Path(path)
         if path.suffix.lower() == ".json":
-            if dimensions or solid:
+            if dimensions or solid or edge_colors is not None:
                 raise StructureError(f"{path}: mesh options do not apply to a JSON export")
             return self.save(path)
         from structgen.mesh import MeshStyle, export_structure
 
-        return export_structure(self, path, MeshStyle(**dimensions), solid=solid)
+        return export_structure(self, path, MeshStyle(**dimensions), solid=solid, edge_colors=edge_colors,
+                                colour_key=colour_key)  # fmt: skip
 
 
 def _dump_json(data: dict[str, Any]) -> str:

@@ -485,7 +485,7 @@ def test_grow_takes_settings_by_set_as_every_command_does(tmp_path, capsys):
     code, _, _ = run(capsys, "grow", "--seed", 3, "--set", "iterations=9", "--iterations", 2, "-o", tmp_path / "b.json")
     assert code == 0 and Structure.load(tmp_path / "b.json").metadata["growth"]["iterations"] == 2  # the option wins
     code, _, err = run(capsys, "grow", "--set", "sphere_radius=0.2", "-o", tmp_path / "c.json")
-    assert code == 2 and "mesh options (dimensions, --solid) only apply to mesh formats" in err
+    assert code == 2 and "mesh options (dimensions, --solid, --stress) only apply to mesh formats" in err
 
 
 def test_a_reader_that_closes_the_pipe_early_ends_the_command_quietly(tmp_path):

@@ -83,6 +83,15 @@ def _mesh_style(args: argparse.Namespace) -> Any:
     return settings_from_args({"mesh": MeshStyle()}, args, MESH_OPTIONS)["mesh"]
 
 
+def _stress_physics(args: argparse.Namespace, physics: Any = None) -> Any:
+    """The physics ``--stress`` colours by (None without it): a run's own, else the default."""
+    if not getattr(args, "stress", False):
+        return None
+    from physics import PhysicsConfig
+
+    return physics or PhysicsConfig()
+
+
 def _load_structure(path: str | Path) -> Structure:
     source = Path(path)
     if source.is_dir():
@@ -90,7 +99,8 @@ def _load_structure(path: str | Path) -> Structure:
     return Structure.load(source)
 
 
-def _write(structure: Structure, output: str | Path, style: Any, solid: bool = False) -> Path:
+def _write(structure: Structure, output: str | Path, style: Any, solid: bool = False, stress: Any = None) -> Path:
+    """Write ``structure`` to ``output``; ``stress``, a physics config: members in their load colours (``--stress``)."""
     from dataclasses import asdict
 
     from structgen.mesh import MeshStyle
@@ -100,9 +110,19 @@ def _write(structure: Structure, output: str | Path, style: Any, solid: bool = F
         raise InputError(f"{path}: is a folder, expected an output file name")
     default = asdict(MeshStyle())
     changed = {name: value for name, value in asdict(style).items() if value != default[name]}
-    if (changed or solid) and path.suffix.lower() == ".json":
-        raise InputError(f"{path}: mesh options (dimensions, --solid) only apply to mesh formats (.glb, .obj, .stl, .ply)")
-    return structure.export(path, solid=solid, **changed)
+    if (changed or solid or stress is not None) and path.suffix.lower() == ".json":
+        raise InputError(f"{path}: mesh options (dimensions, --solid, --stress) only apply to mesh formats "
+                         "(.glb, .obj, .stl, .ply)")  # fmt: skip
+    if stress is None:
+        return structure.export(path, solid=solid, **changed)
+    if solid:
+        raise InputError(f"{path}: --stress colours each member, and a --solid shell is one piece of one colour")
+    if path.suffix.lower() == ".stl":
+        raise InputError(f"{path}: STL holds no colours; write --stress to .glb, .obj or .ply")
+    from structgen.domains.structures.stress import load_colours, load_key, member_load_shares
+
+    _, shares = member_load_shares(structure, stress)
+    return structure.export(path, edge_colors=load_colours(shares), colour_key=load_key(shares, stress), **changed)
 
 
 def _describe(structure: Structure) -> str:
@@ -176,7 +196,7 @@ def cmd_grow(args: argparse.Namespace) -> int:
     if growth["hit_max_extent"]:
         log.warning("some growth was dropped at --max-extent %d", config.max_extent)
     structure = structure.with_metadata(**origin)
-    path = _write(structure, args.output, settings["mesh"], args.solid)
+    path = _write(structure, args.output, settings["mesh"], args.solid, _stress_physics(args))
     print(f"{path}: {_describe(structure)}")
     return EXIT_OK
 
@@ -313,8 +333,13 @@ def cmd_render(args: argparse.Namespace) -> int:
     from structgen.domains.structures.render import render_check
 
     output = Path(args.output)
-    _, report = _checked(args)
-    render_check(report, output, dpi=args.dpi)
+    structure, report = _checked(args)
+    shares = None
+    if args.stress:
+        from structgen.domains.structures.stress import member_load_shares
+
+        _, shares = member_load_shares(structure, _physics_config(args))
+    render_check(report, output, dpi=args.dpi, load_shares=shares)
     print(f"{output}: {report.verdict()}; I = {report.integrity:.3f}, Q = {report.score:.3f}")
     return EXIT_OK
 
@@ -528,6 +553,12 @@ def _mesh_options(title: str) -> Adder:
         title,
         settings(MeshStyle, [name for name in MESH_OPTIONS]),
         flag("--solid", "union every sphere and cylinder into one closed, watertight shell (for 3D printing; slower)"),
+        flag(
+            "--stress",
+            "colour each member by its static load as a share of the joint break force (GLB, OBJ, PLY; a "
+            "GLB's metadata holds the colour key): pale none, orange half, dark red the break force, darker over it, "
+            "purple no static answer; the default physics, a run's own for a run's elite",
+        ),
     )
 
 
@@ -600,7 +631,10 @@ class StructureCommands(DomainCommands):
              flag("--strict", "exit with 1 unless it stands (a joint broke, or it never came to rest)"), _PHYSICS,
              examples=["structgen evaluate tower.json --preset fast", "structgen evaluate tower.json --statics --json"]),
         verb("show", cmd_render, _FILE, output("OUT.png", "image to write"), dpi(), _PHYSICS,
-             examples=["structgen show tower.json -o tower.png --preset fast"]),
+             flag("--stress", "draw each member in the colour of its static load as a share of the break force (the "
+                  "static analysis of the intact structure, with these physics settings), with a colour bar"),
+             examples=["structgen show tower.json -o tower.png --preset fast",
+                       "structgen show tower.json -o stress.png --statics --stress"]),
         verb("teach", cmd_teach, option("file", metavar="FILE", help="structure JSON file to grow"),
              output("OUT.npy", "weights to write (.npy or .json)"),
              option("--seed-vertex", type=_seed_vertex, default="top", metavar="top|INDEX", help="the vertex growth starts "
@@ -670,12 +704,12 @@ class StructureCommands(DomainCommands):
 
     def export_file(self, source: Path, output: Path, args: argparse.Namespace) -> str:
         structure = _load_structure(source)
-        path = _write(structure, output, _mesh_style(args), args.solid)
+        path = _write(structure, output, _mesh_style(args), args.solid, _stress_physics(args))
         return f"{path}: {_describe(structure)}"
 
     def export_elite(self, problem: Any, genome: Any, output: Path, args: argparse.Namespace, origin: Mapping[str, str]) -> str:
         structure = problem.structure_of(genome).with_metadata(**origin)
-        path = _write(structure, output, _mesh_style(args), args.solid)
+        path = _write(structure, output, _mesh_style(args), args.solid, _stress_physics(args, problem.settings.physics))
         return f"{path}: {_describe(structure)}"
 
 

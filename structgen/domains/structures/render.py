@@ -38,15 +38,21 @@ def _after_title(report: StabilityReport) -> str:
     return f"after {report.sim_time:.2f} s" + (" (settled)" if report.settled else "")
 
 
-def _draw(axes, centres: np.ndarray, segments: np.ndarray, broken: np.ndarray, size: float, title: str, top: float) -> None:
+def _draw(
+    axes, centres: np.ndarray, segments: np.ndarray, broken: np.ndarray, size: float, title: str, top: float,
+    loads: np.ndarray | None = None,
+) -> None:  # fmt: skip
     """Edges (broken ones red) and vertices; large structures coloured by height on the scale 0 .. ``top``, the same
-    for every picture of one figure or animation."""
+    for every picture of one figure or animation. ``loads`` (E, 4 RGBA bytes): every edge in its load colour instead
+    (see :mod:`structgen.domains.structures.stress`), vertices small and grey."""
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
     # One collection for all edges: thousands of separate lines would take minutes to draw.
     shown = np.isfinite(segments).all(axis=(1, 2))
     large = len(segments) >= _LARGE
-    if shown.any():
+    if shown.any() and loads is not None:
+        axes.add_collection3d(Line3DCollection(segments[shown], colors=loads[shown] / 255, linewidths=1.0 if large else 2.6))
+    elif shown.any():
         if large:  # height colours separate the levels that a single colour would merge
             colours = _height_colours(segments[shown, :, 2].mean(axis=1) / top)
             colours[broken[shown]] = _rgba(BROKEN)
@@ -54,7 +60,9 @@ def _draw(axes, centres: np.ndarray, segments: np.ndarray, broken: np.ndarray, s
             colours = np.array([_rgba(c) for c in np.where(broken[shown], BROKEN, INTACT)])
         widths = np.where(broken[shown], 2.5, 1.8) * (0.35 if large else 1.0)
         axes.add_collection3d(Line3DCollection(segments[shown], colors=colours, linewidths=widths))
-    if large:
+    if loads is not None:
+        axes.scatter(*centres.T, s=size / 3, color="#607d8b", depthshade=False, edgecolors="none")
+    elif large:
         axes.scatter(*centres.T, s=size, c=_height_colours(centres[:, 2] / top), depthshade=True, edgecolors="none")
     else:
         axes.scatter(*centres.T, s=size, color=VERTEX, depthshade=False, edgecolors="black", linewidths=0.4)
@@ -207,17 +215,22 @@ def _after_segments(report: StabilityReport) -> np.ndarray:
     return ends
 
 
-def render_check(report: StabilityReport, path: str | os.PathLike, *, dpi: int = 110) -> Path:
+def render_check(
+    report: StabilityReport, path: str | os.PathLike, *, dpi: int = 110, load_shares: np.ndarray | None = None
+) -> Path:
     """Write :func:`check_figure`'s picture of ``report`` to ``path`` as a PNG, atomically."""
-    return atomic_write(path, figure_png(check_figure(report), dpi))
+    return atomic_write(path, figure_png(check_figure(report, load_shares), dpi))
 
 
-def check_figure(report: StabilityReport) -> Any:
+def check_figure(report: StabilityReport, load_shares: np.ndarray | None = None) -> Any:
     """The structure as placed and as it ended up, side by side, as a matplotlib figure.
 
     Edges with a broken joint are red, in both pictures; in the first, a red cross marks each broken joint (when
     there are at most 200). The title spells out the paper's measures (integrity, height, complexity, score) and a
     legend says what the colours are; structures of 300 edges or more are drawn in height colours, with a colour bar.
+    With ``load_shares`` (each edge's static load over the break force, from
+    :func:`structgen.domains.structures.stress.member_load_shares`) every edge is drawn in its load colour instead,
+    with that colour bar, and the broken joints are black crosses.
     """
     from matplotlib.lines import Line2D
 
@@ -237,16 +250,22 @@ def check_figure(report: StabilityReport) -> Any:
         f"complexity C = {report.complexity} (vertices), score Q = {report.score:.2f}",
         fontsize=10,
     )
+    loads = None
+    if load_shares is not None:
+        from structgen.domains.structures.stress import load_colours
+
+        loads = load_colours(load_shares)
+    cross = BROKEN if loads is None else "black"
     panels = [
         (before, start_segments, "before (as placed on the ground)"),
         (after, after_segments, _after_title(report)),
     ]
     large = len(edges) >= _LARGE
-    width = 0.46 if large else 0.5  # room on the right for the colour bar of height colours
+    width = 0.44 if loads is not None else 0.46 if large else 0.5  # room on the right for a colour bar
     for column, (centres, segments, title) in enumerate(panels, start=1):
         axes = figure.add_axes([(column - 1) * width, 0.02, width, 0.78], projection="3d")
         _stage(axes, middle, half, top)
-        _draw(axes, centres, segments, broken_edges, size, title, top)
+        _draw(axes, centres, segments, broken_edges, size, title, top, loads)
         if column == 1 and 0 < len(report.broken_joints) <= _MAX_CROSSES:
             radius = report.config.sphere_radius
             joints = []
@@ -254,8 +273,10 @@ def check_figure(report: StabilityReport) -> Any:
                 a, b = edges[joint.edge]
                 here, there = (before[a], before[b]) if joint.vertex == a else (before[b], before[a])
                 joints.append(here + radius * (there - here) / np.linalg.norm(there - here))
-            axes.scatter(*np.array(joints).T, marker="x", s=60, color=BROKEN, depthshade=False, linewidths=2)
-    if large:  # drawn in height colours (see _draw), which a colour bar explains
+            axes.scatter(*np.array(joints).T, marker="x", s=60, color=cross, depthshade=False, linewidths=2)
+    if loads is not None:
+        legend = _load_bar(figure, load_shares, report.config.break_force)
+    elif large:  # drawn in height colours (see _draw), which a colour bar explains
         from matplotlib.cm import ScalarMappable
         from matplotlib.colors import ListedColormap, Normalize
 
@@ -270,6 +291,25 @@ def check_figure(report: StabilityReport) -> Any:
             Line2D([], [], marker="o", color="none", markerfacecolor=VERTEX, markeredgecolor="black", label="vertex"),
         ]
     if 0 < len(report.broken_joints) <= _MAX_CROSSES:  # the crosses are drawn only then (see above)
-        legend.append(Line2D([], [], marker="x", color="none", markeredgecolor=BROKEN, markeredgewidth=2, label="broken joint"))
+        legend.append(Line2D([], [], marker="x", color="none", markeredgecolor=cross, markeredgewidth=2, label="broken joint"))
     figure.legend(handles=legend, loc="lower center", ncol=len(legend), fontsize=8, frameon=False)
     return figure
+
+
+def _load_bar(figure: Any, shares: np.ndarray, break_force: float) -> list[Any]:
+    """The load colours' colour bar on the right, and legend entries for the colours off the scale."""
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+    from matplotlib.lines import Line2D
+
+    from structgen.domains.structures.stress import NO_ANSWER, OVERLOADED, load_colormap
+
+    scale = ScalarMappable(Normalize(0.0, 1.0), load_colormap())
+    bar = figure.colorbar(scale, cax=figure.add_axes([0.9, 0.22, 0.012, 0.5]), format=lambda x, _: f"{x:.0%}")
+    finite = shares[np.isfinite(shares)]
+    peak = f"; peak {finite.max():.0%}" if len(finite) else ""
+    bar.set_label(f"member load / break force ({break_force:g} N){peak}", fontsize=8)
+    legend = [Line2D([], [], color=OVERLOADED, linewidth=2.6, label="over the break force")]
+    if np.isnan(shares).any():
+        legend.append(Line2D([], [], color=NO_ANSWER, linewidth=2.6, label="no static answer (falls whole)"))
+    return legend

@@ -11,9 +11,6 @@ from structgen.structure import Structure
 
 __all__ = ["structure_view"]
 
-#: Load shares from none (pale) through half the break force to the break force and over (dark red).
-LOAD_COLOURS = [[0.0, "#cfd8dc"], [0.5, "#fdae61"], [1.0, "#a50026"]]
-
 
 def structure_view(structure: Structure, config: Any = None) -> dict[str, Any]:
     """``{"lines3d", "verdict", "fields"}`` for a report (:func:`structgen.runs.report.line_set`): members as lines
@@ -22,18 +19,15 @@ def structure_view(structure: Structure, config: Any = None) -> dict[str, Any]:
     C and Q."""
     import plotly.graph_objects as go
 
-    from physics import PhysicsConfig
-    from physics.statics import check_statics_with_loads
+    from structgen.domains.structures.stress import LOAD_SCALE, member_load_shares
     from structgen.runs.report import line_set
 
-    config = config or PhysicsConfig()
-    report, loads = check_statics_with_loads(structure, config)
+    report, share = member_load_shares(structure, config)
     edges = structure.edges
-    share = np.fmax(loads[0::2], loads[1::2]) / config.break_force if len(edges) else np.zeros(0)
     members = go.Scatter3d(
         mode="lines", name="members", hovertemplate="load %{customdata:.0%} of the break force (negative: no static "
         "answer)<extra></extra>",
-        line={"colorscale": LOAD_COLOURS, "cmin": 0.0, "cmax": 1.0, "width": 7,
+        line={"colorscale": [list(stop) for stop in LOAD_SCALE], "cmin": 0.0, "cmax": 1.0, "width": 7,
               "colorbar": {"title": "load / break force", "tickformat": ".0%"}},
     )  # fmt: skip
     joints = go.Scatter3d(mode="markers", name="vertices", hoverinfo="skip", marker={"size": 3, "color": "#37474f"})
