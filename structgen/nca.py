@@ -29,7 +29,9 @@ Growth starts from a single *seed* vertex at the origin ``(0, 0, 0)`` with no ed
 4. **Prune.** A vertex left without edges is removed, except the seed, which is never removed; a structure is
    therefore never empty, and a network that never fires leaves the lone seed.
 5. **Caps.** The growth box holds the cells within ``max_extent`` steps of the seed along every axis; wishes that
-   leave it are dropped (step 3) and the structure's ``metadata["growth"]["hit_max_extent"]`` is set. If a step would
+   leave it are dropped (step 3) and the structure's ``metadata["growth"]["hit_max_extent"]`` is set. A
+   structure may also be given a smaller box of its own (``boxes``: any extent along each axis, the seed inside):
+   the same rule, its wishes beyond that box dropped. If a step would
    leave more than ``max_vertices`` vertices, that step is discarded and growth stops: the structure is the one from
    before the step, and ``metadata["growth"]["hit_max_vertices"]`` is set. Memory is thus bounded by
    ``population x (2 * min(iterations, max_extent) + 3) ** 3 x 14`` bytes of grids plus ``max_vertices`` rows of
@@ -110,15 +112,32 @@ def _check_weights(weights: Any, config: NCAConfig) -> np.ndarray:
     return array
 
 
-def grow_population(weights: Any, config: NCAConfig | None = None) -> list[Structure]:
+def grow_population(weights: Any, config: NCAConfig | None = None, boxes: Any = None) -> list[Structure]:
     """Grow one structure per row of ``weights`` (``(P, n_params)``), all in one batched computation.
 
-    Returns the structures in row order; each carries ``metadata["growth"]`` (iterations run, caps hit).
+    ``boxes`` (``(P, 3, 2)`` or one ``(3, 2)`` for all): each structure grows only inside its box, the cells whose
+    x, y and z offsets from the seed lie within ``[low, high]`` (inclusive; the seed inside), as well as within
+    ``max_extent``; wishes that leave it are dropped as at the growth box's walls. Returns the structures in row
+    order; each carries ``metadata["growth"]`` (iterations run, caps hit, its box).
     """
     config = config or NCAConfig()
     weights = _check_weights(weights, config)
     with torch.no_grad():
-        return _Growth(weights, config).run()[0]
+        return _Growth(weights, config, boxes=_check_boxes(boxes, len(weights))).run()[0]
+
+
+def _check_boxes(boxes: Any, population: int) -> np.ndarray | None:
+    if boxes is None:
+        return None
+    array = np.asarray(boxes)
+    if array.shape == (3, 2):
+        array = np.broadcast_to(array, (population, 3, 2))
+    if array.shape != (population, 3, 2) or not np.issubdtype(array.dtype, np.integer):
+        raise ValueError(f"boxes must be whole numbers shaped ({population}, 3, 2) or (3, 2): [[x_low, x_high], "
+                         f"[y_low, y_high], [z_low, z_high]] offsets from the seed; got shape {array.shape} of {array.dtype}")  # fmt: skip
+    if (array[..., 0] > 0).any() or (array[..., 1] < 0).any():
+        raise ValueError("every box must hold the seed: low <= 0 <= high on each axis")
+    return array.astype(np.int64)
 
 
 def grow_steps(weights: Any, config: NCAConfig | None = None) -> list[Structure]:
@@ -132,13 +151,13 @@ def grow_steps(weights: Any, config: NCAConfig | None = None) -> list[Structure]
         return [frame[0] for frame in _Growth(weights, config).run(every_step=True)]
 
 
-def grow(weights: Any, config: NCAConfig | None = None) -> Structure:
-    """Grow the structure of a single NCA given its flat weight vector."""
+def grow(weights: Any, config: NCAConfig | None = None, box: Any = None) -> Structure:
+    """Grow the structure of a single NCA given its flat weight vector (inside ``box``: see :func:`grow_population`)."""
     config = config or NCAConfig()
     weights = _check_weights(weights, config)
     if len(weights) != 1:
         raise ValueError(f"grow() takes one weight vector; use grow_population() for {len(weights)}")
-    return grow_population(weights, config)[0]
+    return grow_population(weights, config, None if box is None else np.asarray(box)[None])[0]
 
 
 def check_seed(structure: Structure) -> None:
@@ -244,7 +263,9 @@ class _Growth:
     trust, and only those rows are recomputed in float64. So the result does not depend on how rows are batched.
     """
 
-    def __init__(self, weights: np.ndarray, config: NCAConfig, start: Structure | None = None) -> None:
+    def __init__(
+        self, weights: np.ndarray, config: NCAConfig, start: Structure | None = None, boxes: np.ndarray | None = None
+    ) -> None:
         self.config = config
         self.population = len(weights)
         self.threshold = math.log(config.cutoff / (1 - config.cutoff))
@@ -287,6 +308,14 @@ class _Growth:
         self.in_box = inner.reshape(-1).repeat(cubes)
         self.in_box[self.population * self.volume :] = False
         self.buildable = buildable.reshape(-1).repeat(cubes) & self.in_box
+        self.boxes = boxes
+        if boxes is not None:  # each structure's own box, as offsets from its seed
+            offsets = torch.stack([x, y, z], -1).reshape(-1, 3) - centre
+            low, high = torch.as_tensor(boxes[:, :, 0]), torch.as_tensor(boxes[:, :, 1])
+            inside = ((offsets[None] >= low[:, None]) & (offsets[None] <= high[:, None])).all(-1)
+            mask = torch.cat([inside.reshape(-1), torch.zeros(self.volume, dtype=torch.bool)])
+            self.in_box &= mask
+            self.buildable &= mask
         self.seed_cells = torch.arange(self.population) * self.volume + (centre * side + centre) * side + centre
         self.padding_cell = self.population * self.volume + (centre * side + centre) * side + centre
         # Where a cell finds its 52 inputs in the flattened state grid: the occupancy of neighbour k in row 0; its
@@ -377,7 +406,7 @@ class _Growth:
     def _step(self) -> None:
         rows, flags = self._read()
         wishes = self._decide(flags) & (rows != self.padding_cell)[..., None]  # (P, rows, 26)
-        if self.reach + int(self.steps_run.max()) < self.radius:  # vertices lie within reach + steps_run of the seed
+        if self.boxes is None and self.reach + int(self.steps_run.max()) < self.radius:  # within reach + steps run
             leaves_box = torch.zeros_like(self.active)
         else:
             leaves_box = (wishes & ~torch.take(self.in_box, rows[..., None] + self.delta)).flatten(1).any(1)
@@ -444,6 +473,7 @@ class _Growth:
                 "hit_max_vertices": bool(self.hit_max_vertices[p]),
                 "hit_max_extent": bool(self.hit_max_extent[p]),
                 "reached_fixed_point": bool(self.reached_fixed_point[p]),
+                **({"box": self.boxes[p].tolist()} if self.boxes is not None else {}),
             }
             structures.append(Structure._trusted(coords[v0:v1], pairs, {"growth": growth}))
         return structures

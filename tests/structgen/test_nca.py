@@ -224,6 +224,29 @@ def test_max_extent_drops_wishes_beyond_the_box_and_says_so():
     assert within.metadata["growth"]["hit_max_extent"] is False
 
 
+def test_a_box_keeps_growth_inside_it_and_a_cube_box_is_max_extent():
+    weights = random_weights(40, seed=5, config=config(iterations=4))
+    boxes = np.array([[[-1, 2], [0, 1], [-3, 0]], [[-4, 4], [-4, 4], [-4, 4]]] * 20)
+    boxed = grow_population(weights, config(iterations=4), boxes)
+    for w, box, structure in zip(weights, boxes, boxed):
+        assert (structure.vertices >= box[:, 0]).all() and (structure.vertices <= box[:, 1]).all()
+        assert structure.metadata["growth"]["box"] == box.tolist()
+        # One by one, the same; a box as large as the growth box is no box.
+        assert geometry(grow(w, config(iterations=4), box=box)) == geometry(structure)
+        if box[0, 0] == -4:
+            assert geometry(structure) == geometry(grow(w, config(iterations=4, max_extent=4)))
+    assert len({s.n_vertices for s in boxed[0::2]}) > 3  # varied, not all lone seeds
+    column_in_box = grow(constant_wishes(UP), config(iterations=5), box=[[0, 0], [0, 0], [0, 2]])
+    assert geometry(column_in_box) == geometry(column(3)) and column_in_box.metadata["growth"]["hit_max_extent"]
+
+
+@pytest.mark.parametrize("box, message", [([[1, 2], [0, 0], [0, 0]], "hold the seed"), ([[0, 1]], "shaped"),
+                                          ([[0.5, 1], [0, 0], [0, 0]], "whole numbers")])  # fmt: skip
+def test_a_box_without_the_seed_or_of_the_wrong_shape_is_refused(box, message):
+    with pytest.raises(ValueError, match=message):
+        grow(constant_wishes(UP), config(iterations=2), box=box)
+
+
 def test_growth_stops_at_a_fixed_point_and_says_so():
     # The column reaches the top of its box after 2 steps; every later step would change nothing.
     stopped = grow(constant_wishes(UP), config(iterations=10_000, max_extent=2))
