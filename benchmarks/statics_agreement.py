@@ -121,7 +121,9 @@ def validation_set() -> list[tuple[str, Structure]]:
     kinds.append(("taught NCA", taught))
     kinds.append(("designed (one rule per level)", _designs(250, 500)))
     flat = load_weights(DOCS / "large_flat_nca.npy")
-    large = [g for steps in (3, 4) for g in grow_population(flat[None], NCAConfig(iterations=steps, cutoff=0.6, build_down=False))]
+    large = [
+        g for steps in (3, 4) for g in grow_population(flat[None], NCAConfig(iterations=steps, cutoff=0.6, build_down=False))
+    ]
     kinds.append(("large (over 80 vertices)", [s for s in whole + [six_level_rule_design()] + large if s.n_vertices > SMALL][:8]))
     rng = np.random.default_rng(0)
     small = [(kind, s) for kind, group in kinds if not kind.startswith("large") for s in group]
@@ -203,14 +205,18 @@ def _tables(rows: list[dict]) -> str:
                      + ", ".join(f"{o} {n}" for o, n in origins.most_common()) + " |")  # fmt: skip
     errors = [r for r in rows if r["faithful"]["error"]]
     if errors:
-        lines.append(f"\n{len(errors)} simulations failed: " + "; ".join(sorted({r['faithful']['error'] for r in errors})))
+        lines.append(f"\n{len(errors)} simulations failed: " + "; ".join(sorted({r["faithful"]["error"] for r in errors})))
     return "\n".join(lines)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cache", type=Path, default=Path("runs/statics_agreement.jsonl"),
-                        help="results so far, one JSON line per structure (appended; run again to go on)")
+    parser.add_argument(
+        "--cache",
+        type=Path,
+        default=Path("runs/statics_agreement.jsonl"),
+        help="results so far, one JSON line per structure (appended; run again to go on)",
+    )
     parser.add_argument("--workers", type=int, default=2, help="processes for the simulations (default 2)")
     parser.add_argument("--hours", type=float, default=float("inf"), help="stop simulating after this long")
     parser.add_argument("--table-only", action="store_true", help="simulate nothing: the tables of the cache as it is")

@@ -133,8 +133,10 @@ def _check_boxes(boxes: Any, population: int) -> np.ndarray | None:
     if array.shape == (3, 2):
         array = np.broadcast_to(array, (population, 3, 2))
     if array.shape != (population, 3, 2) or not np.issubdtype(array.dtype, np.integer):
-        raise ValueError(f"boxes must be whole numbers shaped ({population}, 3, 2) or (3, 2): [[x_low, x_high], "
-                         f"[y_low, y_high], [z_low, z_high]] offsets from the seed; got shape {array.shape} of {array.dtype}")  # fmt: skip
+        raise ValueError(
+            f"boxes must be whole numbers shaped ({population}, 3, 2) or (3, 2): [[x_low, x_high], [y_low, y_high], "
+            f"[z_low, z_high]] offsets from the seed; got shape {array.shape} of {array.dtype}"
+        )
     if (array[..., 0] > 0).any() or (array[..., 1] < 0).any():
         raise ValueError("every box must hold the seed: low <= 0 <= high on each axis")
     return array.astype(np.int64)
