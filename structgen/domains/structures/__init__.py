@@ -24,7 +24,7 @@ DOMAIN = DomainSpec(
     settings="structgen.domains.structures.problem:StructuresSettings",
     summary="3D lattice structures grown by a local NCA and judged by rigid-body physics (the paper's Q)",
     commands="structgen.domains.structures.commands:COMMANDS",
-    shortcuts=("grow", "evaluate", "show", "teach", "tall", "regrow"),
+    shortcuts=("grow", "evaluate", "show", "teach", "tall", "regrow", "design", "design-library"),
     aliases=("structures",),
     libraries=("torch", "pybullet", "trimesh"),
     # The paper's setup with its special rules (its local NCA, five steps, activation cutoff 0.6, no building below

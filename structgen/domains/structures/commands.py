@@ -16,6 +16,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from physics.config import PhysicsConfig
 from structgen.domains.structures.experiment import EXPERIMENTS
 from structgen.domains.structures.regrow import CUTS
@@ -391,6 +393,83 @@ def cmd_regrow(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_design(args: argparse.Namespace) -> int:
+    """grow a structure to a spec: a footprint, a height, a member budget
+
+    Return a structure grown by an NCA of the design library that meets the spec exactly (--footprint W x D cells on
+    the ground, --height H levels, at most --max-members edges) and that the static analysis (faithful preset) finds
+    standing, in milliseconds. --seed picks among the library's answers for the spec. A spec no answer meets is an
+    error naming the nearest spec that can be met. Writes OUT by its suffix (json, glb, obj, stl, ply).
+    """
+    from structgen.domains.structures.design import Spec, UnmeetableSpec, design, dimensions, load_library
+    from structgen.domains.structures.stress import member_load_shares
+
+    width, depth = args.footprint
+    try:
+        spec = Spec(width, depth, args.height, args.max_members)
+    except ValueError as err:
+        raise InputError(str(err)) from None
+    started = time.perf_counter()
+    library = load_library(args.library)
+    try:
+        structure = design(spec, args.seed, library)
+    except UnmeetableSpec as err:
+        raise InputError(str(err)) from None
+    seconds = time.perf_counter() - started
+    report, shares = member_load_shares(structure)
+    path = _write(structure, args.output, MeshStyle())
+    made = structure.metadata["design"]
+    summary = {
+        "file": str(path), "spec": made["spec"], "seed": args.seed, "dimensions": list(dimensions(structure)),
+        "vertices": structure.n_vertices, "members": structure.n_edges, "stands": report.stands,
+        "peak_load_share": float(np.nanmax(shares)) if structure.n_edges else 0.0, "answers": made["answers"],
+        "seconds": round(seconds, 3),
+    }  # fmt: skip
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"{path}: {spec}: {structure.n_vertices} vertices, {structure.n_edges} members, peak load "
+            f"{summary['peak_load_share']:.0%} of the break force, stands (static analysis); one of "
+            f"{made['answers']} answers (--seed picks), {seconds:.2f} s"
+        )
+    return EXIT_OK
+
+
+def cmd_design_library(args: argparse.Namespace) -> int:
+    """build the library 'structgen design' draws from
+
+    Search --ncas NCAs by MAP-Elites over footprint width, depth and height (a pyribs archive per NCA family, the
+    objective the safety margin below the break force), growing each in the boxes of --specs-each random specs; keep
+    the --keep NCAs that answer the most specs and list every spec each meets. The same options give the same
+    library. About half an hour per thousand NCAs on one core.
+    """
+    from structgen.domains.structures.design import build_library
+
+    output = Path(args.output)
+    if output.suffix != ".npz":
+        raise InputError(f"{output}: a design library is a .npz file")
+    if output.exists() and not args.overwrite:
+        raise InputError(f"{output}: exists (--overwrite replaces it)")
+    started = time.perf_counter()
+    library = build_library(args.ncas, args.seed, specs_each=args.specs_each, keep=args.keep, progress=True)
+    library.save(output)
+    print(f"{output}: {len(library.families)} NCAs answer {len(library.specs())} specs ({len(library.answers)} answers) "
+          f"after searching {args.ncas} NCAs in {time.perf_counter() - started:.0f} s")  # fmt: skip
+    return EXIT_OK
+
+
+def _footprint(text: str) -> tuple[int, int]:
+    parts = text.lower().split("x")
+    try:
+        width, depth = (int(part) for part in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give the footprint as WxD, e.g. 5x7") from None
+    if not (1 <= width <= 10_000 and 1 <= depth <= 10_000):
+        raise argparse.ArgumentTypeError(f"{text!r}: width and depth must be whole numbers from 1 to 10,000")
+    return width, depth
+
+
 def _seed_vertex(text: str) -> int | str:
     if text == "top":
         return text
@@ -651,6 +730,22 @@ class StructureCommands(DomainCommands):
              json_flag(), _nca_options("NCA (defaults: the settings FILE was grown with)"),
              examples=["structgen regrow eight.json --weights docs/tall_grown_8.npy --damage 0.25 --cut mid "
                        "--picture regrown.png"]),
+        verb("design", cmd_design,
+             option("--footprint", type=_footprint, required=True, metavar="WxD", help="cells on the ground: width "
+                    "(x) by depth (y)"),
+             number("--height", 1, 10_000, help="levels (the z extent is one less)", required=True),
+             number("--max-members", 0, 10**9, help="at most this many edges (default: any)"),
+             seed("which of the spec's answers: different seeds, different designs where the library has several"),
+             option("--library", type=Path, metavar="FILE.npz", help="a design library (default: the one that ships, "
+                    "built by structgen design-library)"),
+             output(help="the design (json, glb, obj, stl, ply)"), json_flag(),
+             examples=["structgen design --footprint 5x7 --height 4 -o tower.json",
+                       "structgen design --footprint 9x9 --height 6 --max-members 400 --seed 2 -o tower.glb"]),
+        verb("design-library", cmd_design_library, output("FILE.npz", "the library to write"),
+             number("--ncas", 1, 10**7, 2_000, "NCAs to search"), seed("the search's seed"),
+             number("--specs-each", 1, 528, 48, "random specs each NCA is grown for during the search"),
+             number("--keep", 1, 10_000, 48, "NCAs kept in the library"), overwrite(),
+             examples=["structgen design-library -o my_library.npz --ncas 500"]),
         verb("tall", cmd_tall,
              option("--run-dir", metavar="DIR", help="run folder: new, empty, or one a search with the same settings "
                     "started (it resumes; with more --levels it goes on from there); default runs/tall-<levels>"),

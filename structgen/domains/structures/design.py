@@ -1,0 +1,393 @@
+"""A stable structure to a spec (a footprint, a height, a member budget) in well under a second, grown by an NCA.
+
+How. An NCA grows the same local rule whatever box it grows in (:func:`structgen.nca.grow_population`'s ``boxes``):
+grown in a box of the spec's footprint and height, a rule that reaches the box's walls gives a structure of exactly
+that footprint and height. Which NCAs, in which boxes, meet which specs and stand is found once, by quality
+diversity, and kept in a small *library*: :func:`design` looks the spec up, grows one of the library's answers
+(milliseconds) and checks it with the static analysis (milliseconds), so a design costs far less than a second.
+
+The library (:func:`build_library`, ``structgen design-library``) holds NCAs of two families: ``down``, the taught
+towers' kind (cutoff 0.5, building down from a seed at the top), and ``up``, the evolved kind (cutoff 0.6, no
+building below a seed on the ground). Its search is MAP-Elites over the spec grid (footprint width, depth and height
+in levels), the archive a pyribs ``GridArchive`` per family whose objective is the safety margin (1 - the largest
+member load over the break force): parents drawn from the archive's elites are mutated, each child is grown in boxes
+of randomly drawn specs (its seed placed near the box's middle), and every exact, standing result goes into the
+archive and the list of answers. It starts from the NCAs that ship in ``docs/`` and random ones. At the end a
+greedy cover keeps the few NCAs that answer the most specs (several answers each, for variety), which are then
+grown in every spec's box to list everything they meet. Weights are kept as float32, as the file stores them.
+
+A spec is ``width x depth`` cells on the ground (x by y) and ``height`` levels (z extent ``height - 1``); a spec
+with width over depth is met by a depth-by-width answer turned a quarter. Different seeds pick different answers
+(another NCA or another seed placement), where the library has more than one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evolution.files import atomic_write
+from structgen.nca import NCAConfig, grow_population, n_params
+from structgen.structure import Structure
+
+__all__ = ["DEFAULT_LIBRARY", "DesignLibrary", "Spec", "UnmeetableSpec", "build_library", "design", "load_library"]
+
+DEFAULT_LIBRARY = Path(__file__).with_name("design_library.npz")
+# The spec grid the library covers: footprints up to MAX_SIDE x MAX_SIDE, heights up to MAX_LEVELS.
+MAX_SIDE, MAX_LEVELS = 11, 8
+# A seed never lies more than this far from any cell of its box, which bounds the growth grid (and its cost).
+REACH = 7
+# Denser structures than this do not stand at these sizes (the taught eight levels on 11 x 11 have 245 vertices),
+# and growth past it is stopped early, which keeps the search cheap.
+MAX_VERTICES = 400
+FAMILIES = {
+    "down": NCAConfig(iterations=14, cutoff=0.5, build_down=True, max_extent=REACH, max_vertices=MAX_VERTICES),
+    "up": NCAConfig(iterations=14, cutoff=0.6, build_down=False, max_extent=REACH, max_vertices=MAX_VERTICES),
+}
+# The NCAs in docs/ the search starts from, by family.
+STARTS = {
+    "down": ("tall_grown_7.npy", "tall_grown_8.npy"),
+    "up": ("large_flat_nca.npy", "tall_five_levels_nca.npy", "tall_six_level_refined.npy", "tall_elite_start.npy"),
+}
+
+
+class UnmeetableSpec(ValueError):
+    """No answer in the library meets the spec; the message names the nearest spec that can be met."""
+
+
+@dataclass(frozen=True)
+class Spec:
+    """``width`` x ``depth`` cells on the ground, ``height`` levels, at most ``max_members`` edges (None: any)."""
+
+    width: int
+    depth: int
+    height: int
+    max_members: int | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("width", "depth", "height"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or not 1 <= value <= 10_000:
+                raise ValueError(f"spec {name} must be a whole number from 1 to 10,000, got {value!r}")
+        if self.max_members is not None and (not isinstance(self.max_members, (int, np.integer)) or self.max_members < 0):
+            raise ValueError(f"spec max_members must be a whole number of at least 0, got {self.max_members!r}")
+
+    def __str__(self) -> str:
+        budget = f", at most {self.max_members} members" if self.max_members is not None else ""
+        return f"footprint {self.width}x{self.depth}, height {self.height}{budget}"
+
+
+def box_for(width: int, depth: int, height: int, family: str, x_seed: int, y_seed: int) -> np.ndarray:
+    """The growth box of a spec with the seed ``x_seed``, ``y_seed`` cells from the box's low corner: on the top
+    level for the ``down`` family, on the ground for ``up``."""
+    z = [-(height - 1), 0] if family == "down" else [0, height - 1]
+    return np.array([[-x_seed, width - 1 - x_seed], [-y_seed, depth - 1 - y_seed], z], dtype=np.int64)
+
+
+def _seed_places(side: int) -> range:
+    """Where along a side of ``side`` cells a seed may sit: within REACH of both ends."""
+    return range(max(0, side - 1 - REACH), min(side - 1, REACH) + 1)
+
+
+def dimensions(structure: Structure) -> tuple[int, int, int]:
+    """(width, depth, height in levels) of a structure's bounding box."""
+    return tuple(int(v) for v in np.ptp(structure.vertices, axis=0) + 1)  # type: ignore[return-value]
+
+
+def _shape_key(structure: Structure) -> bytes:
+    vertices = structure.vertices - structure.vertices.min(axis=0)
+    return hashlib.sha1(vertices.tobytes() + structure.edges.tobytes()).digest()[:8]
+
+
+@dataclass
+class DesignLibrary:
+    """NCAs and the specs they meet: ``answers`` rows of (nca, width, depth, height, x_seed, y_seed, edges, vertices)
+    with ``peaks`` (the largest member load over the break force), widths never above depths."""
+
+    families: list[str]
+    weights: np.ndarray  # (K, n_params) float32
+    answers: np.ndarray  # (M, 8) int32
+    peaks: np.ndarray  # (M,) float32
+    info: dict[str, Any] = field(default_factory=dict)
+
+    COLUMNS = ("nca", "width", "depth", "height", "x_seed", "y_seed", "edges", "vertices")
+
+    def save(self, path: str | Path) -> Path:
+        buffer = io.BytesIO()
+        np.savez_compressed(
+            buffer, weights=self.weights.astype(np.float32), answers=self.answers.astype(np.int32),
+            peaks=self.peaks.astype(np.float32), families=np.array(self.families),
+            info=np.array(json.dumps(self.info)),
+        )  # fmt: skip
+        return atomic_write(path, buffer.getvalue())
+
+    def config(self, nca: int) -> NCAConfig:
+        return FAMILIES[self.families[nca]]
+
+    def specs(self) -> set[tuple[int, int, int]]:
+        return {tuple(int(v) for v in row[1:4]) for row in self.answers}  # type: ignore[misc]
+
+    def candidates(self, spec: Spec) -> tuple[np.ndarray, bool]:
+        """Rows of the answers that meet ``spec`` (within its member budget), and whether they are turned (the spec's
+        width over its depth)."""
+        turned = spec.width > spec.depth
+        width, depth = (spec.depth, spec.width) if turned else (spec.width, spec.depth)
+        rows = (self.answers[:, 1] == width) & (self.answers[:, 2] == depth) & (self.answers[:, 3] == spec.height)
+        if spec.max_members is not None:
+            rows &= self.answers[:, 6] <= spec.max_members
+        return np.flatnonzero(rows), turned
+
+    def nearest(self, spec: Spec) -> Spec | None:
+        """The meetable spec nearest ``spec`` (fewest cells of width, depth and height apart; then the larger)."""
+        rows = self.answers if spec.max_members is None else self.answers[self.answers[:, 6] <= spec.max_members]
+        if not len(rows):
+            return None
+        met = np.unique(rows[:, 1:4], axis=0)
+        both = np.concatenate([met, met[:, [1, 0, 2]]])  # either way round
+        distance = np.abs(both - [spec.width, spec.depth, spec.height]).sum(axis=1)
+        best = both[np.lexsort((-both.sum(axis=1), distance))[0]]
+        return Spec(int(best[0]), int(best[1]), int(best[2]), spec.max_members)
+
+
+def load_library(path: str | Path | None = None) -> DesignLibrary:
+    """The library at ``path`` (default: the one that ships with structgen)."""
+    from structgen.errors import InputError
+
+    path = Path(path) if path is not None else DEFAULT_LIBRARY
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            library = DesignLibrary(
+                families=[str(f) for f in data["families"]], weights=data["weights"].astype(np.float64),
+                answers=data["answers"], peaks=data["peaks"], info=json.loads(str(data["info"])),
+            )  # fmt: skip
+    except FileNotFoundError:
+        raise InputError(f"{path}: no design library there (build one with structgen design-library)") from None
+    except (OSError, ValueError, KeyError) as err:
+        raise InputError(f"{path}: not a design library ({err})") from None
+    bad = [f for f in library.families if f not in FAMILIES]
+    if bad or library.weights.shape[1:] != (n_params(FAMILIES["down"]),) or library.answers.shape[1:] != (8,):
+        raise InputError(f"{path}: not a design library of this structgen (families {bad or 'fine'}, weights "
+                         f"{library.weights.shape}, answers {library.answers.shape})")  # fmt: skip
+    return library
+
+
+def _turned(structure: Structure) -> Structure:
+    """A quarter turn about the vertical: (x, y, z) -> (-y, x, z), so width and depth swap."""
+    vertices = structure.vertices[:, [1, 0, 2]] * [-1, 1, 1]
+    return Structure(vertices, structure.edges, structure.metadata)
+
+
+def _grow_answer(library: DesignLibrary, row: np.ndarray) -> Structure:
+    nca, width, depth, height, x_seed, y_seed = (int(v) for v in row[:6])
+    family = library.families[nca]
+    box = box_for(width, depth, height, family, x_seed, y_seed)
+    return grow_population(library.weights[nca][None], FAMILIES[family], box[None])[0]
+
+
+def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, physics: Any = None) -> Structure:
+    """A structure grown by one of the library's NCAs that meets ``spec`` exactly and that the static analysis finds
+    standing; ``seed`` picks among the answers. :class:`UnmeetableSpec` names the nearest spec that can be met."""
+    from physics.statics import check_statics
+
+    library = library or load_library()
+    rows, turned = library.candidates(spec)
+    if not len(rows):
+        nearest = library.nearest(spec)
+        where = f"; the nearest that can be met: {nearest}" if nearest else "; no spec within that member budget can be met"
+        raise UnmeetableSpec(f"no design in the library meets {spec}{where}")
+    order = rows[np.random.default_rng(seed).permutation(len(rows))]
+    for row in order:
+        structure = _grow_answer(library, library.answers[row])
+        if turned:
+            structure = _turned(structure)
+        if dimensions(structure) != (spec.width, spec.depth, spec.height):
+            continue  # cannot happen with a library built by this code; checked all the same
+        report = check_statics(structure, physics)
+        if not report.stands:
+            continue
+        nca, _, _, _, x_seed, y_seed = (int(v) for v in library.answers[row][:6])
+        return structure.with_metadata(design={
+            "spec": asdict(spec), "seed": seed, "nca": nca, "family": library.families[nca], "seed_place": [x_seed, y_seed],
+            "turned": turned, "answers": int(len(rows)), "library": library.info.get("name", "design library"),
+        })  # fmt: skip
+    raise UnmeetableSpec(f"none of the {len(rows)} answers for {spec} stands under these physics settings")
+
+
+# -- building the library -----------------------------------------------------------------------------------------------
+def _canonical_specs(max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS) -> np.ndarray:
+    """Every spec of the grid with width at most depth."""
+    return np.array([(w, d, h) for w in range(1, max_side + 1) for d in range(w, max_side + 1) for h in range(1, max_levels + 1)])
+
+
+@dataclass
+class _Found:
+    """Answers found so far: one per distinct structure of a spec."""
+
+    rows: list[tuple[int, ...]] = field(default_factory=list)
+    peaks: list[float] = field(default_factory=list)
+    seen: set[tuple[tuple[int, int, int], bytes]] = field(default_factory=set)
+
+
+def _judge(
+    weights: np.ndarray, ids: list[int], families: list[str], tries: np.ndarray, found: _Found
+) -> list[tuple[int, np.ndarray, float]]:
+    """Grow NCA ``ids[i]`` in each of its tries' boxes ((nca position, width, depth, height, x_seed, y_seed) rows),
+    keep the exact, standing results in ``found``; (position, spec, margin) of each."""
+    from physics.statics import check_statics_with_loads, overload_ratio
+
+    successes = []
+    for family in FAMILIES:
+        mine = tries[[families[ids[int(t[0])]] == family for t in tries]] if len(tries) else tries
+        for start in range(0, len(mine), 512):
+            part = mine[start : start + 512]
+            boxes = np.stack([box_for(int(t[1]), int(t[2]), int(t[3]), family, int(t[4]), int(t[5])) for t in part])
+            grown = grow_population(weights[[ids[int(t[0])] for t in part]], FAMILIES[family], boxes)
+            for t, structure in zip(part, grown):
+                spec = tuple(int(v) for v in t[1:4])
+                if dimensions(structure) != spec:
+                    continue
+                key = (spec, _shape_key(structure))
+                if overload_ratio(structure) > 1.0:  # a bound, linear in size: some joint is overloaded
+                    continue
+                report, loads = check_statics_with_loads(structure)
+                if not report.stands:
+                    continue
+                peak = float(np.nanmax(loads)) / report.config.break_force if structure.n_edges else 0.0
+                successes.append((int(t[0]), np.array(spec), 1.0 - peak))
+                if key in found.seen:
+                    continue
+                found.seen.add(key)
+                found.rows.append((ids[int(t[0])], *spec, int(t[4]), int(t[5]), structure.n_edges, structure.n_vertices))
+                found.peaks.append(peak)
+    return successes
+
+
+def _random_tries(rng: np.random.Generator, count: int, specs_each: int, specs: np.ndarray) -> np.ndarray:
+    """``specs_each`` of ``specs`` at random for each of ``count`` NCAs, seeds placed at random within REACH."""
+    rows = []
+    for position in range(count):
+        for w, d, h in specs[rng.choice(len(specs), min(specs_each, len(specs)), replace=False)]:
+            x_seed, y_seed = (int(rng.choice(_seed_places(side))) for side in (w, d))
+            rows.append((position, w, d, h, x_seed, y_seed))
+    return np.array(rows, dtype=np.int64)
+
+
+def build_library(
+    ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 48, answers_each: int = 6,
+    starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
+    progress: bool = False,
+) -> DesignLibrary:  # fmt: skip
+    """Search ``ncas`` NCAs by MAP-Elites over the spec grid (footprints up to ``max_side`` square, heights up to
+    ``max_levels``; see the module's docstring), keep the ``keep`` that cover the most specs with up to
+    ``answers_each`` answers each, and list everything those meet. The same arguments give the same library."""
+    from ribs.archives import GridArchive
+    from tqdm import tqdm
+
+    started = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    size = n_params(FAMILIES["down"])
+    if starts is None:
+        from structgen.nca import load_weights
+
+        docs = Path(__file__).resolve().parents[3] / "docs"
+        starts = {family: [load_weights(docs / n) for n in names if (docs / n).exists()] for family, names in STARTS.items()}
+    weights: list[np.ndarray] = []
+    families: list[str] = []
+    archives = {
+        family: GridArchive(solution_dim=size, dims=(max_side, max_side, max_levels),
+                            ranges=((0.5, max_side + 0.5), (0.5, max_side + 0.5), (0.5, max_levels + 0.5)),
+                            extra_fields={"nca": ((), np.int32)}, seed=seed)
+        for family in FAMILIES
+    }  # fmt: skip
+    found = _Found()
+    specs = _canonical_specs(max_side, max_levels)
+
+    def add(new: list[tuple[str, np.ndarray]]) -> None:
+        ids = []
+        for family, w in new:
+            weights.append(np.asarray(w, dtype=np.float32).astype(np.float64))  # as the library file keeps them
+            families.append(family)
+            ids.append(len(weights) - 1)
+        stacked = np.stack(weights)
+        tries = _random_tries(rng, len(ids), specs_each, specs)
+        for position, spec, margin in _judge(stacked, ids, families, tries, found):
+            archives[families[ids[position]]].add(stacked[ids[position]][None], [margin], spec[None].astype(float),
+                                                  nca=[ids[position]])  # fmt: skip
+
+    first = [(family, w) for family, ws in starts.items() for w in ws]
+    for family in FAMILIES:  # random NCAs of each family, at the paper's scale and smaller
+        first += [(family, w) for w in rng.uniform(-0.25, 0.25, (batch, size))]
+    bar = tqdm(total=ncas, desc="design library: NCAs", unit="NCA", disable=not progress)
+    add(first)
+    bar.update(len(first))
+    while len(weights) < ncas:
+        children = []
+        for _ in range(min(batch, ncas - len(weights))):
+            family = str(rng.choice(list(FAMILIES)))
+            archive = archives[family]
+            if archive.empty:
+                children.append((family, rng.uniform(-0.25, 0.25, size)))
+                continue
+            parent = archive.sample_elites(1)["solution"][0]
+            scale = float(rng.choice([0.01, 0.03, 0.1, 0.3])) * float(np.abs(parent).mean())
+            children.append((family, parent + rng.normal(0.0, scale, size)))
+        add(children)
+        bar.update(len(children))
+        bar.set_postfix(specs=len({row[1:4] for row in found.rows}), answers=len(found.rows))
+    bar.close()
+    searched = time.perf_counter() - started
+    library = _cover(np.stack(weights), families, found, keep, answers_each, specs)
+    library.info.update({
+        "name": f"design library (seed {seed}, {ncas} NCAs searched)", "ncas_searched": ncas, "seed": seed,
+        "specs_each": specs_each, "search_seconds": round(searched, 1),
+        "seconds": round(time.perf_counter() - started, 1), "specs_found_in_search": len({r[1:4] for r in found.rows}),
+        "grid": {"max_side": max_side, "max_levels": max_levels},
+    })  # fmt: skip
+    return library
+
+
+def _cover(
+    weights: np.ndarray, families: list[str], found: _Found, keep: int, answers_each: int, specs: np.ndarray
+) -> DesignLibrary:
+    """Greedily keep the NCAs adding the most (spec, answer) pairs up to ``answers_each`` a spec, then grow each kept
+    NCA in every spec's box (centred seeds) to list all it meets."""
+    rows = np.array(found.rows, dtype=np.int64).reshape(-1, 8)
+    have: dict[tuple[int, int, int], int] = {}
+    chosen: list[int] = []
+    by_nca = {int(n): rows[rows[:, 0] == n] for n in np.unique(rows[:, 0])} if len(rows) else {}
+    while len(chosen) < keep and by_nca:
+
+        def gain(n: int) -> int:
+            specs = {tuple(r[1:4]) for r in by_nca[n]}
+            return sum(1 for s in specs if have.get(s, 0) < answers_each)
+
+        best = max(by_nca, key=lambda n: (gain(n), -n))
+        if gain(best) == 0:
+            break
+        for s in {tuple(int(v) for v in r[1:4]) for r in by_nca.pop(best)}:
+            have[s] = have.get(s, 0) + 1
+        chosen.append(best)
+    chosen.sort()
+    kept = DesignLibrary([families[n] for n in chosen], weights[chosen].astype(np.float32), np.zeros((0, 8), np.int32),
+                         np.zeros(0, np.float32))  # fmt: skip
+    # Every spec, every kept NCA, the seed placed at the middle (both middles of an even side) and where the search found it.
+    tries = {(i, *map(int, spec), x, y) for i in range(len(chosen)) for spec in specs
+             for x in {(spec[0] - 1) // 2, spec[0] // 2} for y in {(spec[1] - 1) // 2, spec[1] // 2}}  # fmt: skip
+    index = {n: i for i, n in enumerate(chosen)}
+    tries |= {(index[int(r[0])], *map(int, r[1:6])) for r in rows if int(r[0]) in index}
+    final = _Found()
+    every = np.array(sorted(tries), dtype=np.int64)
+    _judge(kept.weights.astype(np.float64), list(range(len(chosen))), kept.families, every, final)
+    kept.answers = np.array(final.rows, dtype=np.int32).reshape(-1, 8)
+    kept.peaks = np.array(final.peaks, dtype=np.float32)
+    order = np.lexsort((kept.answers[:, 0], kept.answers[:, 3], kept.answers[:, 2], kept.answers[:, 1]))
+    kept.answers, kept.peaks = kept.answers[order], kept.peaks[order]
+    kept.info["kept_ncas"] = len(chosen)
+    return kept

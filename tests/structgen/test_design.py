@@ -1,0 +1,147 @@
+"""Designs to a spec: a library of NCAs and the boxes they meet specs in, looked up and grown in milliseconds."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from physics.statics import check_statics
+from structgen import Structure
+from structgen.cli import main
+from structgen.domains.structures.design import (
+    DEFAULT_LIBRARY,
+    FAMILIES,
+    DesignLibrary,
+    Spec,
+    UnmeetableSpec,
+    _Found,
+    _judge,
+    build_library,
+    design,
+    dimensions,
+    load_library,
+)
+from structgen.nca import load_weights
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+# Specs the taught eight-level tower meets when grown in their boxes (the seed on its top level).
+SPECS = [(3, 3, 4), (3, 5, 6), (5, 5, 6), (5, 7, 6), (7, 7, 6)]
+
+
+@pytest.fixture(scope="module")
+def library() -> DesignLibrary:
+    """The taught seven- and eight-level towers as a library's two NCAs, with every answer they give for SPECS (two
+    seed places each)."""
+    weights = np.stack([load_weights(DOCS / name) for name in ("tall_grown_8.npy", "tall_grown_7.npy")])
+    weights = weights.astype(np.float32).astype(np.float64)
+    tries = np.array([(n, w, d, h, x, y) for n in (0, 1) for w, d, h in SPECS for x in {(w - 1) // 2, w // 2 - 1 if w > 2 else 0}
+                      for y in {(d - 1) // 2, d // 2 + (1 if d > 4 else 0)}])  # fmt: skip
+    found = _Found()
+    _judge(weights, [0, 1], ["down", "down"], tries, found)
+    return DesignLibrary(["down", "down"], weights.astype(np.float32), np.array(found.rows, np.int32),
+                         np.array(found.peaks, np.float32), {"name": "test library"})  # fmt: skip
+
+
+def test_a_design_meets_its_spec_exactly_and_stands(library):
+    met = {tuple(row[1:4]) for row in library.answers.tolist()}
+    assert len(met) >= 4  # the tower answers most of SPECS
+    for width, depth, height in sorted(met):
+        structure = design(Spec(width, depth, height), 0, library)
+        assert dimensions(structure) == (width, depth, height)
+        assert check_statics(structure).stands
+        assert structure.metadata["design"]["spec"] == {"width": width, "depth": depth, "height": height, "max_members": None}
+
+
+def test_width_over_depth_is_the_answer_turned_a_quarter(library):
+    width, depth, height = next(tuple(row[1:4]) for row in library.answers.tolist() if row[1] < row[2])
+    turned = design(Spec(depth, width, height), 0, library)
+    straight = design(Spec(width, depth, height), 0, library)
+    assert dimensions(turned) == (depth, width, height) and turned.metadata["design"]["turned"] is True
+    assert sorted(map(tuple, turned.vertices[:, [1, 0, 2]] * [1, -1, 1])) == sorted(map(tuple, straight.vertices))
+
+
+def test_seeds_pick_different_answers_where_there_are_several(library):
+    counts = {}
+    for row in library.answers.tolist():
+        counts[tuple(row[1:4])] = counts.get(tuple(row[1:4]), 0) + 1
+    spec = Spec(*max(counts, key=counts.get))
+    assert counts[(spec.width, spec.depth, spec.height)] >= 2
+    designs = {(d.vertices.tobytes(), d.edges.tobytes()) for d in (design(spec, seed, library) for seed in range(8))}
+    assert len(designs) >= 2
+    assert design(spec, 3, library) == design(spec, 3, library)  # the same seed, the same design
+
+
+def test_an_unmeetable_spec_names_the_nearest_that_can_be_met(library):
+    with pytest.raises(UnmeetableSpec, match=r"meets footprint 7x7, height 8; the nearest that can be met: footprint 7x7, height 6"):
+        design(Spec(7, 7, 8), 0, library)
+    smallest = int(library.answers[:, 6].min())
+    with pytest.raises(UnmeetableSpec, match="at most 1 members"):
+        design(Spec(7, 7, 6, max_members=1), 0, library)
+    width, depth, height = (int(v) for v in library.answers[library.answers[:, 6].argmin(), 1:4])
+    assert design(Spec(width, depth, height, max_members=smallest), 0, library).n_edges <= smallest
+
+
+def test_specs_out_of_range_are_refused():
+    for bad in ({"width": 0, "depth": 3, "height": 2}, {"width": 3, "depth": 3, "height": True},
+                {"width": 3, "depth": 3, "height": 2, "max_members": -1}):  # fmt: skip
+        with pytest.raises(ValueError, match="spec"):
+            Spec(**bad)
+
+
+def test_a_library_saves_and_loads_back(library, tmp_path):
+    path = library.save(tmp_path / "lib.npz")
+    loaded = load_library(path)
+    assert loaded.families == library.families and loaded.info == library.info
+    np.testing.assert_array_equal(loaded.answers, library.answers)
+    np.testing.assert_array_equal(loaded.weights, library.weights.astype(np.float64))
+    assert design(Spec(5, 5, 6), 1, loaded) == design(Spec(5, 5, 6), 1, library)
+    from structgen.errors import InputError
+
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(InputError, match="not a design library"):
+        load_library(tmp_path / "bad.npz")
+    with pytest.raises(InputError, match="no design library there"):
+        load_library(tmp_path / "missing.npz")
+
+
+def test_building_a_small_library_is_reproducible_and_its_answers_hold():
+    starts = {"down": [load_weights(DOCS / "tall_grown_8.npy")], "up": []}
+    first = build_library(12, 1, specs_each=6, keep=2, starts=starts, max_side=5, max_levels=3)
+    again = build_library(12, 1, specs_each=6, keep=2, starts=starts, max_side=5, max_levels=3)
+    np.testing.assert_array_equal(first.answers, again.answers)
+    np.testing.assert_array_equal(first.weights, again.weights)
+    assert len(first.answers) >= 3 and set(first.families) <= set(FAMILIES)
+    assert (first.answers[:, 1] <= first.answers[:, 2]).all() and first.answers[:, 1:4].max() <= 5
+    for row in first.answers[:: max(1, len(first.answers) // 6)]:
+        width, depth, height = (int(v) for v in row[1:4])
+        structure = design(Spec(width, depth, height), 0, first)
+        assert dimensions(structure) == (width, depth, height) and check_statics(structure).stands
+
+
+def test_design_on_the_command_line(library, tmp_path, capsys):
+    path = library.save(tmp_path / "lib.npz")
+    out = tmp_path / "tower.json"
+    assert main(["design", "--footprint", "5x5", "--height", "6", "--library", str(path), "-o", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["dimensions"] == [5, 5, 6] and summary["stands"] and summary["peak_load_share"] <= 1.0
+    assert dimensions(Structure.load(out)) == (5, 5, 6)
+    assert main(["design", "--footprint", "7x7", "--height", "8", "--library", str(path), "-o", str(tmp_path / "no.json")]) == 2
+    assert "the nearest that can be met: footprint 7x7, height 6" in capsys.readouterr().err
+    assert not (tmp_path / "no.json").exists()
+    with pytest.raises(SystemExit) as usage:
+        main(["design", "--footprint", "5by5", "--height", "3", "-o", str(tmp_path / "x.json")])
+    assert usage.value.code == 2 and "give the footprint as WxD" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not DEFAULT_LIBRARY.exists(), reason="the shipped design library is built by structgen design-library")
+def test_the_shipped_library_answers_specs_across_the_documented_range():
+    library = load_library()
+    met = library.specs()
+    assert len(met) >= 300  # of the 528 specs with width at most depth
+    rng = np.random.default_rng(7)
+    for width, depth, height in [sorted(met)[i] for i in rng.choice(len(met), 12, replace=False)]:
+        structure = design(Spec(width, depth, height), int(rng.integers(100)), library)
+        assert dimensions(structure) == (width, depth, height) and check_statics(structure).stands
