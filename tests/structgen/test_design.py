@@ -75,7 +75,8 @@ def test_seeds_pick_different_answers_where_there_are_several(library):
 
 
 def test_an_unmeetable_spec_names_the_nearest_that_can_be_met(library):
-    with pytest.raises(UnmeetableSpec, match=r"meets footprint 7x7, height 8; the nearest that can be met: footprint 7x7, height 6"):
+    nearest = r"meets footprint 7x7, height 8; the nearest that can be met: footprint 7x7, height 6"
+    with pytest.raises(UnmeetableSpec, match=nearest):
         design(Spec(7, 7, 8), 0, library)
     smallest = int(library.answers[:, 6].min())
     with pytest.raises(UnmeetableSpec, match="at most 1 members"):
