@@ -12,7 +12,9 @@ building below a seed on the ground). Its search is MAP-Elites over the spec gri
 in levels), the archive a pyribs ``GridArchive`` per family whose objective is the safety margin (1 - the largest
 member load over the break force): parents drawn from the archive's elites are mutated, each child is grown in boxes
 of randomly drawn specs (its seed placed near the box's middle), and every exact, standing result goes into the
-archive and the list of answers. It starts from the NCAs that ship in ``docs/`` and random ones. At the end a
+archive and the list of answers. It starts from the NCAs that ship in ``docs/``, random ones, and pyramids taught
+for the purpose (:func:`taught_pyramids`: for each height and odd width, the lightest standing one-rule-per-level
+design, taught in a second or two). At the end a
 greedy cover keeps the few NCAs that answer the most specs (several answers each, for variety), which are then
 grown in every spec's box to list everything they meet. Weights are kept as float32, as the file stores them.
 
@@ -26,6 +28,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -279,6 +282,50 @@ def _random_tries(rng: np.random.Generator, count: int, specs_each: int, specs: 
     return np.array(rows, dtype=np.int64)
 
 
+def taught_pyramids(
+    max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS, beam: int = 4
+) -> list[tuple[tuple[int, int], np.ndarray]]:
+    """For each height and odd width a one-rule-per-level design can have (:func:`.samples.by_level_rules`), the
+    design of that footprint that carries least (its largest static joint load, held and sliding ground) among those
+    a local rule grows and that stand, taught to an NCA of the ``down`` family: ``((width, height), weights)``.
+
+    A beam search from the top down keeps the ``beam`` lightest designs of each width at each height. Grown in the
+    boxes of narrower or rectangular footprints, the same NCAs answer those too."""
+    from physics.statics import bounding_loads, check_statics
+    from structgen.domains.structures.samples import by_level_rules_one_taller
+    from structgen.domains.structures.tall import teachable
+    from structgen.domains.structures.teach import TeachError, teach
+
+    def load(structure: Structure) -> float:
+        loads = bounding_loads(structure) if structure.n_edges else np.zeros(1)
+        return float(np.nanmax(loads)) if np.isfinite(loads).any() else math.inf
+
+    taught = []
+    prefixes: list[tuple[str, ...]] = [()]
+    for height in range(2, max_levels + 1):
+        by_width: dict[int, list[tuple[float, tuple[str, ...], Structure]]] = {}
+        for rules, _, candidate in by_level_rules_one_taller(prefixes, MAX_VERTICES):
+            width, depth, levels = dimensions(candidate)
+            if width > max_side or levels != height or not teachable(candidate, whole=False):
+                continue
+            by_width.setdefault(width, []).append((load(candidate), rules, candidate))
+        prefixes = []
+        for width in sorted(by_width):
+            ranked = sorted(by_width[width], key=lambda entry: (entry[0], entry[1]))
+            prefixes += [rules for _, rules, _ in ranked[:beam]]
+            for _, _, candidate in ranked:
+                if not teachable(candidate, whole=True) or not check_statics(candidate).stands:
+                    continue
+                try:
+                    result = teach(candidate)
+                except TeachError:
+                    continue
+                taught.append(((width, height), result.weights))
+                break
+        prefixes = list(dict.fromkeys(prefixes))
+    return taught
+
+
 def build_library(
     ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 48, answers_each: int = 6,
     starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
@@ -298,6 +345,7 @@ def build_library(
 
         docs = Path(__file__).resolve().parents[3] / "docs"
         starts = {family: [load_weights(docs / n) for n in names if (docs / n).exists()] for family, names in STARTS.items()}
+        starts["down"] += [w for _, w in taught_pyramids(max_side, max_levels)]
     weights: list[np.ndarray] = []
     families: list[str] = []
     archives = {
