@@ -273,11 +273,15 @@ def _judge(
 
 
 def _random_tries(rng: np.random.Generator, count: int, specs_each: int, specs: np.ndarray) -> np.ndarray:
-    """``specs_each`` of ``specs`` at random for each of ``count`` NCAs, seeds placed at random within REACH."""
+    """``specs_each`` of ``specs`` at random for each of ``count`` NCAs, seeds in the middle of the box for half of
+    them (where taught pyramids meet their specs) and anywhere within REACH for the rest."""
     rows = []
     for position in range(count):
         for w, d, h in specs[rng.choice(len(specs), min(specs_each, len(specs)), replace=False)]:
-            x_seed, y_seed = (int(rng.choice(_seed_places(side))) for side in (w, d))
+            if rng.random() < 0.5:
+                x_seed, y_seed = (int(rng.integers((side - 1) // 2, side // 2 + 1)) for side in (w, d))
+            else:
+                x_seed, y_seed = (int(rng.choice(_seed_places(side))) for side in (w, d))
             rows.append((position, w, d, h, x_seed, y_seed))
     return np.array(rows, dtype=np.int64)
 
