@@ -744,7 +744,7 @@ class StructureCommands(DomainCommands):
         verb("design-library", cmd_design_library, output("FILE.npz", "the library to write"),
              number("--ncas", 1, 10**7, 2_000, "NCAs to search"), seed("the search's seed"),
              number("--specs-each", 1, 528, 48, "random specs each NCA is grown for during the search"),
-             number("--keep", 1, 10_000, 48, "NCAs kept in the library"), overwrite(),
+             number("--keep", 1, 10_000, 64, "NCAs kept in the library"), overwrite(),
              examples=["structgen design-library -o my_library.npz --ncas 500"]),
         verb("tall", cmd_tall,
              option("--run-dir", metavar="DIR", help="run folder: new, empty, or one a search with the same settings "

@@ -331,7 +331,7 @@ def taught_pyramids(
 
 
 def build_library(
-    ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 48, answers_each: int = 6,
+    ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 64, answers_each: int = 6,
     starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
     progress: bool = False,
 ) -> DesignLibrary:  # fmt: skip
@@ -416,12 +416,13 @@ def _cover(
     by_nca = {int(n): rows[rows[:, 0] == n] for n in np.unique(rows[:, 0])} if len(rows) else {}
     while len(chosen) < keep and by_nca:
 
-        def gain(n: int) -> int:
-            specs = {tuple(r[1:4]) for r in by_nca[n]}
-            return sum(1 for s in specs if have.get(s, 0) < answers_each)
+        def gain(n: int) -> tuple[int, int]:
+            """Specs no kept NCA answers yet first (a spec met beats a spec met again), then answers added."""
+            specs = {tuple(int(v) for v in r[1:4]) for r in by_nca[n]}
+            return sum(1 for s in specs if s not in have), sum(1 for s in specs if have.get(s, 0) < answers_each)
 
         best = max(by_nca, key=lambda n: (gain(n), -n))
-        if gain(best) == 0:
+        if gain(best) == (0, 0):
             break
         for s in {tuple(int(v) for v in r[1:4]) for r in by_nca.pop(best)}:
             have[s] = have.get(s, 0) + 1
