@@ -430,8 +430,9 @@ def cmd_design(args: argparse.Namespace) -> int:
     else:
         print(
             f"{path}: {spec}: {structure.n_vertices} vertices, {structure.n_edges} members, peak load "
-            f"{summary['peak_load_share']:.0%} of the break force, stands (static analysis); one of "
-            f"{made['answers']} answers (--seed picks), {seconds:.2f} s"
+            f"{summary['peak_load_share']:.0%} of the break force, stands (static analysis); "
+            + (f"one of {made['answers']} answers (--seed picks)" if made["answers"] > 1 else "the only answer")
+            + f", {seconds:.2f} s"
         )
     return EXIT_OK
 
