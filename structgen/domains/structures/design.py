@@ -243,7 +243,8 @@ def _judge(
 ) -> list[tuple[int, np.ndarray, float]]:
     """Grow NCA ``ids[i]`` in each of its tries' boxes ((nca position, width, depth, height, x_seed, y_seed) rows),
     keep the exact, standing results in ``found``; (position, spec, margin) of each."""
-    from physics.statics import check_statics_with_loads, overload_ratio
+    from physics.statics import overload_ratio
+    from structgen.domains.structures.stress import member_load_shares
 
     successes = []
     for family in FAMILIES:
@@ -259,10 +260,10 @@ def _judge(
                 key = (spec, _shape_key(structure))
                 if overload_ratio(structure) > 1.0:  # a bound, linear in size: some joint is overloaded
                     continue
-                report, loads = check_statics_with_loads(structure)
+                report, shares = member_load_shares(structure)
                 if not report.stands:
                     continue
-                peak = float(np.nanmax(loads)) / report.config.break_force if structure.n_edges else 0.0
+                peak = float(np.nanmax(shares)) if structure.n_edges else 0.0
                 successes.append((int(t[0]), np.array(spec), 1.0 - peak))
                 if key in found.seen:
                     continue
