@@ -16,6 +16,7 @@ from structgen.domains.structures.samples import (
     braced,
     by_level_rules,
     by_level_rules_one_taller,
+    in_degree_class,
     cantilever,
     column,
     five_level_pyramid,
@@ -305,6 +306,34 @@ def test_level_rules_build_what_they_name_and_refuse_what_they_do_not():
         by_level_rules(["X"])
     with pytest.raises(ValueError, match="tied_levels must be"):
         by_level_rules(["S"], tied_levels=-1)
+
+
+def test_rules_by_in_degree_let_vertices_that_more_members_reach_send_more_down():
+    # Two levels of corner diagonals under the top: the cell under the top is reached by four members, the side
+    # midpoints by two, the corners by one.
+    plain = by_level_rules(["C", "C"])
+    same = by_level_rules([("C",) * 4, ("C",) * 4])  # one rule for every class is the plain rule
+    assert np.array_equal(plain.vertices, same.vertices) and np.array_equal(plain.edges, same.edges)
+    assert [in_degree_class(n) for n in (1, 2, 3, 4, 5, 9)] == [0, 1, 2, 2, 3, 3]
+    # Below them, every vertex goes outwards, except the one four members reach (class "3-4"): it goes straight down.
+    outward = by_level_rules(["C", "C", "O"])
+    classed = by_level_rules(["C", "C", ("O", "O", "V", "O")])
+    assert not any(v == [0, 0, 0] for v in outward.vertices.tolist())  # on the axis, "outwards" goes nowhere
+    assert [0, 0, 0] in classed.vertices.tolist()
+    assert classed.n_edges == outward.n_edges + 1 and classed.height == 3
+    with pytest.raises(ValueError, match="one per in-degree class"):
+        by_level_rules([("S", "S")])
+
+
+def test_an_extent_keeps_the_footprint_within_it_as_a_growth_box_does():
+    wide = by_level_rules(["S", "S", "S"])
+    assert np.abs(wide.vertices[:, :2]).max() == 3
+    narrow = by_level_rules(["S", "S", "S"], extent=1)
+    assert np.abs(narrow.vertices[:, :2]).max() == 1 and narrow.height == 3
+    kept = {tuple(v) for v in wide.vertices.tolist() if max(abs(v[0]), abs(v[1])) <= 1}
+    assert {tuple(v) for v in narrow.vertices.tolist()} == kept
+    with pytest.raises(ValueError, match="extent must be"):
+        by_level_rules(["S"], extent=-1)
 
 
 def test_one_level_taller_gives_each_distinct_design_once_within_the_cap():

@@ -176,11 +176,24 @@ def test_a_second_writer_is_refused_while_a_search_holds_its_folder(small_run):
     [
         ({"levels": 1}, "search levels = 1: expected a whole number from 2 to 50"),
         ({"refine": "yes"}, "refine must be true or false"),
+        ({"footprint": 4}, "footprint must be odd"),
+        ({"footprint": -1}, "search footprint = -1"),
     ],
 )
 def test_settings_out_of_range_are_refused(changes, message):
     with pytest.raises(InputError, match=message):
         TallSettings(**changes)
+
+
+def test_a_footprint_keeps_every_design_within_it_and_the_taught_weights_grow_it(tmp_path):
+    # Unlimited, the three-level answer reaches two cells from the axis; in a 3x3 footprint everything stays within one.
+    narrow = find_tallest(replace(SMALL, footprint=3), tmp_path / "narrow", workers=0)
+    assert sorted(narrow.designs) == [2, 3]
+    for levels, design in narrow.designs.items():
+        assert np.abs(design.structure.vertices[:, :2]).max() <= 1
+        assert shape(narrow.taught[levels].grown) == shape(design.structure)
+    restored = find_tallest(replace(SMALL, footprint=3), tmp_path / "narrow", workers=0)  # read back from its folder
+    assert shape(restored.designs[3].structure) == shape(narrow.designs[3].structure)
 
 
 def test_the_command_writes_the_run_folder_and_prints_how_to_grow_and_check_the_tallest(tmp_path, capsys):

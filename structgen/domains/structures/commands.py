@@ -525,6 +525,7 @@ TALL_OPTIONS = {
     "beam": "search.beam",
     "candidates": "search.candidates",
     "max_vertices": "search.max_vertices",
+    "footprint": "search.footprint",
     "refine": "search.refine",
 }
 
@@ -750,12 +751,13 @@ class StructureCommands(DomainCommands):
         verb("tall", cmd_tall,
              option("--run-dir", metavar="DIR", help="run folder: new, empty, or one a search with the same settings "
                     "started (it resumes; with more --levels it goes on from there); default runs/tall-<levels>"),
-             overwrite(), settings(TallSettings, ("levels", "beam", "candidates", "max_vertices")),
+             overwrite(), settings(TallSettings, ("levels", "beam", "candidates", "max_vertices", "footprint")),
              option("--refine", action=argparse.BooleanOptionalAction, help="try every change of two levels' rules of the "
                     "tallest design (default on, a few minutes at eight levels; search.refine)"),
              workers("processes for the simulations, 0 for this one; results do not depend on it (default 2)", default=2),
              set_option("the search (search.*, the physics in search.physics.*)", "break_force=60 or search.beam=10"),
-             examples=["structgen tall --run-dir runs/tall --levels 5 --workers 2"]),
+             examples=["structgen tall --run-dir runs/tall --levels 5 --workers 2",
+                       "structgen tall --run-dir runs/tall-f5 --levels 7 --footprint 5"]),
     )  # fmt: skip
 
     def describe_path(self, path: Path) -> tuple[dict[str, Any], str] | None:

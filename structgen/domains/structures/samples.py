@@ -19,6 +19,7 @@ from structgen.lattice import OFFSETS, are_neighbours
 from structgen.structure import Structure
 
 __all__ = [
+    "IN_DEGREE_CLASSES",
     "LEVEL_RULES",
     "braced",
     "by_level_rules",
@@ -27,6 +28,7 @@ __all__ = [
     "column",
     "five_level_pyramid",
     "flat_edge",
+    "in_degree_class",
     "random_growth",
     "six_level_rule_design",
     "sparse_pyramid",
@@ -151,48 +153,89 @@ def five_level_pyramid() -> Structure:
     return sparse_pyramid(5).with_metadata(sample="five_level_pyramid()")
 
 
-def by_level_rules(rules: tuple[str, ...] | list[str], tied_levels: int = 0) -> Structure | None:
+#: The classes a level's vertices fall into by how many members reach them from the level above (their in-degree):
+#: one, two, three or four, five or more. A vertex sees these members, so a rule that depends on them is local.
+IN_DEGREE_CLASSES = ("1", "2", "3-4", "5+")
+
+
+def in_degree_class(members_from_above: int) -> int:
+    """The index in :data:`IN_DEGREE_CLASSES` of a vertex that ``members_from_above`` members reach."""
+    return 0 if members_from_above <= 1 else 1 if members_from_above == 2 else 2 if members_from_above <= 4 else 3
+
+
+LevelRule = str | tuple[str, ...]
+
+
+def _check_rule(rule: object) -> bool:
+    if isinstance(rule, str):
+        return rule in LEVEL_RULES
+    return (
+        isinstance(rule, (tuple, list))
+        and len(rule) == len(IN_DEGREE_CLASSES)
+        and all(isinstance(r, str) and r in LEVEL_RULES for r in rule)
+    )
+
+
+def by_level_rules(
+    rules: tuple[LevelRule, ...] | list[LevelRule], tied_levels: int = 0, extent: int | None = None
+) -> Structure | None:
     """A structure grown down from one top vertex, one rule per level (top first; letters as in :data:`LEVEL_RULES`):
     ``len(rules) + 1`` vertices tall, its lowest ``tied_levels`` levels also joined to their side neighbours. None when
     the rules do not reach the ground (an outward-only rule on the axis reaches nowhere).
 
-    Every vertex of a level does the same thing, the kind of regularity an NCA's shared local rule can express.
-    :mod:`.tall` searches them for the tallest design an NCA can grow that stands (``benchmarks/tall.py --rules``
-    for the tallest that stands at all).
+    A level's rule is either one of :data:`LEVEL_RULES`, which every vertex of the level follows, or one per
+    :data:`IN_DEGREE_CLASSES` entry, so that a vertex many members reach (one the load of several above flows into)
+    can send more down than one a single member reaches. Both are the kind of regularity an NCA's shared local rule
+    can express (:func:`.tall.teachable` says whether a given design's levels look different enough).
+    ``extent`` keeps the footprint within that many cells of the axis, dropping reach beyond it as an NCA's growth
+    box does. :mod:`.tall` searches the one-rule designs for the tallest an NCA can grow that stands;
+    ``benchmarks/tall_classes.py`` the per-class ones.
     """
-    if not rules or any(rule not in LEVEL_RULES for rule in rules):
-        raise ValueError(f"rules must be a non-empty sequence of {', '.join(LEVEL_RULES)}; got {list(rules)!r}")
+    if not rules or not all(_check_rule(rule) for rule in rules):
+        raise ValueError(
+            f"rules must be a non-empty sequence of {', '.join(LEVEL_RULES)}, or of tuples of "
+            f"{len(IN_DEGREE_CLASSES)} of them (one per in-degree class); got {list(rules)!r}"
+        )
     if not isinstance(tied_levels, int) or isinstance(tied_levels, bool) or tied_levels < 0:
         raise ValueError(f"tied_levels must be a non-negative integer, got {tied_levels!r}")
+    if extent is not None and (not isinstance(extent, int) or isinstance(extent, bool) or extent < 0):
+        raise ValueError(f"extent must be a non-negative integer or None, got {extent!r}")
     top = len(rules)
-    level, edges = [(0, 0)], []
+    level: dict[tuple[int, int], int] = {(0, 0): 1}  # cell -> members reaching it from above
+    edges = []
     for z, rule in zip(range(top, 0, -1), rules):
-        below: set[tuple[int, int]] = set()
-        for x, y in level:
-            for dx, dy in sorted(_reach(rule, x, y)):
-                below.add((x + dx, y + dy))
-                edges.append(((x, y, z), (x + dx, y + dy, z - 1)))
+        below: dict[tuple[int, int], int] = {}
+        for (x, y), reached_by in sorted(level.items()):
+            own = rule if isinstance(rule, str) else rule[in_degree_class(reached_by)]
+            for dx, dy in sorted(_reach(own, x, y)):
+                cell = (x + dx, y + dy)
+                if extent is not None and max(abs(cell[0]), abs(cell[1])) > extent:
+                    continue
+                below[cell] = below.get(cell, 0) + 1
+                edges.append(((x, y, z), (cell[0], cell[1], z - 1)))
         if z <= tied_levels:
-            edges += _ties(below, z - 1, ((1, 0), (0, 1)))
-        level = sorted(below)
+            edges += _ties(set(below), z - 1, ((1, 0), (0, 1)))
+        level = below
         if not level:
             return None
-    return _from_cell_pairs(edges, {"sample": f"by_level_rules({list(rules)!r}, tied_levels={tied_levels})"})
+    described = [rule if isinstance(rule, str) else tuple(rule) for rule in rules]
+    extra = f", extent={extent}" if extent is not None else ""
+    return _from_cell_pairs(edges, {"sample": f"by_level_rules({described!r}, tied_levels={tied_levels}{extra})"})
 
 
 def by_level_rules_one_taller(
-    prefixes: Iterable[tuple[str, ...]], max_vertices: int
+    prefixes: Iterable[tuple[str, ...]], max_vertices: int, extent: int | None = None
 ) -> Iterator[tuple[tuple[str, ...], int, Structure]]:
     """``(rules, tied_levels, design)`` for every :func:`by_level_rules` design one level taller than one of
     ``prefixes`` (each rule of :data:`LEVEL_RULES` added below, with 0, 1 or 2 of the lowest levels tied), in that
     order, each distinct structure once (different rules can give the same one: an axis vertex has no outward
-    direction). Designs that do not reach the ground or have more than ``max_vertices`` vertices are left out. The
-    step of the beam searches in :mod:`.tall` and ``benchmarks/tall.py``."""
+    direction). Designs that do not reach the ground or have more than ``max_vertices`` vertices are left out;
+    ``extent`` as for :func:`by_level_rules`. The step of the beam searches in :mod:`.tall` and ``benchmarks/tall.py``."""
     seen: set[tuple[bytes, bytes]] = set()
     for rules in prefixes:
         for rule in LEVEL_RULES:
             for tied in (0, 1, 2):
-                design = by_level_rules((*rules, rule), tied)
+                design = by_level_rules((*rules, rule), tied, extent)
                 if design is None or design.n_vertices > max_vertices:
                     continue
                 shape = (design.vertices.tobytes(), design.edges.tobytes())

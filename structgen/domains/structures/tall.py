@@ -95,6 +95,7 @@ class TallDesign:
     tied: int
     static_load: float
     peak: float
+    extent: int | None = None  # the search's footprint limit (TallSettings.extent), not saved with the design
 
     @property
     def levels(self) -> int:
@@ -102,7 +103,7 @@ class TallDesign:
 
     @functools.cached_property
     def structure(self) -> Structure:
-        design = by_level_rules(self.rules, self.tied)
+        design = by_level_rules(self.rules, self.tied, self.extent)
         assert design is not None, "a chosen design reaches the ground"
         return design
 
@@ -189,8 +190,10 @@ def transient_peak(design: Structure, physics: PhysicsConfig | None = None) -> f
     return check_transient(design, physics, window=TRANSIENT_WINDOW).peak_force
 
 
-def _whole_static_load(candidate: tuple[tuple[str, ...], int], max_vertices: int, physics: PhysicsConfig) -> float:
-    design = by_level_rules(*candidate)
+def _whole_static_load(
+    candidate: tuple[tuple[str, ...], int], max_vertices: int, physics: PhysicsConfig, extent: int | None = None
+) -> float:
+    design = by_level_rules(*candidate, extent)
     if design is None or design.n_vertices > max_vertices or not teachable(design, whole=True):
         return np.inf
     return largest_static_load(design, physics)
@@ -205,7 +208,8 @@ def _one_height(
 ) -> tuple[list[tuple[tuple[str, ...], int]], TallDesign | None]:
     """The beam one level taller, and that height's design (None when no design of it can be grown whole)."""
     scored = []
-    for rules, tied, design in by_level_rules_one_taller([rules for rules, _ in kept], settings.max_vertices):
+    prefixes = [rules for rules, _ in kept]
+    for rules, tied, design in by_level_rules_one_taller(prefixes, settings.max_vertices, settings.extent):
         if teachable(design, whole=False):
             scored.append((largest_static_load(design, settings.physics), rules, tied, design))
     scored.sort(key=lambda row: row[0])  # stable: ties keep the order the designs were made in
@@ -216,7 +220,7 @@ def _one_height(
     peaks = simulate(functools.partial(transient_peak, physics=settings.physics), [row[3] for row in whole])
     k = int(np.argmin(peaks))
     load, rules, tied, _ = whole[k]
-    return kept, TallDesign(rules, tied, load, float(peaks[k]))
+    return kept, TallDesign(rules, tied, load, float(peaks[k]), settings.extent)
 
 
 def refine(found: TallDesign, settings: TallSettings, simulate: Mapper) -> TallDesign:
@@ -230,14 +234,17 @@ def refine(found: TallDesign, settings: TallSettings, simulate: Mapper) -> TallD
         for rule_b in LEVEL_RULES
     } - {(rules, found.tied)}
     ordered = sorted(variants)
-    static = functools.partial(_whole_static_load, max_vertices=settings.max_vertices, physics=settings.physics)
+    static = functools.partial(
+        _whole_static_load, max_vertices=settings.max_vertices, physics=settings.physics, extent=settings.extent
+    )
     loads = simulate(static, ordered)
     ranked = [(load, variant) for load, variant in sorted(zip(loads, ordered)) if np.isfinite(load)][: settings.candidates]
-    peaks = simulate(functools.partial(transient_peak, physics=settings.physics), [by_level_rules(*v) for _, v in ranked])
+    designs = [by_level_rules(*v, settings.extent) for _, v in ranked]
+    peaks = simulate(functools.partial(transient_peak, physics=settings.physics), designs)
     if peaks and min(peaks) < found.peak:
         k = int(np.argmin(peaks))
         load, (new_rules, tied) = ranked[k]
-        return TallDesign(new_rules, tied, float(load), float(peaks[k]))
+        return TallDesign(new_rules, tied, float(load), float(peaks[k]), settings.extent)
     return found
 
 
@@ -433,7 +440,7 @@ def _restore(state: Any, path: Path, settings: TallSettings) -> tuple[int, list,
         tied = _whole(row.get("tied"), 0, 2, f"designs[{key!r}].tied", path)
         designs[levels] = TallDesign(
             rules, tied, _load(row.get("static_load"), f"designs[{key!r}].static_load", path),
-            _load(row.get("peak"), f"designs[{key!r}].peak", path),
+            _load(row.get("peak"), f"designs[{key!r}].peak", path), settings.extent,
         )  # fmt: skip
     refined_rows = state.get("refined", [])
     if not isinstance(refined_rows, list) or not all(isinstance(r, int) and r in designs for r in refined_rows):

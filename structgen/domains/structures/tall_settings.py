@@ -28,6 +28,8 @@ class TallSettings:
         max_vertices: the largest design tried.
         refine: whether to try every change of two levels' rules of the tallest design (and of lower ones while none
             above holds in the transient).
+        footprint: the side, in cells, of the square every design must fit in (odd: the top vertex stands over its
+            centre; reach beyond it is dropped, as an NCA's growth box drops it); 0 for no limit.
         physics: the loads and the break force they are held to (the faithful preset unless set otherwise; its size
             caps are raised for each design as far as the design needs).
     """
@@ -38,6 +40,7 @@ class TallSettings:
         "beam": Limit(1, 10_000, "designs of each height kept to grow the next (search.beam)"),
         "candidates": Limit(1, 10_000, "designs of each height simulated, and of the refinement (search.candidates)"),
         "max_vertices": Limit(2, 100_000, "largest design tried (search.max_vertices)"),
+        "footprint": Limit(0, 1_001, "side of the square footprint designs must fit in, in cells; 0 for none (search.footprint)"),
     }
 
     levels: int = 8
@@ -45,13 +48,23 @@ class TallSettings:
     candidates: int = 12
     max_vertices: int = 700
     refine: bool = True
+    footprint: int = 0
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
+
+    @property
+    def extent(self) -> int | None:
+        """How far from the axis a design may reach, in cells (None: no limit)."""
+        return (self.footprint - 1) // 2 if self.footprint else None
 
     def __post_init__(self) -> None:
         try:
             check_limits(self)
         except ValueError as err:
             raise InputError(str(err)) from None
+        if self.footprint % 2 == 0 and self.footprint != 0:
+            raise InputError(
+                f"footprint must be odd (the top vertex stands over its centre) or 0 for none, got {self.footprint}"
+            )
         if not isinstance(self.refine, bool):
             raise InputError(f"refine must be true or false, got {self.refine!r}")
         if not isinstance(self.physics, PhysicsConfig):
