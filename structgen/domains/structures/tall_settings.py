@@ -62,9 +62,7 @@ class TallSettings:
         except ValueError as err:
             raise InputError(str(err)) from None
         if self.footprint % 2 == 0 and self.footprint != 0:
-            raise InputError(
-                f"footprint must be odd (the top vertex stands over its centre) or 0 for none, got {self.footprint}"
-            )
+            raise InputError(f"footprint must be odd (the top vertex stands over its centre) or 0 for none, got {self.footprint}")
         if not isinstance(self.refine, bool):
             raise InputError(f"refine must be true or false, got {self.refine!r}")
         if not isinstance(self.physics, PhysicsConfig):
