@@ -2,7 +2,7 @@
 then why the next level fails.
 
     python benchmarks/tall_footprints.py --run-root DIR [--footprints 5 9 15 21 25] [--levels 9] [--workers 2]
-        [--figure docs/tall_footprints.png]
+        [--also TOWER.json ...] [--figure docs/tall_footprints.png]
 
 Each footprint's search is a tall search folder under ``DIR`` (``f<side>``), so an interrupted run goes on where it
 stopped and a finished one is only read. A footprint so wide that no design of ``--levels`` can reach its edge (a
@@ -12,7 +12,9 @@ unlimited search, run once (``unlimited``) and named for each such side.
 Prints a markdown table: per footprint, the tallest design that holds in the faithful preset's first 0.3 s (the
 transient, where tall towers break), its size and peak force, and for the next height the best design the search
 found with its peak, its largest static load, and the load on its lowest joints (those at the ground level) against
-the 52.5 N limit. With ``--figure``, the tallest that holds against the footprint, the next height's peak beside it.
+the 52.5 N limit. ``--also`` adds towers found otherwise (structure files, e.g. grown from ``docs/tall_grown_9.npy``):
+each counts for the footprints it fits in when it holds in the first 0.3 s (simulated in the file's body order).
+With ``--figure``, the tallest that holds against the footprint, the next height's peak beside it.
 """
 
 from __future__ import annotations
@@ -27,9 +29,10 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 
 import numpy as np  # noqa: E402
 
-from physics import PhysicsConfig  # noqa: E402
+from physics import PhysicsConfig, check_transient  # noqa: E402
 from physics.statics import bounding_loads  # noqa: E402
 from structgen.domains.structures.tall import TallResult, TallSettings, find_tallest  # noqa: E402
+from structgen.structure import Structure  # noqa: E402
 
 FOOTPRINTS = (5, 9, 15, 21, 25)
 
@@ -58,11 +61,20 @@ def main() -> None:
     parser.add_argument("--footprints", type=int, nargs="+", default=list(FOOTPRINTS), help="odd sides, in cells")
     parser.add_argument("--levels", type=int, default=9, help="tallest design each search looks for (default 9)")
     parser.add_argument("--workers", type=int, default=2, help="processes for the simulations (default 2)")
+    parser.add_argument("--also", type=Path, nargs="*", default=[], help="towers found otherwise (structure files)")
     parser.add_argument("--figure", type=Path, help="write the height-against-footprint picture here")
     args = parser.parse_args()
     if any(side < 1 or side % 2 == 0 for side in args.footprints):
         parser.error(f"--footprints must be odd sides of at least 1 cell, got {args.footprints}")
     physics = PhysicsConfig()
+    others = []
+    for path in args.also:
+        tower = Structure.load(path)
+        side = 2 * int(np.abs(tower.vertices[:, :2] - tower.vertices[np.argmax(tower.vertices[:, 2]), :2]).max()) + 1
+        room = physics.replace(**physics.room_for(tower.n_vertices, tower.n_edges))
+        peak = check_transient(tower, room, window=0.3).peak_force
+        others.append((path.name, side, int(tower.height) + 1, tower, peak))
+        print(f"{path}: {int(tower.height) + 1} levels in {side}x{side}, peak {peak:.1f} N in 0.3 s", file=sys.stderr)
     rows, points = [], []
     for footprint in args.footprints:
         name, result, seconds = search(args.run_root, footprint, args.levels, args.workers)
@@ -70,13 +82,18 @@ def main() -> None:
         best = result.designs[holding] if holding else None
         taller = result.designs.get((holding or 1) + 1)
         row = [f"{footprint}x{footprint}", name]
-        if best is None:
+        fitting = [o for o in others if o[1] <= footprint and o[4] <= physics.break_force and o[2] > (holding or 0)]
+        if fitting:
+            label, _, levels, tower, peak = max(fitting, key=lambda o: o[2])
+            row += [f"{levels} ({label})", f"{tower.n_vertices} / {tower.n_edges}", f"{peak:.1f} N", label]
+            holding, taller = levels, result.designs.get(levels + 1)
+        elif best is None:
             row += ["none", "", "", ""]
         else:
             size = best.structure
             row += [str(holding), f"{size.n_vertices} / {size.n_edges}", f"{best.peak:.1f} N", f"tall_{holding}.npy"]
         if taller is None:
-            row += ["not searched", "", "", ""]
+            row += ["not searched by structgen tall", "", "", ""]
         else:
             row += [
                 str(taller.levels),
@@ -112,12 +129,18 @@ def draw(points: list[tuple[int, int, float]], path: Path, break_force: float) -
     left.set_title("tallest an NCA grows that holds")
     for x, (_, levels, _) in enumerate(points):
         left.text(x, levels + 0.1, str(levels), ha="center")
-    right.bar([str(s) for s in sides], [p[2] for p in points], color="#d8623b")
+    left.set_ylim(0, max(p[1] for p in points) + 1.5)
+    right.bar(range(len(sides)), [p[2] if np.isfinite(p[2]) else 0 for p in points], color="#d8623b")
+    right.set_xticks(range(len(sides)), [str(s) for s in sides])
+    for x, (_, _, taller_peak) in enumerate(points):
+        if not np.isfinite(taller_peak):
+            right.text(x, 2, "not\nsearched", ha="center", fontsize=8)
     right.axhline(break_force, color="black", linestyle="--", linewidth=1, label=f"break force {break_force:g} N")
     right.set_xlabel("footprint side, cells")
     right.set_ylabel("peak joint force in 0.3 s, N")
     right.set_title("one level taller: its best design")
-    right.legend(loc="lower right")
+    right.legend(loc="upper right", fontsize=8)
+    right.set_ylim(0, max([break_force, *[p[2] for p in points if np.isfinite(p[2])]]) * 1.25)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp.png")

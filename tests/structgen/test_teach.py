@@ -114,6 +114,23 @@ def test_the_command_refuses_an_unteachable_file_and_writes_nothing(tmp_path, ca
     [
         ("tall_grown_7.npy", 7, ("V", "S", "C", "SO", "SC", "SC"), 0, None),
         ("tall_grown_8.npy", 8, ("V", "S", "V", "C", "SC", "S", "SC"), 0, None),
+        # benchmarks/tall_classes.py: a rule per in-degree class (1, 2, 3-4, 5+ members from above) on four levels
+        (
+            "tall_grown_9.npy",
+            9,
+            (
+                "V",
+                "S",
+                "V",
+                "C",
+                ("o", "C", "SC", "SC"),
+                ("S", "SC", "SC", "S"),
+                ("SC", "So", "SO", "SC"),
+                ("SC", "S", "SC", "SC"),
+            ),
+            0,
+            None,
+        ),
         # benchmarks/tall_footprints.py: the tallest that hold in a 5x5 and a 9x9 footprint
         ("tall_footprint_5.npy", 6, ("V", "S", "VO", "S", "SC"), 2, 5),
         ("tall_footprint_9.npy", 8, ("V", "S", "V", "C", "SC", "S", "SC"), 0, 9),
