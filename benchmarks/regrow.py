@@ -25,6 +25,7 @@ from structgen.nca import NCAConfig, grow  # noqa: E402
 SHIPPED = {
     "taught tower, 7 levels (docs/tall_grown_7.npy)": ("tall_grown_7.npy", NCAConfig(max_extent=6, iterations=6)),
     "taught tower, 8 levels (docs/tall_grown_8.npy)": ("tall_grown_8.npy", NCAConfig(max_extent=7, iterations=7)),
+    "taught tower, 9 levels (docs/tall_grown_9.npy)": ("tall_grown_9.npy", NCAConfig(max_extent=8, iterations=8)),
     "evolved five levels (docs/tall_five_levels_nca.npy)": (
         "tall_five_levels_nca.npy",
         NCAConfig(iterations=10, cutoff=0.6, build_down=False, max_vertices=200),
@@ -37,10 +38,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--damage", type=float, nargs="+", default=[0.1, 0.25, 0.5], help="shares cut (default 0.1 0.25 0.5)")
     parser.add_argument("--seeds", type=int, default=5, help="random cuts per share (default 5)")
+    parser.add_argument("--only", nargs="+", metavar="FILE", help="only the shipped NCAs in these docs/ files")
     args = parser.parse_args()
     print("| NCA | members | cut | damage | restored (mean) | restored (lowest) | new members (mean) | regrown stand |")
     print("|---|---:|---|---:|---:|---:|---:|---:|")
     for label, (file, config) in SHIPPED.items():
+        if args.only and file not in args.only:
+            continue
         weights = np.load(ROOT / "docs" / file)
         grown = grow(weights, config)
         for cut, seeds in (("mid", [0]), ("random", range(args.seeds))):
