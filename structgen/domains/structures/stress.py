@@ -79,6 +79,4 @@ def load_colormap() -> Any:
     from matplotlib.colors import LinearSegmentedColormap
 
     colormap = LinearSegmentedColormap.from_list("load share", [(stop, colour) for stop, colour in LOAD_SCALE])
-    colormap.set_over(OVERLOADED)
-    colormap.set_bad(NO_ANSWER)
-    return colormap
+    return colormap.with_extremes(over=OVERLOADED, bad=NO_ANSWER)
