@@ -29,9 +29,9 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 
 import numpy as np  # noqa: E402
 
-from physics import PhysicsConfig, check_transient  # noqa: E402
+from physics import PhysicsConfig  # noqa: E402
 from physics.statics import bounding_loads  # noqa: E402
-from structgen.domains.structures.tall import TallResult, TallSettings, find_tallest  # noqa: E402
+from structgen.domains.structures.tall import TallResult, TallSettings, find_tallest, transient_peak  # noqa: E402
 from structgen.structure import Structure  # noqa: E402
 
 FOOTPRINTS = (5, 9, 15, 21, 25)
@@ -71,8 +71,7 @@ def main() -> None:
     for path in args.also:
         tower = Structure.load(path)
         side = 2 * int(np.abs(tower.vertices[:, :2] - tower.vertices[np.argmax(tower.vertices[:, 2]), :2]).max()) + 1
-        room = physics.replace(**physics.room_for(tower.n_vertices, tower.n_edges))
-        peak = check_transient(tower, room, window=0.3).peak_force
+        peak = transient_peak(tower, physics)
         others.append((path.name, side, int(tower.height) + 1, tower, peak))
         print(f"{path}: {int(tower.height) + 1} levels in {side}x{side}, peak {peak:.1f} N in 0.3 s", file=sys.stderr)
     rows, points = [], []
