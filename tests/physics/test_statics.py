@@ -25,6 +25,7 @@ from structgen.domains.structures.samples import (
     six_level_rule_design,
     sparse_pyramid,
     star_on_five_legs,
+    tiled_by_level_rules,
 )
 from structgen.structure import Structure
 
@@ -306,6 +307,19 @@ def test_level_rules_build_what_they_name_and_refuse_what_they_do_not():
         by_level_rules(["X"])
     with pytest.raises(ValueError, match="tied_levels must be"):
         by_level_rules(["S"], tied_levels=-1)
+
+
+def test_walls_keep_to_their_plane_and_tilings_share_their_feet():
+    wall = by_level_rules(["S", "VS"], wall=True)  # along y only: corner diagonals and x steps are dropped
+    assert set(wall.vertices[:, 0].tolist()) == {0} and sorted(wall.vertices[wall.vertices[:, 2] == 0][:, 1]) == [-2, -1, 0, 1, 2]
+    assert by_level_rules(["C"], wall=True) is None  # corner diagonals all leave the plane
+    tiled = tiled_by_level_rules(["S"], 0, 3)  # a top every 2 cells, four legs each, within 3 cells of the middle
+    tops = {tuple(v[:2]) for v in tiled.vertices.tolist() if v[2] == 0}
+    assert tops == {(x, y) for x in (-2, 0, 2) for y in (-2, 0, 2)}  # the next tops (at 4) lie beyond the walls
+    assert tiled.n_edges == 9 * 4 and tiled.n_vertices == 9 + 24  # 36 legs on 24 feet: neighbours share theirs
+    row = tiled_by_level_rules(["S", "VS"], 0, 5, wall=True)
+    assert set(row.vertices[:, 0].tolist()) == {0} and tuple(np.ptp(row.vertices, axis=0) + 1) == (1, 11, 3)
+    assert tiled_by_level_rules(["V"], 0, 3) is None  # no reach beside the axis: nothing to tile
 
 
 def test_rules_by_in_degree_let_vertices_that_more_members_reach_send_more_down():

@@ -19,10 +19,12 @@ from structgen.domains.structures.design import (
     UnmeetableSpec,
     _Found,
     _judge,
+    add_tilings,
     build_library,
     design,
     dimensions,
     load_library,
+    taught_tilings,
 )
 from structgen.nca import load_weights
 
@@ -145,3 +147,17 @@ def test_the_shipped_library_answers_specs_across_the_documented_range():
     for width, depth, height in [sorted(met)[i] for i in rng.choice(len(met), 12, replace=False)]:
         structure = design(Spec(width, depth, height), int(rng.integers(100)), library)
         assert dimensions(structure) == (width, depth, height) and check_statics(structure).stands
+
+
+def test_tilings_meet_footprints_wider_than_a_pyramid_of_their_height(library):
+    tilings = taught_tilings(max_side=7, max_levels=3, per_height=1)
+    assert [height for height, _ in tilings] == [2, 3, 2, 3]  # pyramids side by side, then walls end to end
+    spec = Spec(7, 7, 3)  # one design three levels tall spreads to 5 cells at most
+    assert not len(library.candidates(spec)[0])
+    tiled = add_tilings(library, tilings, specs=np.array([(7, 7, 3), (3, 7, 2), (1, 7, 3)]))
+    assert tiled.specs() >= library.specs() | {(7, 7, 3), (3, 7, 2), (1, 7, 3)}
+    assert len(tiled.families) == len(library.families) + 4 and tiled.info["tiling_ncas"] == 4
+    for seed in (0, 1):
+        structure = design(spec, seed, tiled)
+        assert dimensions(structure) == (7, 7, 3) and check_statics(structure).stands
+        assert structure.metadata["design"]["nca"] >= len(library.families)  # a tiling's answer

@@ -12,7 +12,7 @@ from structgen import NCAConfig, Structure, grow
 from structgen.cli import main
 from structgen.domains.structures.samples import by_level_rules, flat_edge, six_level_rule_design
 from structgen.domains.structures.teach import TeachError, growth_schedule, teach
-from structgen.nca import load_weights
+from structgen.nca import grow_population, load_weights
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -151,3 +151,19 @@ def test_the_committed_tall_ncas_grow_their_designs_and_hold_through_the_spawn_t
     # first 0.3 s is where these designs carry most
     report = check_transient(grown, PhysicsConfig(max_joints=5000), window=0.3)
     assert report.peak_force < PhysicsConfig().break_force
+
+
+def test_a_tiling_wider_than_tall_is_taught_in_its_box_and_grows_exactly_there():
+    from structgen.domains.structures.samples import tiled_by_level_rules
+
+    target = tiled_by_level_rules(("V", "SC"), 1, 4)  # three levels, 9x9: a top every 2 cells, neighbours sharing feet
+    assert tuple(np.ptp(target.vertices, axis=0) + 1) == (9, 9, 3)
+    box = [[-4, 4], [-4, 4], [-2, 0]]
+    middle_top = int(np.flatnonzero((target.vertices == [0, 0, 0]).all(axis=1))[0])
+    result = teach(target, seed_vertex=middle_top, box=box)
+    grown = grow_population(result.weights[None], result.config, np.array(box))[0]
+    assert cells_of(grown) == cells_of(target)
+    with pytest.raises(TeachError, match="outside the growth box"):
+        teach(target, seed_vertex=middle_top, box=[[-3, 3], [-4, 4], [-2, 0]])
+    with pytest.raises(TeachError, match="holding the seed"):
+        teach(target, seed_vertex=middle_top, box=[[1, 4], [-4, 4], [-2, 0]])

@@ -16,7 +16,11 @@ archive and the list of answers. It starts from the NCAs that ship in ``docs/``,
 for the purpose (:func:`taught_pyramids`: for each height and odd width, the lightest standing one-rule-per-level
 design, taught in a second or two). At the end a
 greedy cover keeps the few NCAs that answer the most specs (several answers each, for variety), which are then
-grown in every spec's box to list everything they meet. Weights are kept as float32, as the file stores them.
+grown in every spec's box to list everything they meet. Last come *tilings* (:func:`taught_tilings`,
+:func:`add_tilings`): a pyramid spreads at most a cell a level each way, so no single one is wider than twice its
+height, but pyramids side by side sharing their feet are, and carry no more than one; NCAs taught to grow them in
+a box wider than tall meet the wide, low specs (9x9 at three levels, 1x11 at four) the search leaves.
+Weights are kept as float32, as the file stores them.
 
 A spec is ``width x depth`` cells on the ground (x by y) and ``height`` levels (z extent ``height - 1``); a spec
 with width over depth is met by a depth-by-width answer turned a quarter. Different seeds pick different answers
@@ -30,6 +34,7 @@ import io
 import json
 import math
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -107,6 +112,17 @@ def dimensions(structure: Structure) -> tuple[int, int, int]:
 def _shape_key(structure: Structure) -> bytes:
     vertices = structure.vertices - structure.vertices.min(axis=0)
     return hashlib.sha1(vertices.tobytes() + structure.edges.tobytes()).digest()[:8]
+
+
+def _cells_key(structure: Structure) -> bytes:
+    """The same for the same cells and members, whatever order growth listed them in."""
+    vertices = structure.vertices - structure.vertices.min(axis=0)
+    order = np.lexsort(vertices.T[::-1])
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    edges = np.sort(rank[structure.edges], axis=1) if structure.n_edges else structure.edges
+    edges = edges[np.lexsort(edges.T[::-1])] if len(edges) else edges
+    return hashlib.sha1(vertices[order].tobytes() + edges.astype(np.int64).tobytes()).digest()[:8]
 
 
 @dataclass
@@ -236,6 +252,9 @@ class _Found:
     rows: list[tuple[int, ...]] = field(default_factory=list)
     peaks: list[float] = field(default_factory=list)
     seen: set[tuple[tuple[int, int, int], bytes]] = field(default_factory=set)
+    # Each distinct structure is judged once: its largest load share, or None where it does not stand. Many tries
+    # grow the same structure (a tiling's seed one period along, say), and the static analysis is the cost.
+    judged: dict[tuple[tuple[int, int, int], bytes], float | None] = field(default_factory=dict)
 
 
 def _judge(
@@ -257,13 +276,16 @@ def _judge(
                 spec = tuple(int(v) for v in t[1:4])
                 if dimensions(structure) != spec:
                     continue
-                key = (spec, _shape_key(structure))
-                if overload_ratio(structure) > 1.0:  # a bound, linear in size: some joint is overloaded
+                key, cells = (spec, _shape_key(structure)), (spec, _cells_key(structure))
+                if cells not in found.judged:
+                    found.judged[cells] = None
+                    if overload_ratio(structure) <= 1.0:  # a bound, linear in size: above it some joint is overloaded
+                        report, shares = member_load_shares(structure)
+                        if report.stands:
+                            found.judged[cells] = float(np.nanmax(shares)) if structure.n_edges else 0.0
+                peak = found.judged[cells]
+                if peak is None:
                     continue
-                report, shares = member_load_shares(structure)
-                if not report.stands:
-                    continue
-                peak = float(np.nanmax(shares)) if structure.n_edges else 0.0
                 successes.append((int(t[0]), np.array(spec), 1.0 - peak))
                 if key in found.seen:
                     continue
@@ -287,38 +309,51 @@ def _random_tries(rng: np.random.Generator, count: int, specs_each: int, specs: 
     return np.array(rows, dtype=np.int64)
 
 
-def taught_pyramids(
-    max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS, beam: int = 4
-) -> list[tuple[tuple[int, int], np.ndarray]]:
-    """For each height and odd width a one-rule-per-level design can have (:func:`.samples.by_level_rules`), the
-    design of that footprint that carries least (its largest static joint load, held and sliding ground) among those
-    a local rule grows and that stand, taught to an NCA of the ``down`` family: ``((width, height), weights)``.
-
-    A beam search from the top down keeps the ``beam`` lightest designs of each width at each height. Grown in the
-    boxes of narrower or rectangular footprints, the same NCAs answer those too."""
-    from physics.statics import bounding_loads, check_statics
+def _lightest_by_level(
+    max_side: int, max_levels: int, beam: int, wall: bool = False
+) -> Iterator[tuple[int, dict[int, list[tuple]]]]:
+    """For each height from 2 to ``max_levels``: the one-rule-per-level designs (:func:`.samples.by_level_rules`,
+    one cell thick with ``wall``) a local rule grows, by width (the longer side) up to ``max_side``, each list
+    lightest first (its largest static joint load, held and sliding ground) as ``(load, rules, tied_levels,
+    design)``. A beam search from the top down keeps the ``beam`` lightest of each width at each height to extend."""
+    from physics.statics import bounding_loads
     from structgen.domains.structures.samples import by_level_rules_one_taller
     from structgen.domains.structures.tall import teachable
-    from structgen.domains.structures.teach import TeachError, teach
 
     def load(structure: Structure) -> float:
         loads = bounding_loads(structure) if structure.n_edges else np.zeros(1)
         return float(np.nanmax(loads)) if np.isfinite(loads).any() else math.inf
 
-    taught = []
     prefixes: list[tuple[str, ...]] = [()]
     for height in range(2, max_levels + 1):
-        by_width: dict[int, list[tuple[float, tuple[str, ...], Structure]]] = {}
-        for rules, _, candidate in by_level_rules_one_taller(prefixes, MAX_VERTICES):
+        by_width: dict[int, list[tuple]] = {}
+        for rules, tied, candidate in by_level_rules_one_taller(prefixes, MAX_VERTICES, wall=wall):
             width, depth, levels = dimensions(candidate)
+            width = max(width, depth)
             if width > max_side or levels != height or not teachable(candidate, whole=False):
                 continue
-            by_width.setdefault(width, []).append((load(candidate), rules, candidate))
-        prefixes = []
+            by_width.setdefault(width, []).append((load(candidate), rules, tied, candidate))
+        for width in by_width:
+            by_width[width].sort(key=lambda entry: (entry[0], entry[1], entry[2]))
+        yield height, by_width
+        prefixes = list(dict.fromkeys(rules for width in sorted(by_width) for _, rules, _, _ in by_width[width][:beam]))
+
+
+def taught_pyramids(
+    max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS, beam: int = 4
+) -> list[tuple[tuple[int, int], np.ndarray]]:
+    """For each height and odd width a one-rule-per-level design can have (:func:`.samples.by_level_rules`), the
+    design of that footprint that carries least among those a local rule grows and that stand, taught to an NCA of
+    the ``down`` family: ``((width, height), weights)``. Grown in the boxes of narrower or rectangular footprints, the
+    same NCAs answer those too."""
+    from physics.statics import check_statics
+    from structgen.domains.structures.tall import teachable
+    from structgen.domains.structures.teach import TeachError, teach
+
+    taught = []
+    for height, by_width in _lightest_by_level(max_side, max_levels, beam):
         for width in sorted(by_width):
-            ranked = sorted(by_width[width], key=lambda entry: (entry[0], entry[1]))
-            prefixes += [rules for _, rules, _ in ranked[:beam]]
-            for _, _, candidate in ranked:
+            for _, _, _, candidate in by_width[width]:
                 if not teachable(candidate, whole=True) or not check_statics(candidate).stands:
                     continue
                 try:
@@ -327,18 +362,61 @@ def taught_pyramids(
                     continue
                 taught.append(((width, height), result.weights))
                 break
-        prefixes = list(dict.fromkeys(prefixes))
+    return taught
+
+
+def tiling_box(height: int, wall: bool = False) -> np.ndarray:
+    """The box a tiling is taught in, around its middle top: REACH cells each way across (one cell thick for a
+    wall), ``height`` levels down."""
+    across = [0, 0] if wall else [-REACH, REACH]
+    return np.array([across, [-REACH, REACH], [-(height - 1), 0]], dtype=np.int64)
+
+
+def taught_tilings(
+    max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS, beam: int = 4, per_height: int = 3, tries: int = 40
+) -> list[tuple[int, np.ndarray]]:
+    """For each height, NCAs that grow :func:`.samples.tiled_by_level_rules` tilings, taught in
+    :func:`tiling_box`: ``(height, weights)``. Footprints wider than one design of the height can spread (over twice
+    the height) are out of the pyramids' reach, while a tiling carries no more at its feet than one of its designs.
+    The ``tries`` lightest designs of the height (any width from 3) are tiled in turn; the first ``per_height`` whose
+    tiling stands across the largest footprint (the static analysis) and that a local rule grows are taught. Then
+    the same for walls one cell thick (tiled along their length), which answer the 1-cell-wide specs."""
+    from physics.statics import check_statics
+    from structgen.domains.structures.samples import tiled_by_level_rules
+    from structgen.domains.structures.teach import TeachError, teach
+
+    taught = []
+    for wall in (False, True):
+        for height, by_width in _lightest_by_level(max_side, max_levels, beam, wall):
+            ranked = sorted((entry for width, entries in by_width.items() if width >= 3 for entry in entries),
+                            key=lambda entry: (entry[0], entry[1], entry[2]))[:tries]  # fmt: skip
+            kept = 0
+            for _, rules, tied, _ in ranked:
+                largest = tiled_by_level_rules(rules, tied, (max_side - 1) // 2, wall=wall)
+                if largest is None or dimensions(largest)[2] != height or not check_statics(largest).stands:
+                    continue
+                target = tiled_by_level_rules(rules, tied, REACH, wall=wall)
+                middle_top = np.flatnonzero((target.vertices == [0, 0, 0]).all(axis=1))
+                try:
+                    result = teach(target, seed_vertex=int(middle_top[0]), box=tiling_box(height, wall))
+                except TeachError:
+                    continue
+                taught.append((height, result.weights))
+                kept += 1
+                if kept == per_height:
+                    break
     return taught
 
 
 def build_library(
     ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 64, answers_each: int = 6,
     starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
-    progress: bool = False,
+    tilings: bool = True, progress: bool = False,
 ) -> DesignLibrary:  # fmt: skip
     """Search ``ncas`` NCAs by MAP-Elites over the spec grid (footprints up to ``max_side`` square, heights up to
     ``max_levels``; see the module's docstring), keep the ``keep`` that cover the most specs with up to
-    ``answers_each`` answers each, and list everything those meet. The same arguments give the same library."""
+    ``answers_each`` answers each, and list everything those meet; then, with ``tilings``, add the taught tilings
+    (:func:`add_tilings`). The same arguments give the same library."""
     from ribs.archives import GridArchive
     from tqdm import tqdm
 
@@ -397,6 +475,8 @@ def build_library(
     bar.close()
     searched = time.perf_counter() - started
     library = _cover(np.stack(weights), families, found, keep, answers_each, specs)
+    if tilings:
+        library = add_tilings(library, taught_tilings(max_side, max_levels), specs)
     library.info.update({
         "name": f"design library (seed {seed}, {ncas} NCAs searched)", "ncas_searched": ncas, "seed": seed,
         "specs_each": specs_each, "search_seconds": round(searched, 1),
@@ -445,3 +525,24 @@ def _cover(
     kept.answers, kept.peaks = kept.answers[order], kept.peaks[order]
     kept.info["kept_ncas"] = len(chosen)
     return kept
+
+
+def add_tilings(library: DesignLibrary, tilings: list[tuple[int, np.ndarray]], specs: np.ndarray | None = None) -> DesignLibrary:
+    """``library`` with the NCAs of :func:`taught_tilings` added (family ``down``) and every spec of their height each
+    meets, its seed at every place of the box (where a tiling's tops fall decides what is cut at the walls). The
+    search's NCAs and answers stay as they are, so this step can be added to a library already built."""
+    specs = _canonical_specs() if specs is None else specs
+    first = len(library.families)
+    weights = np.concatenate([library.weights.astype(np.float32), np.stack([w for _, w in tilings]).astype(np.float32)])
+    families = [*library.families, *["down"] * len(tilings)]
+    tries = np.array([(first + i, *map(int, spec), x, y) for i, (height, _) in enumerate(tilings)
+                      for spec in specs if spec[2] == height
+                      for x in _seed_places(int(spec[0])) for y in _seed_places(int(spec[1]))], dtype=np.int64)  # fmt: skip
+    found = _Found()
+    _judge(weights.astype(np.float64), list(range(len(families))), families, tries, found)
+    answers = np.concatenate([library.answers, np.array(found.rows, dtype=np.int32).reshape(-1, 8)])
+    peaks = np.concatenate([library.peaks, np.array(found.peaks, dtype=np.float32)])
+    order = np.lexsort((answers[:, 0], answers[:, 3], answers[:, 2], answers[:, 1]))
+    info = {**library.info, "tiling_ncas": len(tilings), "tiling_answers": len(found.rows),
+            "tiling_specs": len({row[1:4] for row in found.rows})}  # fmt: skip
+    return DesignLibrary(families, weights, answers[order], peaks[order], info)

@@ -21,6 +21,7 @@ from structgen.structure import Structure
 __all__ = [
     "IN_DEGREE_CLASSES",
     "LEVEL_RULES",
+    "WALL_RULES",
     "braced",
     "by_level_rules",
     "by_level_rules_one_taller",
@@ -33,6 +34,7 @@ __all__ = [
     "six_level_rule_design",
     "sparse_pyramid",
     "star_on_five_legs",
+    "tiled_by_level_rules",
 ]
 
 
@@ -82,6 +84,8 @@ def cantilever(arm: int, n: int = 2) -> Structure:
 #: axis through the top, corners included), o outwards along the sides only. A vertex on the axis has no outward
 #: direction.
 LEVEL_RULES = ("V", "S", "VS", "O", "VO", "SO", "VSO", "C", "VC", "SC", "VSC", "o", "Vo", "So")
+#: The rules that differ within a wall one cell thick (``by_level_rules(..., wall=True)``): the others repeat them.
+WALL_RULES = ("V", "S", "VS", "O", "VO")
 
 
 def _reach(rule: str, x: int, y: int) -> set[tuple[int, int]]:
@@ -177,7 +181,7 @@ def _check_rule(rule: object) -> bool:
 
 
 def by_level_rules(
-    rules: tuple[LevelRule, ...] | list[LevelRule], tied_levels: int = 0, extent: int | None = None
+    rules: tuple[LevelRule, ...] | list[LevelRule], tied_levels: int = 0, extent: int | None = None, *, wall: bool = False
 ) -> Structure | None:
     """A structure grown down from one top vertex, one rule per level (top first; letters as in :data:`LEVEL_RULES`):
     ``len(rules) + 1`` vertices tall, its lowest ``tied_levels`` levels also joined to their side neighbours. None when
@@ -188,8 +192,9 @@ def by_level_rules(
     can send more down than one a single member reaches. Both are the kind of regularity an NCA's shared local rule
     can express (:func:`.tall.teachable` says whether a given design's levels look different enough).
     ``extent`` keeps the footprint within that many cells of the axis, dropping reach beyond it as an NCA's growth
-    box does. :mod:`.tall` searches the one-rule designs for the tallest an NCA can grow that stands;
-    ``benchmarks/tall_classes.py`` the per-class ones.
+    box does. ``wall`` keeps the design in the plane x = 0, one cell thick: each rule's reach across it dropped (S
+    and O reach along the wall only, C nowhere). :mod:`.tall` searches the one-rule designs for the tallest an NCA
+    can grow that stands; ``benchmarks/tall_classes.py`` the per-class ones.
     """
     if not rules or not all(_check_rule(rule) for rule in rules):
         raise ValueError(
@@ -208,6 +213,8 @@ def by_level_rules(
         for (x, y), reached_by in sorted(level.items()):
             own = rule if isinstance(rule, str) else rule[in_degree_class(reached_by)]
             for dx, dy in sorted(_reach(own, x, y)):
+                if wall and dx:
+                    continue
                 cell = (x + dx, y + dy)
                 if extent is not None and max(abs(cell[0]), abs(cell[1])) > extent:
                     continue
@@ -219,29 +226,59 @@ def by_level_rules(
         if not level:
             return None
     described = [rule if isinstance(rule, str) else tuple(rule) for rule in rules]
-    extra = f", extent={extent}" if extent is not None else ""
+    extra = (f", extent={extent}" if extent is not None else "") + (", wall=True" if wall else "")
     return _from_cell_pairs(edges, {"sample": f"by_level_rules({described!r}, tied_levels={tied_levels}{extra})"})
 
 
 def by_level_rules_one_taller(
-    prefixes: Iterable[tuple[str, ...]], max_vertices: int, extent: int | None = None
+    prefixes: Iterable[tuple[str, ...]], max_vertices: int, extent: int | None = None, *, wall: bool = False
 ) -> Iterator[tuple[tuple[str, ...], int, Structure]]:
     """``(rules, tied_levels, design)`` for every :func:`by_level_rules` design one level taller than one of
     ``prefixes`` (each rule of :data:`LEVEL_RULES` added below, with 0, 1 or 2 of the lowest levels tied), in that
     order, each distinct structure once (different rules can give the same one: an axis vertex has no outward
     direction). Designs that do not reach the ground or have more than ``max_vertices`` vertices are left out;
-    ``extent`` as for :func:`by_level_rules`. The step of the beam searches in :mod:`.tall` and ``benchmarks/tall.py``."""
+    ``extent`` and ``wall`` (then over :data:`WALL_RULES`) as for :func:`by_level_rules`. The step of the beam
+    searches in :mod:`.tall`, :mod:`.design` and ``benchmarks/tall.py``."""
     seen: set[tuple[bytes, bytes]] = set()
     for rules in prefixes:
-        for rule in LEVEL_RULES:
+        for rule in WALL_RULES if wall else LEVEL_RULES:
             for tied in (0, 1, 2):
-                design = by_level_rules((*rules, rule), tied, extent)
+                design = by_level_rules((*rules, rule), tied, extent, wall=wall)
                 if design is None or design.n_vertices > max_vertices:
                     continue
                 shape = (design.vertices.tobytes(), design.edges.tobytes())
                 if shape not in seen:
                     seen.add(shape)
                     yield (*rules, rule), tied, design
+
+
+def tiled_by_level_rules(
+    rules: tuple[LevelRule, ...] | list[LevelRule], tied_levels: int, extent: int, *, wall: bool = False
+) -> Structure | None:
+    """:func:`by_level_rules` designs side by side: one top every ``2 r`` cells along x and y (along y only for a
+    ``wall``), ``r`` the design's reach from its axis at the ground, so neighbours share the vertices of their outer
+    rows; everything within ``extent`` cells of the middle top kept (a growth box's walls). A footprint wider than one
+    design's, at the height of one design: each carries only its own weight, and an NCA grows them all from one top
+    (down to the shared feet, up the next). None when the design does not reach the ground or reaches no cell beside
+    its axis. Its vertices are cells relative to the middle top."""
+    one = by_level_rules(rules, tied_levels, wall=wall)
+    if one is None:
+        return None
+    cells = one.vertices - one.vertices[np.argmax(one.vertices[:, 2])]
+    reach = int(np.abs(cells[:, :2]).max())
+    if reach == 0:
+        return None
+    period = 2 * reach
+    copies = extent // period + 1
+    pairs = set()
+    for i in range(-copies, copies + 1) if not wall else (0,):
+        for j in range(-copies, copies + 1):
+            for a, b in one.edges.tolist():
+                ends = tuple(sorted(tuple(int(c) for c in cells[k] + (i * period, j * period, 0)) for k in (a, b)))
+                if max(abs(c) for end in ends for c in end[:2]) <= extent:
+                    pairs.add(ends)
+    named = f"tiled_by_level_rules({list(rules)!r}, {tied_levels}, extent={extent}{', wall=True' if wall else ''})"
+    return _from_cell_pairs(sorted(pairs), {"sample": named})
 
 
 def six_level_rule_design() -> Structure:

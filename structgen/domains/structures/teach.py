@@ -28,7 +28,7 @@ import torch
 
 from structgen.errors import InputError
 from structgen.lattice import OFFSETS
-from structgen.nca import INIT_SCALE, NCAConfig, _split, grow
+from structgen.nca import INIT_SCALE, NCAConfig, _split, grow, grow_population
 from structgen.nca_config import N_OUTPUTS, n_params
 from structgen.structure import Structure
 
@@ -142,15 +142,30 @@ def growth_config(states: Sequence[State], *, hidden: int = 60, cutoff: float = 
     )
 
 
-def _in_box(cell: Cell, config: NCAConfig) -> bool:
+def _in_box(cell: Cell, config: NCAConfig, box: np.ndarray | None = None) -> bool:
+    if box is not None and not all(low <= c <= high for c, (low, high) in zip(cell, box.tolist())):
+        return False
     return max(abs(c) for c in cell) <= config.max_extent and (config.build_down or cell[2] >= 0)
 
 
+def _target_box(box: object, states: Sequence[State]) -> np.ndarray | None:
+    """``box`` as growth takes it (offsets from the seed), checked to hold the target."""
+    if box is None:
+        return None
+    array = np.asarray(box)
+    if array.shape != (3, 2) or not np.issubdtype(array.dtype, np.integer) or (array[:, 0] > 0).any() or (array[:, 1] < 0).any():
+        raise TeachError(f"box must be whole-number [low, high] offsets from the seed per axis, holding the seed; got {box!r}")
+    outside = [cell for cell in states[-1][0] if not all(low <= c <= high for c, (low, high) in zip(cell, array.tolist()))]
+    if outside:
+        raise TeachError(f"the target reaches {outside[0]} (from its seed), outside the growth box {array.tolist()}")
+    return array.astype(np.int64)
+
+
 def local_rules(
-    states: Sequence[State], config: NCAConfig, *, fixed_point: bool = True
+    states: Sequence[State], config: NCAConfig, *, fixed_point: bool = True, box: np.ndarray | None = None
 ) -> dict[tuple[bool, ...], tuple[bool, ...]]:
     """What the NCA must do: for every neighbourhood a vertex sees on the way through ``states`` (52 input flags),
-    the 26 wishes it must make.
+    the 26 wishes it must make (``box``: a growth box within the cube, as :func:`.nca.grow_population` takes one).
 
     Each step ``t`` to ``t + 1`` is taught; with ``fixed_point`` also that the last state stays as it is, so growing
     longer changes nothing. A wish towards a cell outside the growth box is dropped by growth, so it is free: where
@@ -167,7 +182,7 @@ def local_rules(
             around = [(cell[0] + dx, cell[1] + dy, cell[2] + dz) for dx, dy, dz in _OFFSETS]
             seen = tuple([other in vertices for other in around] + [frozenset((cell, other)) in edges for other in around])
             wish = tuple(frozenset((cell, other)) in next_edges for other in around)
-            matters = tuple(_in_box(other, config) for other in around)
+            matters = tuple(_in_box(other, config, box) for other in around)
             if seen in rules:
                 known, known_matters, known_step, known_cell = rules[seen]
                 clash = [k for k in range(N_OUTPUTS) if matters[k] and known_matters[k] and wish[k] != known[k]]
@@ -221,6 +236,7 @@ def teach(
     margin: float = 1.0,
     seed: int = 0,
     max_steps: int = 20_000,
+    box: object = None,
 ) -> TeachResult:
     """Weights for the local NCA that grow ``target`` from ``seed_vertex`` and then stay put.
 
@@ -228,19 +244,25 @@ def teach(
     target's farthest vertex is from the seed (one more for edges between the farthest vertices); both are in the
     result's ``config`` (:func:`growth_config`). Raises :class:`TeachError` when no local rule grows the target (see
     :func:`local_rules`) or the network cannot hold the rules within ``max_steps`` (a larger ``hidden`` helps).
+
+    ``box`` (``[[x_low, x_high], [y_low, y_high], [z_low, z_high]]`` offsets from the seed, as
+    :func:`structgen.nca.grow_population` takes it) teaches growth within that box rather than the cube: a target
+    that fills a box wider than it is tall can then stop at the box's floor and sides alike, since wishes beyond any
+    wall are dropped.
     """
     if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin > 0):
         raise TeachError(f"margin must be a positive number of logits, got {margin!r}")
     states = growth_schedule(target, seed_vertex)
     config = growth_config(states, hidden=hidden, cutoff=cutoff)
-    rules = local_rules(states, config)
+    growth_box = _target_box(box, states)
+    rules = local_rules(states, config, box=growth_box)
     weights, worst, fit_steps = _fit(rules, config, margin, seed, max_steps)
     if worst < margin * 0.5:
         raise TeachError(
             f"a {hidden}-unit hidden layer did not learn the {len(rules)} rules in {max_steps} steps (an output sits "
             f"{worst:.3g} logits from its threshold); try a larger hidden layer"
         )
-    grown = grow(weights, config)
+    grown = grow(weights, config) if growth_box is None else grow_population(weights[None], config, growth_box)[0]
     vertices, edges = states[-1]
     got = _cells(grown.vertices)
     if set(got) != vertices or {frozenset((got[i], got[j])) for i, j in grown.edges.tolist()} != edges:
