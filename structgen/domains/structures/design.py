@@ -476,7 +476,9 @@ def build_library(
     searched = time.perf_counter() - started
     library = _cover(np.stack(weights), families, found, keep, answers_each, specs)
     if tilings:
+        tiling_started = time.perf_counter()
         library = add_tilings(library, taught_tilings(max_side, max_levels), specs)
+        library.info["tiling_seconds"] = round(time.perf_counter() - tiling_started, 1)
     library.info.update({
         "name": f"design library (seed {seed}, {ncas} NCAs searched)", "ncas_searched": ncas, "seed": seed,
         "specs_each": specs_each, "search_seconds": round(searched, 1),
