@@ -142,7 +142,12 @@ def test_design_on_the_command_line(library, tmp_path, capsys):
 def test_the_shipped_library_answers_specs_across_the_documented_range():
     library = load_library()
     met = library.specs()
-    assert DEFAULT_LIBRARY.exists() and len(met) >= 300  # of the 528 specs with width at most depth
+    assert DEFAULT_LIBRARY.exists() and len(met) >= 370  # of the 528 specs with width at most depth
+    wide_and_low = [(9, 9, 3), (11, 11, 3), (8, 11, 5), (1, 11, 4)]  # wider than a pyramid of their height: tilings
+    assert set(wide_and_low) <= met
+    for width, depth, height in wide_and_low[:2]:
+        structure = design(Spec(width, depth, height), 3, library)
+        assert dimensions(structure) == (width, depth, height) and check_statics(structure).stands
     rng = np.random.default_rng(7)
     for width, depth, height in [sorted(met)[i] for i in rng.choice(len(met), 12, replace=False)]:
         structure = design(Spec(width, depth, height), int(rng.integers(100)), library)
