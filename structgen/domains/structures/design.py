@@ -19,7 +19,8 @@ greedy cover keeps the few NCAs that answer the most specs (several answers each
 grown in every spec's box to list everything they meet. Last come *tilings* (:func:`taught_tilings`,
 :func:`add_tilings`): a pyramid spreads at most a cell a level each way, so no single one is wider than twice its
 height, but pyramids side by side sharing their feet are, and carry no more than one; NCAs taught to grow them in
-a box wider than tall meet the wide, low specs (9x9 at three levels, 1x11 at four) the search leaves.
+a box wider than tall (and walls one cell thick, end to end, in a box one cell thick) meet the wide, low specs (9x9
+at three levels, 1x11 at four) the search leaves.
 Weights are kept as float32, as the file stores them.
 
 A spec is ``width x depth`` cells on the ground (x by y) and ``height`` levels (z extent ``height - 1``); a spec
