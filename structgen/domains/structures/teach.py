@@ -142,8 +142,12 @@ def growth_config(states: Sequence[State], *, hidden: int = 60, cutoff: float = 
     )
 
 
+def _within(cell: Cell, box: np.ndarray) -> bool:
+    return all(low <= c <= high for c, (low, high) in zip(cell, box.tolist()))
+
+
 def _in_box(cell: Cell, config: NCAConfig, box: np.ndarray | None = None) -> bool:
-    if box is not None and not all(low <= c <= high for c, (low, high) in zip(cell, box.tolist())):
+    if box is not None and not _within(cell, box):
         return False
     return max(abs(c) for c in cell) <= config.max_extent and (config.build_down or cell[2] >= 0)
 
@@ -155,7 +159,7 @@ def _target_box(box: object, states: Sequence[State]) -> np.ndarray | None:
     array = np.asarray(box)
     if array.shape != (3, 2) or not np.issubdtype(array.dtype, np.integer) or (array[:, 0] > 0).any() or (array[:, 1] < 0).any():
         raise TeachError(f"box must be whole-number [low, high] offsets from the seed per axis, holding the seed; got {box!r}")
-    outside = [cell for cell in states[-1][0] if not all(low <= c <= high for c, (low, high) in zip(cell, array.tolist()))]
+    outside = [cell for cell in sorted(states[-1][0]) if not _within(cell, array)]
     if outside:
         raise TeachError(f"the target reaches {outside[0]} (from its seed), outside the growth box {array.tolist()}")
     return array.astype(np.int64)
