@@ -116,7 +116,9 @@ def _shape_key(structure: Structure) -> bytes:
 
 
 def _cells_key(structure: Structure) -> bytes:
-    """The same for the same cells and members, whatever order growth listed them in."""
+    """The same for the same cells and members, whatever order growth listed them in. (:func:`_shape_key`, which
+    keeps two orders apart, still decides which answers a library lists, so that the same options give the same
+    library as before this key.)"""
     vertices = structure.vertices - structure.vertices.min(axis=0)
     order = np.lexsort(vertices.T[::-1])
     rank = np.empty_like(order)
