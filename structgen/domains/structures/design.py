@@ -491,6 +491,11 @@ def build_library(
     return library
 
 
+def _spec_order(answers: np.ndarray) -> np.ndarray:
+    """The order a library lists its answers in: by width, depth, height, then NCA."""
+    return np.lexsort((answers[:, 0], answers[:, 3], answers[:, 2], answers[:, 1]))
+
+
 def _cover(
     weights: np.ndarray, families: list[str], found: _Found, keep: int, answers_each: int, specs: np.ndarray
 ) -> DesignLibrary:
@@ -526,7 +531,7 @@ def _cover(
     _judge(kept.weights.astype(np.float64), list(range(len(chosen))), kept.families, every, final)
     kept.answers = np.array(final.rows, dtype=np.int32).reshape(-1, 8)
     kept.peaks = np.array(final.peaks, dtype=np.float32)
-    order = np.lexsort((kept.answers[:, 0], kept.answers[:, 3], kept.answers[:, 2], kept.answers[:, 1]))
+    order = _spec_order(kept.answers)
     kept.answers, kept.peaks = kept.answers[order], kept.peaks[order]
     kept.info["kept_ncas"] = len(chosen)
     return kept
@@ -547,7 +552,7 @@ def add_tilings(library: DesignLibrary, tilings: list[tuple[int, np.ndarray]], s
     _judge(weights.astype(np.float64), list(range(len(families))), families, tries, found)
     answers = np.concatenate([library.answers, np.array(found.rows, dtype=np.int32).reshape(-1, 8)])
     peaks = np.concatenate([library.peaks, np.array(found.peaks, dtype=np.float32)])
-    order = np.lexsort((answers[:, 0], answers[:, 3], answers[:, 2], answers[:, 1]))
+    order = _spec_order(answers)
     info = {**library.info, "tiling_ncas": len(tilings), "tiling_answers": len(found.rows),
             "tiling_specs": len({row[1:4] for row in found.rows})}  # fmt: skip
     return DesignLibrary(families, weights, answers[order], peaks[order], info)
