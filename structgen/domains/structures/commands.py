@@ -731,7 +731,7 @@ class StructureCommands(DomainCommands):
              seed("the random cut's seed"), output(help="the regrown structure (json, glb, obj, stl, ply)", required=False),
              option("--picture", type=png_output_path, metavar="OUT.png", help="draw it grown, damaged and regrown"),
              json_flag(), _nca_options("NCA (defaults: the settings FILE was grown with)"),
-             examples=["structgen regrow eight.json --weights docs/tall_grown_8.npy --damage 0.25 --cut mid "
+             examples=["structgen regrow regrows.json --weights docs/tall_regrow_8.npy --damage 0.25 --cut mid "
                        "--picture regrown.png"]),
         verb("design", cmd_design,
              option("--footprint", type=_footprint, required=True, metavar="WxD", help="cells on the ground: width "
