@@ -39,10 +39,17 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 import numpy as np  # noqa: E402
 
 from physics import PhysicsConfig  # noqa: E402
-from structgen.domains.structures.samples import IN_DEGREE_CLASSES, LEVEL_RULES, by_level_rules  # noqa: E402
+from structgen.domains.structures.samples import (  # noqa: E402
+    IN_DEGREE_CLASSES,
+    LEVEL_RULES,
+    by_level_rules,
+    describe_level_rules,
+    parse_level_rules,
+)
 from structgen.domains.structures.tall import largest_static_load, teachable, transient_peak  # noqa: E402
 from structgen.domains.structures.teach import teach  # noqa: E402
 from structgen.nca import save_weights  # noqa: E402
+from structgen.nca_config import grow_command  # noqa: E402
 
 Rules = list[tuple[str, ...]]
 Design = tuple[Rules, int]
@@ -52,17 +59,8 @@ SEARCH_WINDOW = 0.1
 
 
 def parse_rules(text: str) -> Rules:
-    rules = []
-    for word in text.split():
-        parts = tuple(word.split("/")) if "/" in word else (word,) * CLASSES
-        if len(parts) != CLASSES or any(part not in LEVEL_RULES for part in parts):
-            raise ValueError(f"{word!r} is not a level's rule: one of {', '.join(LEVEL_RULES)}, or {CLASSES} joined by /")
-        rules.append(parts)
-    return rules
-
-
-def describe(rules: Rules) -> str:
-    return " ".join(rule[0] if len(set(rule)) == 1 else "/".join(rule) for rule in rules)
+    """``text`` (:func:`parse_level_rules`) with every level written as one rule per class."""
+    return [rule if isinstance(rule, tuple) else (rule,) * CLASSES for rule in parse_level_rules(text)]
 
 
 def moves(design: Design, rng: random.Random) -> list[Design]:
@@ -100,21 +98,21 @@ class Search:
 
     def descend(self, design: Design, score, passes: int, label: str) -> tuple[Design, float]:
         best = score(design)
-        print(f"{label}: start {best:.2f} N: {describe(design[0])} (tied {design[1]})", flush=True)
+        print(f"{label}: start {best:.2f} N: {describe_level_rules(design[0])} (tied {design[1]})", flush=True)
         for _ in range(passes):
             improved = False
             for candidate in moves(design, self.rng):
                 value = score(candidate)
                 if value < best - 1e-6:
                     best, design, improved = value, candidate, True
-                    print(f"{label}: {best:.2f} N: {describe(design[0])} (tied {design[1]})", flush=True)
+                    print(f"{label}: {best:.2f} N: {describe_level_rules(design[0])} (tied {design[1]})", flush=True)
             if not improved:
                 break
         return design, best
 
     def pairs(self, design: Design, label: str) -> tuple[Design, float]:
         best = self.transient(design)
-        print(f"{label}: start {best:.2f} N: {describe(design[0])} (tied {design[1]})", flush=True)
+        print(f"{label}: start {best:.2f} N: {describe_level_rules(design[0])} (tied {design[1]})", flush=True)
         ungrowable = []
         for candidate in moves(design, self.rng):
             structure = by_level_rules(*candidate)
@@ -124,7 +122,7 @@ class Search:
                 value = transient_peak(structure, self.physics, SEARCH_WINDOW)
                 if value < best - 1e-6:
                     best, design = value, candidate
-                    print(f"{label}: {best:.2f} N: {describe(design[0])} (tied {design[1]})", flush=True)
+                    print(f"{label}: {best:.2f} N: {describe_level_rules(design[0])} (tied {design[1]})", flush=True)
             else:
                 ungrowable.append((transient_peak(structure, self.physics, SEARCH_WINDOW), candidate))
         ungrowable.sort(key=lambda row: row[0])
@@ -135,7 +133,7 @@ class Search:
                 value = self.transient(candidate)
                 if value < best - 1e-6:
                     best, design = value, candidate
-                    print(f"{label}: {best:.2f} N: {describe(design[0])} (tied {design[1]})", flush=True)
+                    print(f"{label}: {best:.2f} N: {describe_level_rules(design[0])} (tied {design[1]})", flush=True)
         return design, best
 
 
@@ -181,15 +179,13 @@ def main() -> None:
         line += f"; grown by the taught NCA: {grown_peak:.1f} N in 0.3 s ({holds}, break force {physics.break_force:g} N)"
     else:
         line += "; no local rule grows it whole"
-    print(f"{line}; {time.perf_counter() - started:.0f} s\nrules: {describe(design[0])} (tied {design[1]})")
+    print(f"{line}; {time.perf_counter() - started:.0f} s\nrules: {describe_level_rules(design[0])} (tied {design[1]})")
     if whole and args.save:
         taught.grown.save(args.save)
         print(f"wrote {args.save}")
     if whole and args.weights:
         save_weights(args.weights, taught.weights)
-        config = taught.config
-        print(f"wrote {args.weights}: structgen grow --weights {args.weights} --max-extent {config.max_extent} "
-              f"--iterations {config.iterations} -o tower.json")  # fmt: skip
+        print(f"wrote {args.weights}: {grow_command(args.weights, taught.config, 'tower.json')}")
 
 
 if __name__ == "__main__":

@@ -39,10 +39,18 @@ import numpy as np  # noqa: E402
 
 from physics import PhysicsConfig  # noqa: E402
 from structgen.domains.structures.regrow import regrow  # noqa: E402
-from structgen.domains.structures.samples import IN_DEGREE_CLASSES, LEVEL_RULES, by_level_rules  # noqa: E402
+from structgen.domains.structures.samples import (  # noqa: E402
+    IN_DEGREE_CLASSES,
+    LEVEL_RULES,
+    LevelRule,
+    by_level_rules,
+    describe_level_rules,
+    parse_level_rules,
+)
 from structgen.domains.structures.tall import largest_static_load, teachable, transient_peak  # noqa: E402
 from structgen.domains.structures.teach import TeachError, teach  # noqa: E402
 from structgen.nca import save_weights  # noqa: E402
+from structgen.nca_config import grow_command  # noqa: E402
 
 #: The cuts the search trains on: (cut, share, seed).
 CUTS = [("mid", round(share, 2), 0) for share in np.arange(0.05, 0.65, 0.05)] + [
@@ -52,27 +60,7 @@ CUTS = [("mid", round(share, 2), 0) for share in np.arange(0.05, 0.65, 0.05)] + 
 RESTORED = 0.95
 
 
-Rule = str | tuple[str, ...]
-
-
-def parse_rules(text: str) -> tuple[Rule, ...]:
-    rules: list[Rule] = []
-    for word in text.split():
-        parts = tuple(word.split("/"))
-        if len(parts) not in (1, len(IN_DEGREE_CLASSES)) or any(part not in LEVEL_RULES for part in parts):
-            raise ValueError(
-                f"{word!r} is not a level's rule: one of {', '.join(LEVEL_RULES)}, or {len(IN_DEGREE_CLASSES)} joined by /"
-            )
-        rules.append(parts if len(parts) > 1 else word)
-    return tuple(rules)
-
-
-def describe(rules: tuple[Rule, ...]) -> str:
-    """``rules`` as ``--start`` takes them, a level whose classes all follow one rule as that rule."""
-    return " ".join(rule if isinstance(rule, str) else rule[0] if len(set(rule)) == 1 else "/".join(rule) for rule in rules)
-
-
-def variants(start: tuple[Rule, ...], tied: int) -> list[tuple[tuple[Rule, ...], int]]:
+def variants(start: tuple[LevelRule, ...], tied: int) -> list[tuple[tuple[LevelRule, ...], int]]:
     """The designs a step from ``start`` (``start`` itself among them), in a fixed order."""
     if all(isinstance(rule, str) for rule in start):
         found = {(start, tied)}
@@ -89,7 +77,7 @@ def variants(start: tuple[Rule, ...], tied: int) -> list[tuple[tuple[Rule, ...],
             changed[level] = rule[:k] + (other,) + rule[k + 1 :]
             found.add((tuple(changed), tied))
     found.update((tuple(classes), other) for other in range(4))
-    return sorted(found, key=lambda design: (describe(design[0]), design[1]))
+    return sorted(found, key=lambda design: (describe_level_rules(design[0]), design[1]))
 
 
 def regrown_cuts(weights: np.ndarray, taught, physics: PhysicsConfig) -> int:
@@ -110,7 +98,7 @@ def main() -> None:
     args = parser.parse_args()
     physics = PhysicsConfig.preset("faithful")
     try:
-        start = parse_rules(args.start)
+        start = parse_level_rules(args.start)
     except ValueError as error:
         parser.error(f"--start: {error}")
     began = time.perf_counter()
@@ -126,7 +114,7 @@ def main() -> None:
         load = largest_static_load(design, physics)
         if load <= args.max_load:
             light.append((load, rules, tied))
-    light.sort(key=lambda row: (row[0], describe(row[1]), row[2]))
+    light.sort(key=lambda row: (row[0], describe_level_rules(row[1]), row[2]))
     print(f"{len(seen)} distinct variants an NCA can grow, {len(light)} at most {args.max_load:g} N static "
           f"({time.perf_counter() - began:.0f} s)", flush=True)  # fmt: skip
     print()
@@ -141,7 +129,10 @@ def main() -> None:
             continue
         peak = transient_peak(first.grown, physics)
         if peak >= physics.break_force:
-            print(f"| {describe(rules)} | {tied} | {design.n_vertices} | {load:.1f} | {peak:.1f} | | breaks |", flush=True)
+            print(
+                f"| {describe_level_rules(rules)} | {tied} | {design.n_vertices} | {load:.1f} | {peak:.1f} | | breaks |",
+                flush=True,
+            )
             continue
         for seed in range(args.fit_seeds):
             try:
@@ -150,7 +141,7 @@ def main() -> None:
                 continue
             regrown = regrown_cuts(taught.weights, taught, physics)
             print(
-                f"| {describe(rules)} | {tied} | {design.n_vertices} | {load:.1f} | {peak:.1f} | {seed} | {regrown} of {len(CUTS)} |",
+                f"| {describe_level_rules(rules)} | {tied} | {design.n_vertices} | {load:.1f} | {peak:.1f} | {seed} | {regrown} of {len(CUTS)} |",
                 flush=True,
             )
             if best is None or (-regrown, peak) < (-best[0], best[1]):
@@ -160,13 +151,11 @@ def main() -> None:
         print("no variant holds in the transient")
         return
     regrown, peak, rules, tied, seed, taught = best
-    print(f"winner: {describe(rules)}, tied {tied}, fitting seed {seed}: {regrown} of {len(CUTS)} cuts regrown, "
+    print(f"winner: {describe_level_rules(rules)}, tied {tied}, fitting seed {seed}: {regrown} of {len(CUTS)} cuts regrown, "
           f"peak {peak:.1f} N ({time.perf_counter() - began:.0f} s in all)")  # fmt: skip
     if args.weights:
         save_weights(args.weights, taught.weights)
-        config = taught.config
-        print(f"wrote {args.weights}: structgen grow --weights {args.weights} --max-extent {config.max_extent} "
-              f"--iterations {config.iterations} -o tower.json")  # fmt: skip
+        print(f"wrote {args.weights}: {grow_command(args.weights, taught.config, 'tower.json')}")
 
 
 if __name__ == "__main__":

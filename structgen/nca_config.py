@@ -13,7 +13,7 @@ from structgen.config import Limit, check_limits
 from structgen.lattice import N_NEIGHBOURS
 from structgen.structure import MAX_COORDINATE
 
-__all__ = ["INIT_SCALE", "N_INPUTS", "N_OUTPUTS", "NCAConfig", "n_params"]
+__all__ = ["INIT_SCALE", "N_INPUTS", "N_OUTPUTS", "NCAConfig", "grow_command", "n_params"]
 
 N_INPUTS = 2 * N_NEIGHBOURS
 N_OUTPUTS = N_NEIGHBOURS
@@ -62,3 +62,13 @@ def n_params(config: NCAConfig | None = None) -> int:
     """Length of the flat weight vector (4766 for the paper's 52-60-26 network)."""
     hidden = (config or NCAConfig()).hidden
     return N_INPUTS * hidden + hidden + hidden * N_OUTPUTS + N_OUTPUTS
+
+
+def grow_command(weights: object, config: NCAConfig, output: str) -> str:
+    """The ``structgen grow`` line that grows ``weights`` (a file's path) with ``config``'s growth settings, naming
+    only those that differ from the defaults besides the growth box and steps (what teaching fits)."""
+    default = NCAConfig()
+    options = [f"--max-extent {config.max_extent}", f"--iterations {config.iterations}"]
+    options += [f"--hidden {config.hidden}"] * (config.hidden != default.hidden)
+    options += [f"--cutoff {config.cutoff:g}"] * (config.cutoff != default.cutoff)
+    return f"structgen grow --weights {weights} {' '.join(options)} -o {output}"

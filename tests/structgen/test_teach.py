@@ -10,7 +10,13 @@ import pytest
 
 from structgen import NCAConfig, Structure, grow
 from structgen.cli import main
-from structgen.domains.structures.samples import by_level_rules, flat_edge, six_level_rule_design
+from structgen.domains.structures.samples import (
+    by_level_rules,
+    describe_level_rules,
+    flat_edge,
+    parse_level_rules,
+    six_level_rule_design,
+)
 from structgen.domains.structures.teach import TeachError, growth_schedule, teach
 from structgen.nca import grow_population, load_weights
 
@@ -120,16 +126,7 @@ def test_the_command_refuses_an_unteachable_file_and_writes_nothing(tmp_path, ca
         (
             "tall_grown_9.npy",
             9,
-            (
-                "V",
-                "S",
-                "V",
-                "C",
-                ("o", "C", "SC", "SC"),
-                ("S", "SC", "SC", "S"),
-                ("SC", "So", "SO", "SC"),
-                ("SC", "S", "SC", "SC"),
-            ),
+            parse_level_rules("V S V C o/C/SC/SC S/SC/SC/S SC/So/SO/SC SC/S/SC/SC"),  # as docs/structures.md writes them
             0,
             None,
         ),
@@ -153,6 +150,17 @@ def test_the_committed_tall_ncas_grow_their_designs_and_hold_through_the_spawn_t
     # first 0.3 s is where these designs carry most
     report = check_transient(grown, PhysicsConfig(max_joints=5000), window=0.3)
     assert report.peak_force < PhysicsConfig().break_force
+
+
+def test_level_rules_read_and_print_as_the_tall_searches_write_them():
+    text = "V S V C o/C/SC/SC S/SC/SC/S SC/So/SO/SC SC/S/SC/SC"
+    rules = parse_level_rules(text)
+    assert rules[:4] == ("V", "S", "V", "C") and rules[4] == ("o", "C", "SC", "SC")
+    assert describe_level_rules(rules) == text
+    assert describe_level_rules([("SC",) * 4]) == "SC"  # every class alike: the one rule
+    for bad, fragment in (("V X", "'X' is not a level's rule"), ("V o/C", "'o/C' is not a level's rule"), ("", "no rules")):
+        with pytest.raises(ValueError, match=fragment):
+            parse_level_rules(bad)
 
 
 def test_a_tiling_wider_than_tall_is_taught_in_its_box_and_grows_exactly_there():

@@ -23,7 +23,7 @@ from structgen.domains.structures.experiment import EXPERIMENTS
 from structgen.domains.structures.regrow import CUTS
 from structgen.domains.structures.tall_settings import TallSettings
 from structgen.mesh import MeshStyle
-from structgen.nca_config import NCAConfig
+from structgen.nca_config import NCAConfig, grow_command
 from structgen.registry.commands import (
     EXIT_FAILURE,
     EXIT_OK,
@@ -481,17 +481,6 @@ def _seed_vertex(text: str) -> int | str:
         raise argparse.ArgumentTypeError(f"{text!r}: give 'top' or a vertex index (0, 1, ...)") from None
 
 
-def _grow_command(weights: Path, config: Any, output: str) -> str:
-    """The 'structgen grow' line that grows taught ``weights`` with their growth settings (``config``)."""
-    from structgen.nca import NCAConfig
-
-    default = NCAConfig()
-    options = [f"--max-extent {config.max_extent}", f"--iterations {config.iterations}"]
-    options += [f"--hidden {config.hidden}"] * (config.hidden != default.hidden)
-    options += [f"--cutoff {config.cutoff:g}"] * (config.cutoff != default.cutoff)
-    return f"structgen grow --weights {weights} {' '.join(options)} -o {output}"
-
-
 def cmd_teach(args: argparse.Namespace) -> int:
     """fit NCA weights that grow a given structure
 
@@ -517,7 +506,7 @@ def cmd_teach(args: argparse.Namespace) -> int:
         f"{taught.margin:.2f} logits from its threshold); the weights grow {_describe(taught.grown)} in "
         f"{taught.steps} steps, then nothing changes"
     )
-    print(f"grow it: {_grow_command(path, taught.config, 'grown.json')}")
+    print(f"grow it: {grow_command(path, taught.config, 'grown.json')}")
     return EXIT_OK
 
 
@@ -584,7 +573,7 @@ def _report_tall(result: Any, run_dir: Path) -> int:
         f"the tallest that holds: {levels} levels, {run_dir / f'tall_{levels}.npy'}, growing {_describe(grown)} "
         f"(peak {result.designs[levels].peak:.1f} N); picture: {run_dir / 'tallest.png'}"
     )
-    print(f"grow it: {_grow_command(run_dir / f'tall_{levels}.npy', result.taught[levels].config, 'tall.json')}")
+    print(f"grow it: {grow_command(run_dir / f'tall_{levels}.npy', result.taught[levels].config, 'tall.json')}")
     from physics import PhysicsConfig
     from structgen.config import flatten, to_table
 

@@ -27,9 +27,11 @@ __all__ = [
     "by_level_rules_one_taller",
     "cantilever",
     "column",
+    "describe_level_rules",
     "five_level_pyramid",
     "flat_edge",
     "in_degree_class",
+    "parse_level_rules",
     "random_growth",
     "six_level_rule_design",
     "sparse_pyramid",
@@ -168,6 +170,27 @@ def in_degree_class(members_from_above: int) -> int:
 
 
 LevelRule = str | tuple[str, ...]
+
+
+def parse_level_rules(text: str) -> tuple[LevelRule, ...]:
+    """Rules written as the tall searches print them, top level first: each level one of :data:`LEVEL_RULES`, or one
+    per :data:`IN_DEGREE_CLASSES` entry joined by slashes (``"V S o/C/SC/SC"``). Raises ValueError naming the word."""
+    rules: list[LevelRule] = []
+    for word in text.split():
+        parts = tuple(word.split("/"))
+        if len(parts) not in (1, len(IN_DEGREE_CLASSES)) or any(part not in LEVEL_RULES for part in parts):
+            raise ValueError(
+                f"{word!r} is not a level's rule: one of {', '.join(LEVEL_RULES)}, or {len(IN_DEGREE_CLASSES)} joined by /"
+            )
+        rules.append(word if len(parts) == 1 else parts)
+    if not rules:
+        raise ValueError("no rules given")
+    return tuple(rules)
+
+
+def describe_level_rules(rules: Iterable[LevelRule]) -> str:
+    """``rules`` as :func:`parse_level_rules` reads them; a level whose classes all follow one rule as that rule."""
+    return " ".join(rule if isinstance(rule, str) else rule[0] if len(set(rule)) == 1 else "/".join(rule) for rule in rules)
 
 
 def _check_rule(rule: object) -> bool:
