@@ -353,8 +353,8 @@ def cmd_regrow(args: argparse.Namespace) -> int:
     Remove --damage of FILE's members (--cut mid: those nearest its middle height; random: drawn at random), let the
     NCA in --weights grow on from what is left for its growth steps (or until nothing changes), and print the share
     of the original's members that came back, how many members grew that it lacked, and whether the regrown structure
-    stands (the static analysis, faithful preset). The NCA's settings are those FILE was grown with (its growth
-    metadata), where not given here.
+    stands (the static analysis, faithful preset; with --transient also PyBullet's first 0.3 s). The NCA's settings
+    are those FILE was grown with (its growth metadata), where not given here.
     """
     from structgen.domains.structures.regrow import regrow
     from structgen.nca import load_weights
@@ -374,6 +374,17 @@ def cmd_regrow(args: argparse.Namespace) -> int:
         "cut_out": structure.n_edges - result.damaged.n_edges, "regrown_members": result.regrown.n_edges,
         "restored": result.restored, "extra": result.extra, "stands": result.stands,
     }  # fmt: skip
+    verdict = ("stands" if result.stands else "does not stand") + " (static analysis, faithful preset)"
+    if args.transient:
+        from physics import PhysicsConfig
+        from structgen.domains.structures.tall import transient_peak
+
+        limit = PhysicsConfig().break_force
+        summary["transient_peak"] = peak = transient_peak(result.regrown)
+        summary["holds_in_transient"] = holds = peak < limit
+        verdict += f"; in PyBullet's first 0.3 s its largest joint force is {peak:.1f} N of {limit:g} N: " + (
+            "it holds" if holds else "it breaks"
+        )
     if args.output:
         _write(result.regrown.with_metadata(regrown_from=str(args.file)), args.output, MeshStyle())
     if args.picture:
@@ -386,9 +397,7 @@ def cmd_regrow(args: argparse.Namespace) -> int:
     else:
         print(
             f"{args.file}: cut {summary['cut_out']} of {structure.n_edges} members ({args.cut}); the NCA regrew "
-            f"{result.restored:.1%} of the original's members and {result.extra} it lacked; the regrown structure "
-            + ("stands" if result.stands else "does not stand")
-            + " (static analysis, faithful preset)"
+            f"{result.restored:.1%} of the original's members and {result.extra} it lacked; the regrown structure {verdict}"
         )
     return EXIT_OK
 
@@ -719,6 +728,9 @@ class StructureCommands(DomainCommands):
                     "through it); random: drawn at random with --seed"),
              seed("the random cut's seed"), output(help="the regrown structure (json, glb, obj, stl, ply)", required=False),
              option("--picture", type=png_output_path, metavar="OUT.png", help="draw it grown, damaged and regrown"),
+             flag("--transient", "also hold the regrown structure to PyBullet's first 0.3 s of the faithful preset "
+                  "(seconds for a tower): the static analysis lets some regrown towers near the break force stand "
+                  "that PyBullet breaks"),
              json_flag(), _nca_options("NCA (defaults: the settings FILE was grown with)"),
              examples=["structgen regrow regrows.json --weights docs/tall_regrow_8.npy --damage 0.25 --cut mid "
                        "--picture regrown.png"]),
