@@ -48,7 +48,7 @@ from structgen.domains.structures.samples import (  # noqa: E402
     parse_level_rules,
 )
 from structgen.domains.structures.tall import largest_static_load, teachable, transient_peak  # noqa: E402
-from structgen.domains.structures.teach import TeachError, teach  # noqa: E402
+from structgen.domains.structures.teach import TeachError, TeachResult, teach  # noqa: E402
 from structgen.nca import save_weights  # noqa: E402
 from structgen.nca_config import grow_command  # noqa: E402
 
@@ -67,7 +67,7 @@ def variants(start: tuple[LevelRule, ...], tied: int) -> list[tuple[tuple[LevelR
         for i, j in itertools.combinations(range(len(start)), 2):
             for rule_i, rule_j in itertools.product(LEVEL_RULES, repeat=2):
                 rules = tuple(rule_i if k == i else rule_j if k == j else rule for k, rule in enumerate(start))
-                found.update((rules, tied) for tied in (0, 1, 2))
+                found.update((rules, ties) for ties in (0, 1, 2))
         return sorted(found)
     classes = [rule if isinstance(rule, tuple) else (rule,) * len(IN_DEGREE_CLASSES) for rule in start]
     found = {(tuple(classes), tied)}
@@ -76,13 +76,13 @@ def variants(start: tuple[LevelRule, ...], tied: int) -> list[tuple[tuple[LevelR
             changed = list(classes)
             changed[level] = rule[:k] + (other,) + rule[k + 1 :]
             found.add((tuple(changed), tied))
-    found.update((tuple(classes), other) for other in range(4))
+    found.update((tuple(classes), ties) for ties in range(4))
     return sorted(found, key=lambda design: (describe_level_rules(design[0]), design[1]))
 
 
-def regrown_cuts(weights: np.ndarray, taught, physics: PhysicsConfig) -> int:
+def regrown_cuts(taught: TeachResult, physics: PhysicsConfig) -> int:
     """How many of :data:`CUTS` the taught NCA regrows (at least :data:`RESTORED` back, standing)."""
-    results = (regrow(weights, taught.grown, taught.config, share, cut, seed, physics) for cut, share, seed in CUTS)
+    results = (regrow(taught.weights, taught.grown, taught.config, share, cut, seed, physics) for cut, share, seed in CUTS)
     return sum(result.restored >= RESTORED and result.stands for result in results)
 
 
@@ -139,7 +139,7 @@ def main() -> None:
                 taught = first if seed == 0 else teach(design, seed=seed)
             except TeachError:
                 continue
-            regrown = regrown_cuts(taught.weights, taught, physics)
+            regrown = regrown_cuts(taught, physics)
             print(
                 f"| {describe_level_rules(rules)} | {tied} | {design.n_vertices} | {load:.1f} | {peak:.1f} | {seed} | {regrown} of {len(CUTS)} |",
                 flush=True,
