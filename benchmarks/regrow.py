@@ -31,6 +31,10 @@ from structgen.nca import NCAConfig, grow  # noqa: E402
 #: The shipped NCAs with the settings their grow commands in docs/structures.md use.
 SHIPPED = {
     "taught tower, 7 levels (docs/tall_grown_7.npy)": ("tall_grown_7.npy", NCAConfig(max_extent=6, iterations=6)),
+    "taught tower, 7 levels, chosen to regrow (docs/tall_regrow_7.npy)": (
+        "tall_regrow_7.npy",
+        NCAConfig(max_extent=6, iterations=6),
+    ),
     "taught tower, 8 levels (docs/tall_grown_8.npy)": ("tall_grown_8.npy", NCAConfig(max_extent=7, iterations=7)),
     "taught tower, 8 levels, chosen to regrow (docs/tall_regrow_8.npy)": (
         "tall_regrow_8.npy",

@@ -120,7 +120,8 @@ def test_the_command_refuses_an_unteachable_file_and_writes_nothing(tmp_path, ca
     [
         ("tall_grown_7.npy", 7, ("V", "S", "C", "SO", "SC", "SC"), 0, None),
         ("tall_grown_8.npy", 8, ("V", "S", "V", "C", "SC", "S", "SC"), 0, None),
-        # benchmarks/tall_regrow.py: the variant of the eight whose taught NCA regrows from cuts
+        # benchmarks/tall_regrow.py: the variants of the seven and the eight whose taught NCAs regrow from cuts
+        ("tall_regrow_7.npy", 7, ("V", "C", "o", "SO", "SC", "SC"), 0, None),
         ("tall_regrow_8.npy", 8, ("V", "C", "o", "C", "SC", "S", "SC"), 0, None),
         # benchmarks/tall_classes.py: a rule per in-degree class (1, 2, 3-4, 5+ members from above) on four levels
         (
