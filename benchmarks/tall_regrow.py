@@ -96,6 +96,8 @@ def main() -> None:
     parser.add_argument("--fit-seeds", type=int, default=6, help="fitting seeds tried per variant (default 6)")
     parser.add_argument("--weights", type=Path, help="write the winner's taught weights here (.npy)")
     args = parser.parse_args()
+    if args.fit_seeds < 1:
+        parser.error(f"--fit-seeds: at least one fitting seed, got {args.fit_seeds}")
     physics = PhysicsConfig.preset("faithful")
     try:
         start = parse_level_rules(args.start)
