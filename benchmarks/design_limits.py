@@ -10,6 +10,15 @@ wall carries its own weight in its plane, and a wider footprint of the same kind
 least as much per wall, so the height where no wall stands bounds what this family meets at any narrow footprint.
 Prints a markdown table: distinct walls, how many stand (the static analysis's verdict, load factor applied), and
 the lowest largest joint load (:func:`physics.statics.bounding_loads`: the larger of held and sliding ground).
+
+    python benchmarks/design_limits.py --bound
+
+What equilibrium alone allows, for any structure of a footprint, however its members are arranged: cut between
+two levels, everything above is held up only by the members crossing the cut, through the joints at their lower
+ends, and the static verdict lets each of those carry at most the break force over the load factor (50 N), its own
+weight included. Fewest bodies above each cut (a vertex on each level, no more members than carry the load
+there, every load shared perfectly) gives the most levels a footprint could stand: the table of that bound by
+width and depth. It is an upper bound, not a design: real frames share their load unevenly.
 """
 
 from __future__ import annotations
@@ -27,13 +36,27 @@ import numpy as np  # noqa: E402
 
 from physics import PhysicsConfig  # noqa: E402
 from physics.statics import bounding_loads, check_statics  # noqa: E402
+from structgen.domains.structures.design import tallest_possible  # noqa: E402
 from structgen.domains.structures.samples import WALL_RULES, by_level_rules, column  # noqa: E402
+
+
+def print_bound(max_side: int) -> None:
+    print("| narrower side \\ longer side | " + " | ".join(str(d) for d in range(1, max_side + 1)) + " |")
+    print("|---" * (max_side + 1) + "|")
+    for width in range(1, max_side + 1):
+        cells = [str(tallest_possible(width, depth)) if depth >= width else "" for depth in range(1, max_side + 1)]
+        print(f"| {width} | " + " | ".join(cells) + " |")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--max-levels", type=int, default=7, help="tallest walls to judge (default 7: 5^6 rule choices)")
+    parser.add_argument("--bound", action="store_true", help="print the equilibrium bound by footprint instead of judging walls")
+    parser.add_argument("--max-side", type=int, default=11, help="largest footprint side of the --bound table (default 11)")
     args = parser.parse_args()
+    if args.bound:
+        print_bound(args.max_side)
+        return
     limit = PhysicsConfig().break_force
     print(
         "| levels | 1x1 column | one-wide walls | standing | narrowest standing (cells) | lowest largest joint load (N) "

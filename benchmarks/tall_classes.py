@@ -41,9 +41,9 @@ import numpy as np  # noqa: E402
 from physics import PhysicsConfig  # noqa: E402
 from structgen.domains.structures.samples import (  # noqa: E402
     IN_DEGREE_CLASSES,
-    LEVEL_RULES,
     by_level_rules,
     describe_level_rules,
+    level_rule_moves,
     parse_level_rules,
 )
 from structgen.domains.structures.tall import largest_static_load, teachable, transient_peak  # noqa: E402
@@ -61,21 +61,6 @@ SEARCH_WINDOW = 0.1
 def parse_rules(text: str) -> Rules:
     """``text`` (:func:`parse_level_rules`) with every level written as one rule per class."""
     return [rule if isinstance(rule, tuple) else (rule,) * CLASSES for rule in parse_level_rules(text)]
-
-
-def moves(design: Design, rng: random.Random) -> list[Design]:
-    rules, tied = design
-    found = []
-    for level, rule in enumerate(rules):
-        for k in range(CLASSES):
-            for other in LEVEL_RULES:
-                if other != rule[k]:
-                    changed = list(rules)
-                    changed[level] = rule[:k] + (other,) + rule[k + 1 :]
-                    found.append((changed, tied))
-    found += [(rules, t) for t in range(4) if t != tied]
-    rng.shuffle(found)
-    return found
 
 
 class Search:
@@ -101,7 +86,7 @@ class Search:
         print(f"{label}: start {best:.2f} N: {describe_level_rules(design[0])} (tied {design[1]})", flush=True)
         for _ in range(passes):
             improved = False
-            for candidate in moves(design, self.rng):
+            for candidate in level_rule_moves(*design, self.rng):
                 value = score(candidate)
                 if value < best - 1e-6:
                     best, design, improved = value, candidate, True
@@ -114,7 +99,7 @@ class Search:
         best = self.transient(design)
         print(f"{label}: start {best:.2f} N: {describe_level_rules(design[0])} (tied {design[1]})", flush=True)
         ungrowable = []
-        for candidate in moves(design, self.rng):
+        for candidate in level_rule_moves(*design, self.rng):
             structure = by_level_rules(*candidate)
             if structure is None or structure.n_vertices > self.max_vertices:
                 continue
@@ -129,7 +114,7 @@ class Search:
         for first_peak, first in ungrowable[:3]:
             if first_peak >= best:
                 break
-            for candidate in moves(first, self.rng):
+            for candidate in level_rule_moves(*first, self.rng):
                 value = self.transient(candidate)
                 if value < best - 1e-6:
                     best, design = value, candidate

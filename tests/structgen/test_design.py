@@ -19,11 +19,13 @@ from structgen.domains.structures.design import (
     UnmeetableSpec,
     _Found,
     _judge,
-    add_tilings,
+    add_taught,
     build_library,
     design,
     dimensions,
     load_library,
+    tallest_possible,
+    taught_clipped,
     taught_tilings,
 )
 from structgen.nca import load_weights
@@ -85,6 +87,22 @@ def test_an_unmeetable_spec_names_the_nearest_that_can_be_met(library):
         design(Spec(7, 7, 6, max_members=1), 0, library)
     width, depth, height = (int(v) for v in library.answers[library.answers[:, 6].argmin(), 1:4])
     assert design(Spec(width, depth, height, max_members=smallest), 0, library).n_edges <= smallest
+
+
+def test_a_spec_taller_than_equilibrium_allows_on_its_footprint_says_so(library):
+    from structgen.domains.structures.samples import column
+
+    # A column shares its load perfectly, so the bound is exact there: three levels stand, four break.
+    assert tallest_possible(1, 1) == 3
+    assert check_statics(column(3)).stands and not check_statics(column(4)).stands
+    assert tallest_possible(2, 2) < tallest_possible(2, 5) < tallest_possible(5, 5)  # more room, more members
+    # Nothing the shipped library meets is taller than the bound allows (it would be wrong if anything were).
+    assert all(height <= tallest_possible(width, depth) for width, depth, height in load_library().specs())
+    with pytest.raises(UnmeetableSpec, match=r"no structure on a 1x1 footprint stands over 3 levels"):
+        design(Spec(1, 1, 5), 0, library)
+    with pytest.raises(UnmeetableSpec) as refused:
+        design(Spec(7, 7, 8), 0, library)  # equilibrium allows it: the library's gap, no such remark
+    assert "no structure" not in str(refused.value)
 
 
 def test_specs_out_of_range_are_refused():
@@ -159,10 +177,32 @@ def test_tilings_meet_footprints_wider_than_a_pyramid_of_their_height(library):
     assert [height for height, _ in tilings] == [2, 3, 2, 3]  # pyramids side by side, then walls end to end
     spec = Spec(7, 7, 3)  # one design three levels tall spreads to 5 cells at most
     assert not len(library.candidates(spec)[0])
-    tiled = add_tilings(library, tilings, specs=np.array([(7, 7, 3), (3, 7, 2), (1, 7, 3)]))
+    tiled = add_taught(library, tilings, specs=np.array([(7, 7, 3), (3, 7, 2), (1, 7, 3)]))
     assert tiled.specs() >= library.specs() | {(7, 7, 3), (3, 7, 2), (1, 7, 3)}
     assert len(tiled.families) == len(library.families) + 4 and tiled.info["tiling_ncas"] == 4
     for seed in (0, 1):
         structure = design(spec, seed, tiled)
         assert dimensions(structure) == (7, 7, 3) and check_statics(structure).stands
         assert structure.metadata["design"]["nca"] >= len(library.families)  # a tiling's answer
+
+
+@pytest.mark.slow
+def test_designs_cut_to_a_narrow_box_meet_specs_taller_than_a_pyramid_of_their_width(library):
+    from structgen.domains.structures.samples import by_level_rules
+    from structgen.domains.structures.tall import transient_peak
+
+    # Three cells wide, a pyramid is two levels tall; one rule per level cut a cell from the axis holds at five.
+    taught = taught_clipped(max_side=3, max_levels=6, per_height=1, lowest=5)
+    assert {height for height, _ in taught} == {5}
+    spec = Spec(3, 3, 5)
+    assert not len(library.candidates(spec)[0])
+    clipped = add_taught(library, taught, specs=np.array([(3, 3, 5)]), kind="clipped")
+    assert (3, 3, 5) in clipped.specs() and clipped.info["clipped_ncas"] == len(taught)
+    structure = design(spec, 0, clipped)
+    assert dimensions(structure) == (3, 3, 5) and check_statics(structure).stands
+    assert add_taught(library, [], kind="clipped") is library  # nothing taught, nothing added
+    # At six levels the lightest such design stands by the static analysis, but PyBullet's first moments break it:
+    # it is left out.
+    six = by_level_rules(("V", "S", "C", "SC", "SC"), 1, 1)
+    assert dimensions(six) == (3, 3, 6) and check_statics(six).stands
+    assert transient_peak(six) > 52.5

@@ -14,6 +14,7 @@ from structgen.domains.structures.samples import (
     by_level_rules,
     describe_level_rules,
     flat_edge,
+    level_rule_moves,
     parse_level_rules,
     six_level_rule_design,
 )
@@ -162,6 +163,20 @@ def test_level_rules_read_and_print_as_the_tall_searches_write_them():
     for bad, fragment in (("V X", "'X' is not a level's rule"), ("V o/C", "'o/C' is not a level's rule"), ("", "no rules")):
         with pytest.raises(ValueError, match=fragment):
             parse_level_rules(bad)
+
+
+def test_a_per_class_search_steps_to_every_design_one_change_away():
+    import random
+
+    rules = parse_level_rules("V o/C/SC/SC")
+    moves = level_rule_moves(rules, 1, random.Random(0))
+    # 13 other rules for each of 4 classes in each of 2 levels, and 3 other counts of tied levels
+    assert len(moves) == 2 * 4 * 13 + 3 and len({describe_level_rules(r) + str(t) for r, t in moves}) == len(moves)
+    for changed, tied in moves:
+        differences = sum(a != b for old, new in zip([("V",) * 4, rules[1]], changed) for a, b in zip(old, new))
+        assert (differences, tied) in {(1, 1), (0, 0), (0, 2), (0, 3)}
+    assert moves != level_rule_moves(rules, 1, random.Random(1))  # shuffled by the generator given
+    assert sorted(map(str, moves)) == sorted(map(str, level_rule_moves(rules, 1, random.Random(1))))
 
 
 def test_a_tiling_wider_than_tall_is_taught_in_its_box_and_grows_exactly_there():

@@ -452,8 +452,9 @@ def cmd_design_library(args: argparse.Namespace) -> int:
     Search --ncas NCAs by MAP-Elites over footprint width, depth and height (a pyribs archive per NCA family, the
     objective the safety margin below the break force), growing each in the boxes of --specs-each random specs; keep
     the --keep NCAs that answer the most specs and list every spec each meets; then teach NCAs to grow tilings of
-    pyramids (wider than one pyramid of their height can be) and add every spec they meet. The same options give
-    the same library. About half an hour per thousand NCAs on one core, and a few minutes for the tilings.
+    pyramids (wider than one pyramid of their height can be), and designs cut to narrow boxes (taller than a pyramid
+    of their width can be), and add every spec they meet. The same options give the same library. About half an
+    hour per thousand NCAs on one core, and some minutes each for the tilings and the narrow designs.
     """
     from structgen.domains.structures.design import build_library
 

@@ -17,10 +17,11 @@ for the purpose (:func:`taught_pyramids`: for each height and odd width, the lig
 design, taught in a second or two). At the end a
 greedy cover keeps the few NCAs that answer the most specs (several answers each, for variety), which are then
 grown in every spec's box to list everything they meet. Last come *tilings* (:func:`taught_tilings`,
-:func:`add_tilings`): a pyramid spreads at most a cell a level each way, so no single one is wider than twice its
+:func:`add_taught`): a pyramid spreads at most a cell a level each way, so no single one is wider than twice its
 height, but pyramids side by side sharing their feet are, and carry no more than one; NCAs taught to grow them in
 a box wider than tall (and walls one cell thick, end to end, in a box one cell thick) meet the wide, low specs (9x9
-at three levels, 1x11 at four) the search leaves.
+at three levels, 1x11 at four) the search leaves. Then the same rules cut to narrow boxes (:func:`taught_clipped`),
+which meet some narrow, tall specs (3x3 at six levels) no pyramid reaches.
 Weights are kept as float32, as the file stores them.
 
 A spec is ``width x depth`` cells on the ground (x by y) and ``height`` levels (z extent ``height - 1``); a spec
@@ -34,6 +35,7 @@ import hashlib
 import io
 import json
 import math
+import random
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
@@ -46,7 +48,16 @@ from evolution.files import atomic_write
 from structgen.nca import NCAConfig, grow_population, n_params
 from structgen.structure import Structure
 
-__all__ = ["DEFAULT_LIBRARY", "DesignLibrary", "Spec", "UnmeetableSpec", "build_library", "design", "load_library"]
+__all__ = [
+    "DEFAULT_LIBRARY",
+    "DesignLibrary",
+    "Spec",
+    "UnmeetableSpec",
+    "build_library",
+    "design",
+    "load_library",
+    "tallest_possible",
+]
 
 DEFAULT_LIBRARY = Path(__file__).with_name("design_library.npz")
 # The spec grid the library covers: footprints up to MAX_SIDE x MAX_SIDE, heights up to MAX_LEVELS.
@@ -213,6 +224,39 @@ def _grow_answer(library: DesignLibrary, row: np.ndarray) -> Structure:
     return grow_population(library.weights[nca][None], FAMILIES[family], box[None])[0]
 
 
+def tallest_possible(width: int, depth: int, physics: Any = None, cap: int = 100) -> int:
+    """The most levels any structure of a ``width`` x ``depth`` footprint could have that the static analysis finds
+    standing (``physics``: a :class:`physics.PhysicsConfig`, default the paper's), by equilibrium alone. Cut between
+    two levels, everything above is held up only by the members crossing the cut, through the joints at their lower
+    ends, and the verdict lets each carry at most the break force over the load factor, its own weight included.
+    Counting the fewest bodies above each cut (a vertex a level, no more members than carry the load there, every
+    load shared perfectly) bounds the height: 3 levels for a 1x1 footprint (a column of four breaks), 11 for 2x2.
+    An upper bound, not a design: real frames share their load unevenly (``benchmarks/design_limits.py --bound``)."""
+    from physics import PhysicsConfig
+
+    physics = physics or PhysicsConfig()
+    if physics.sphere_mass != physics.cylinder_mass:
+        raise ValueError("the bound counts bodies: spheres and cylinders must weigh alike")
+    body = physics.sphere_mass * physics.gravity
+    # A crossing member holds up at most this many bodies above the cut, its own weight being on its lower joint too.
+    per_member = (physics.break_force / physics.statics_load_factor - body) / body
+    below_each = min(3, width) * min(3, depth)  # members a vertex can send to the level below within the footprint
+    crossing_cap = (3 * width - 2) * (3 * depth - 2)  # pairs of cells one level apart and at most a cell sideways
+    above, vertices, levels = 1.0, 1, 1  # the top level: one vertex
+    while levels < cap:
+        members = math.ceil(above / per_member - 1e-9)
+        while members > below_each * vertices:  # more vertices on the upper level to send them from
+            vertices += 1
+            above += 1
+            members = math.ceil(above / per_member - 1e-9)
+        if members > crossing_cap or vertices > width * depth:
+            return levels
+        vertices = max(1, math.ceil(members / below_each))  # the level below: as few vertices as take the members
+        above += members + vertices
+        levels += 1
+    return levels
+
+
 def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, physics: Any = None) -> Structure:
     """A structure grown by one of the library's NCAs that meets ``spec`` exactly and that the static analysis finds
     standing; ``seed`` picks among the answers. :class:`UnmeetableSpec` names the nearest spec that can be met."""
@@ -223,6 +267,9 @@ def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, phys
     if not len(rows):
         nearest = library.nearest(spec)
         where = f"; the nearest that can be met: {nearest}" if nearest else "; no spec within that member budget can be met"
+        possible = tallest_possible(spec.width, spec.depth, physics)
+        if spec.height > possible:  # not the library's gap: nothing of that footprint stands so tall
+            where += f" (no structure on a {spec.width}x{spec.depth} footprint stands over {possible} levels)"
         raise UnmeetableSpec(f"no design in the library meets {spec}{where}")
     order = rows[np.random.default_rng(seed).permutation(len(rows))]
     for row in order:
@@ -313,12 +360,13 @@ def _random_tries(rng: np.random.Generator, count: int, specs_each: int, specs: 
 
 
 def _lightest_by_level(
-    max_side: int, max_levels: int, beam: int, wall: bool = False
+    max_side: int, max_levels: int, beam: int, wall: bool = False, extent: int | None = None, per_width: bool = True
 ) -> Iterator[tuple[int, dict[int, list[tuple]]]]:
     """For each height from 2 to ``max_levels``: the one-rule-per-level designs (:func:`.samples.by_level_rules`,
-    one cell thick with ``wall``) a local rule grows, by width (the longer side) up to ``max_side``, each list
-    lightest first (its largest static joint load, held and sliding ground) as ``(load, rules, tied_levels,
-    design)``. A beam search from the top down keeps the ``beam`` lightest of each width at each height to extend."""
+    one cell thick with ``wall``, cut ``extent`` cells from their axis when given) a local rule grows, by width (the
+    longer side) up to ``max_side``, each list lightest first (its largest static joint load, held and sliding
+    ground) as ``(load, rules, tied_levels, design)``. A beam search from the top down keeps the ``beam`` lightest of
+    each width (of all, without ``per_width``) at each height to extend."""
     from physics.statics import bounding_loads
     from structgen.domains.structures.samples import by_level_rules_one_taller
     from structgen.domains.structures.tall import teachable
@@ -330,7 +378,7 @@ def _lightest_by_level(
     prefixes: list[tuple[str, ...]] = [()]
     for height in range(2, max_levels + 1):
         by_width: dict[int, list[tuple]] = {}
-        for rules, tied, candidate in by_level_rules_one_taller(prefixes, MAX_VERTICES, wall=wall):
+        for rules, tied, candidate in by_level_rules_one_taller(prefixes, MAX_VERTICES, extent, wall=wall):
             width, depth, levels = dimensions(candidate)
             width = max(width, depth)
             if width > max_side or levels != height or not teachable(candidate, whole=False):
@@ -339,7 +387,11 @@ def _lightest_by_level(
         for width in by_width:
             by_width[width].sort(key=lambda entry: (entry[0], entry[1], entry[2]))
         yield height, by_width
-        prefixes = list(dict.fromkeys(rules for width in sorted(by_width) for _, rules, _, _ in by_width[width][:beam]))
+        if per_width:
+            prefixes = list(dict.fromkeys(rules for width in sorted(by_width) for _, rules, _, _ in by_width[width][:beam]))
+        else:
+            ranked = sorted((entry for entries in by_width.values() for entry in entries), key=lambda e: (e[0], e[1], e[2]))
+            prefixes = list(dict.fromkeys(rules for _, rules, _, _ in ranked))[:beam]
 
 
 def taught_pyramids(
@@ -411,15 +463,113 @@ def taught_tilings(
     return taught
 
 
+def _lightest_by_class(rules: tuple[str, ...], tied: int, extent: int, passes: int, rng: random.Random) -> Structure | None:
+    """From a one-rule-per-level design cut ``extent`` cells from its axis, a first-improvement descent over a rule
+    per in-degree class (:func:`.samples.level_rule_moves`) on the largest static load (held and sliding ground),
+    among designs of the same height that a local rule grows whole; the lightest found (None when none is)."""
+    from structgen.domains.structures.samples import by_level_rules, level_rule_moves
+    from structgen.domains.structures.tall import largest_static_load, teachable
+
+    levels = len(rules) + 1
+
+    def load(design: tuple[list, int]) -> tuple[float, Structure | None]:
+        structure = by_level_rules(*design, extent)
+        if (structure is None or structure.n_vertices > MAX_VERTICES or dimensions(structure)[2] != levels
+                or not teachable(structure, whole=True)):  # fmt: skip
+            return math.inf, None
+        return largest_static_load(structure), structure
+
+    best: tuple[list, int] = ([(rule,) * 4 for rule in rules], tied)
+    best_load, best_structure = load(best)
+    for _ in range(passes):
+        improved = False
+        for candidate in level_rule_moves(*best, rng):
+            value, structure = load(candidate)
+            if value < best_load - 1e-6:
+                best, best_load, best_structure, improved = candidate, value, structure, True
+        if not improved:
+            break
+    return best_structure
+
+
+def taught_clipped(
+    max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS, beam: int = 12, per_height: int = 3, lowest: int = 4,
+    by_class_from: int | None = 7, class_extent: int = 3, starts: int = 2, passes: int = 3, seed: int = 0,
+) -> list[tuple[int, np.ndarray]]:  # fmt: skip
+    """Designs cut to narrow boxes, taught: ``(height, weights)``. A pyramid is only as wide as its height lets it
+    spread, so the narrow, tall specs are out of its reach; cut ``e`` cells from its axis (``by_level_rules(...,
+    extent=e)``, as a box's walls cut growth), the same kind of rules carry the load down through fewer, steeper
+    members, and grown in the boxes of other footprints of their height (the seed anywhere) they meet some of
+    those specs.
+
+    For each half-width ``e`` from 1 to ``(max_side - 1) // 2`` and each height from ``lowest`` (every spec up to
+    three levels is met by the search and the tilings): the ``per_height`` lightest one-rule-per-level designs,
+    solid and one cell thick, that stand (the static analysis) and that a local rule grows (a beam search as
+    :func:`taught_pyramids`', over all widths rather than per width and wider: a narrow beam misses the 3x3
+    six-level one, a prefix's load ranking its descendants poorly). From
+    ``by_class_from`` levels, where one rule per level stands only in wide boxes, the ``starts`` lightest solid ones
+    cut at most ``class_extent`` cells from the axis are also improved with a rule per in-degree class
+    (:func:`_lightest_by_class`, ``passes`` passes, moves in an order drawn from ``seed``), which stands at seven
+    levels in a 3x3 or 5x5 box, as it bought the tall tower its ninth level. (Wider boxes meet those heights
+    already, and their designs take a second or more a judgement.) Each distinct design is taught once, and only
+    if it also holds through the faithful preset's first 0.3 s (:func:`.tall.transient_peak`): the static analysis
+    lets narrow, tall frames stand that PyBullet breaks within 0.06 s (3x3 at six and seven levels: 60 N against
+    its 86 to 90 % of the break force)."""
+    from physics import PhysicsConfig
+    from physics.statics import check_statics
+    from structgen.domains.structures.tall import teachable, transient_peak
+    from structgen.domains.structures.teach import TeachError, teach
+
+    break_force = PhysicsConfig().break_force
+    rng = random.Random(seed)
+    taught = []
+    seen: set[bytes] = set()
+
+    def add(candidate: Structure | None, height: int) -> bool:
+        if candidate is None:
+            return False
+        key = _cells_key(candidate)
+        if key in seen or not teachable(candidate, whole=True) or not check_statics(candidate).stands:
+            return False
+        seen.add(key)
+        if transient_peak(candidate) > break_force:  # the static analysis is lenient on narrow, tall frames
+            return False
+        try:
+            result = teach(candidate)
+        except TeachError:
+            return False
+        taught.append((height, result.weights))
+        return True
+
+    for wall in (False, True):
+        for extent in range(1, (max_side - 1) // 2 + 1):
+            for height, by_width in _lightest_by_level(max_side, max_levels, beam, wall, extent, per_width=False):
+                if height < lowest:
+                    continue
+                ranked = sorted((entry for entries in by_width.values() for entry in entries),
+                                key=lambda entry: (entry[0], entry[1], entry[2]))  # fmt: skip
+                kept = 0
+                for _, _, _, candidate in ranked:
+                    kept += add(candidate, height)
+                    if kept == per_height:
+                        break
+                if wall or by_class_from is None or height < by_class_from or extent > class_extent:
+                    continue
+                for _, rules, tied, _ in ranked[:starts]:
+                    add(_lightest_by_class(rules, tied, extent, passes, rng), height)
+    return taught
+
+
 def build_library(
     ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 64, answers_each: int = 6,
     starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
-    tilings: bool = True, progress: bool = False,
+    tilings: bool = True, clipped: bool = True, progress: bool = False,
 ) -> DesignLibrary:  # fmt: skip
     """Search ``ncas`` NCAs by MAP-Elites over the spec grid (footprints up to ``max_side`` square, heights up to
     ``max_levels``; see the module's docstring), keep the ``keep`` that cover the most specs with up to
-    ``answers_each`` answers each, and list everything those meet; then, with ``tilings``, add the taught tilings
-    (:func:`add_tilings`). The same arguments give the same library."""
+    ``answers_each`` answers each, and list everything those meet; then, with ``tilings``, add the taught tilings,
+    and with ``clipped`` the taught designs cut to narrow boxes (:func:`add_taught`). The same arguments give the
+    same library."""
     from ribs.archives import GridArchive
     from tqdm import tqdm
 
@@ -480,8 +630,12 @@ def build_library(
     library = _cover(np.stack(weights), families, found, keep, answers_each, specs)
     if tilings:
         tiling_started = time.perf_counter()
-        library = add_tilings(library, taught_tilings(max_side, max_levels), specs)
+        library = add_taught(library, taught_tilings(max_side, max_levels), specs, "tiling")
         library.info["tiling_seconds"] = round(time.perf_counter() - tiling_started, 1)
+    if clipped:
+        clipped_started = time.perf_counter()
+        library = add_taught(library, taught_clipped(max_side, max_levels), specs, "clipped")
+        library.info["clipped_seconds"] = round(time.perf_counter() - clipped_started, 1)
     library.info.update({
         "name": f"design library (seed {seed}, {ncas} NCAs searched)", "ncas_searched": ncas, "seed": seed,
         "specs_each": specs_each, "search_seconds": round(searched, 1),
@@ -537,15 +691,20 @@ def _cover(
     return kept
 
 
-def add_tilings(library: DesignLibrary, tilings: list[tuple[int, np.ndarray]], specs: np.ndarray | None = None) -> DesignLibrary:
-    """``library`` with the NCAs of :func:`taught_tilings` added (family ``down``) and every spec of their height each
-    meets, its seed at every place of the box (where a tiling's tops fall decides what is cut at the walls). The
-    search's NCAs and answers stay as they are, so this step can be added to a library already built."""
+def add_taught(
+    library: DesignLibrary, taught: list[tuple[int, np.ndarray]], specs: np.ndarray | None = None, kind: str = "tiling"
+) -> DesignLibrary:
+    """``library`` with taught NCAs (:func:`taught_tilings`, :func:`taught_clipped`: ``(height, weights)``) added,
+    family ``down``, and every spec of their height each meets, its seed at every place of the box (where a tiling's
+    tops fall decides what is cut at the walls). The NCAs and answers already there stay as they are, so this step
+    can be added to a library already built; ``info`` counts what ``kind`` added."""
+    if not taught:
+        return library
     specs = _canonical_specs() if specs is None else specs
     first = len(library.families)
-    weights = np.concatenate([library.weights.astype(np.float32), np.stack([w for _, w in tilings]).astype(np.float32)])
-    families = [*library.families, *["down"] * len(tilings)]
-    tries = np.array([(first + i, *map(int, spec), x, y) for i, (height, _) in enumerate(tilings)
+    weights = np.concatenate([library.weights.astype(np.float32), np.stack([w for _, w in taught]).astype(np.float32)])
+    families = [*library.families, *["down"] * len(taught)]
+    tries = np.array([(first + i, *map(int, spec), x, y) for i, (height, _) in enumerate(taught)
                       for spec in specs if spec[2] == height
                       for x in _seed_places(int(spec[0])) for y in _seed_places(int(spec[1]))], dtype=np.int64)  # fmt: skip
     found = _Found()
@@ -553,6 +712,6 @@ def add_tilings(library: DesignLibrary, tilings: list[tuple[int, np.ndarray]], s
     answers = np.concatenate([library.answers, np.array(found.rows, dtype=np.int32).reshape(-1, 8)])
     peaks = np.concatenate([library.peaks, np.array(found.peaks, dtype=np.float32)])
     order = _spec_order(answers)
-    info = {**library.info, "tiling_ncas": len(tilings), "tiling_answers": len(found.rows),
-            "tiling_specs": len({row[1:4] for row in found.rows})}  # fmt: skip
+    info = {**library.info, f"{kind}_ncas": len(taught), f"{kind}_answers": len(found.rows),
+            f"{kind}_specs": len({row[1:4] for row in found.rows})}  # fmt: skip
     return DesignLibrary(families, weights, answers[order], peaks[order], info)

@@ -11,6 +11,7 @@ medium structures.
 
 from __future__ import annotations
 
+import random
 from collections.abc import Iterable, Iterator
 
 import numpy as np
@@ -31,6 +32,7 @@ __all__ = [
     "five_level_pyramid",
     "flat_edge",
     "in_degree_class",
+    "level_rule_moves",
     "parse_level_rules",
     "random_growth",
     "six_level_rule_design",
@@ -170,6 +172,26 @@ def in_degree_class(members_from_above: int) -> int:
 
 
 LevelRule = str | tuple[str, ...]
+
+
+def level_rule_moves(rules: Iterable[LevelRule], tied_levels: int, rng: random.Random) -> list[tuple[list[tuple[str, ...]], int]]:
+    """Every design one change from ``rules`` (each level written as one rule per :data:`IN_DEGREE_CLASSES` entry)
+    with ``tied_levels`` in the family of :func:`by_level_rules`: one class's rule in one level, or how many of the
+    lowest levels are tied (0 to 3); shuffled by ``rng``, so that a first-improvement descent over them does not
+    always favour the top level. The step of the per-class searches (``benchmarks/tall_classes.py``,
+    :func:`.design.taught_by_class`)."""
+    levels = [rule if isinstance(rule, tuple) else (rule,) * len(IN_DEGREE_CLASSES) for rule in rules]
+    found = []
+    for level, rule in enumerate(levels):
+        for k in range(len(IN_DEGREE_CLASSES)):
+            for other in LEVEL_RULES:
+                if other != rule[k]:
+                    changed = list(levels)
+                    changed[level] = rule[:k] + (other,) + rule[k + 1 :]
+                    found.append((changed, tied_levels))
+    found += [(levels, t) for t in range(4) if t != tied_levels]
+    rng.shuffle(found)
+    return found
 
 
 def parse_level_rules(text: str) -> tuple[LevelRule, ...]:
