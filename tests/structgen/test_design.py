@@ -163,6 +163,8 @@ def test_the_shipped_library_answers_specs_across_the_documented_range():
     assert DEFAULT_LIBRARY.exists() and len(met) >= 370  # of the 528 specs with width at most depth
     wide_and_low = [(9, 9, 3), (11, 11, 3), (8, 11, 5), (1, 11, 4)]  # wider than a pyramid of their height: tilings
     assert set(wide_and_low) <= met
+    assert {(3, 3, 6), (2, 8, 6), (5, 5, 7)} <= met  # narrower than a pyramid of their height: the narrow designs
+    assert all(height <= 7 for width, _, height in met if width <= 6)
     for width, depth, height in wide_and_low[:2]:
         structure = design(Spec(width, depth, height), 3, library)
         assert dimensions(structure) == (width, depth, height) and check_statics(structure).stands
