@@ -208,3 +208,22 @@ def test_designs_cut_to_a_narrow_box_meet_specs_taller_than_a_pyramid_of_their_w
     six = by_level_rules(("V", "S", "C", "SC", "SC"), 1, 1)
     assert dimensions(six) == (3, 3, 6) and check_statics(six).stands
     assert transient_peak(six) > 52.5
+
+
+@pytest.mark.slow
+def test_a_rule_per_in_degree_class_carries_what_one_rule_per_level_cannot_in_a_narrow_box():
+    import random
+
+    from structgen.domains.structures.design import _lightest_by_class
+    from structgen.domains.structures.samples import by_level_rules
+    from structgen.domains.structures.tall import largest_static_load
+
+    # A one-rule seven-level design in a 3x3 box carries 73 N at its worst joint; a rule per in-degree class lets the
+    # vertices where loads meet send more down, and the descent over those rules takes off a quarter of it.
+    rules, tied = ("V", "C", "SC", "S", "SC", "SC"), 1
+    start = by_level_rules(rules, tied, 1)
+    assert dimensions(start) == (3, 3, 7) and not check_statics(start).stands
+    found = _lightest_by_class(rules, tied, 1, 3, random.Random(0))
+    assert found is not None and dimensions(found) == (3, 3, 7)
+    assert largest_static_load(found) < 0.8 * largest_static_load(start)
+    assert _lightest_by_class(rules, tied, 1, 3, random.Random(0)).edges.tolist() == found.edges.tolist()  # repeats

@@ -509,8 +509,8 @@ def taught_clipped(
     six-level one, a prefix's load ranking its descendants poorly). From
     ``by_class_from`` levels, where one rule per level stands only in wide boxes, the ``starts`` lightest solid ones
     cut at most ``class_extent`` cells from the axis are also improved with a rule per in-degree class
-    (:func:`_lightest_by_class`, ``passes`` passes, moves in an order drawn from ``seed``), which stands at seven
-    levels in a 3x3 or 5x5 box, as it bought the tall tower its ninth level. (Wider boxes meet those heights
+    (:func:`_lightest_by_class`, ``passes`` passes, moves in an order drawn from ``seed``), which holds at seven
+    levels in a 5x5 box, as it bought the tall tower its ninth level. (Wider boxes meet those heights
     already, and their designs take a second or more a judgement.) Each distinct design is taught once, and only
     if it also holds through the faithful preset's first 0.3 s (:func:`.tall.transient_peak`): the static analysis
     lets narrow, tall frames stand that PyBullet breaks within 0.06 s (3x3 at six and seven levels: 60 N against
