@@ -359,6 +359,13 @@ def _random_tries(rng: np.random.Generator, count: int, specs_each: int, specs: 
     return np.array(rows, dtype=np.int64)
 
 
+def _lightest_first(by_width: dict[int, list[tuple]], min_width: int = 1) -> list[tuple]:
+    """The entries of one height of :func:`_lightest_by_level`, of every width from ``min_width``, lightest first
+    (ties by rules, then tied levels, so the order repeats)."""
+    entries = (entry for width, listed in by_width.items() if width >= min_width for entry in listed)
+    return sorted(entries, key=lambda entry: (entry[0], entry[1], entry[2]))
+
+
 def _lightest_by_level(
     max_side: int, max_levels: int, beam: int, wall: bool = False, extent: int | None = None, per_width: bool = True
 ) -> Iterator[tuple[int, dict[int, list[tuple]]]]:
@@ -390,8 +397,7 @@ def _lightest_by_level(
         if per_width:
             prefixes = list(dict.fromkeys(rules for width in sorted(by_width) for _, rules, _, _ in by_width[width][:beam]))
         else:
-            ranked = sorted((entry for entries in by_width.values() for entry in entries), key=lambda e: (e[0], e[1], e[2]))
-            prefixes = list(dict.fromkeys(rules for _, rules, _, _ in ranked))[:beam]
+            prefixes = list(dict.fromkeys(rules for _, rules, _, _ in _lightest_first(by_width)))[:beam]
 
 
 def taught_pyramids(
@@ -443,8 +449,7 @@ def taught_tilings(
     taught = []
     for wall in (False, True):
         for height, by_width in _lightest_by_level(max_side, max_levels, beam, wall):
-            ranked = sorted((entry for width, entries in by_width.items() if width >= 3 for entry in entries),
-                            key=lambda entry: (entry[0], entry[1], entry[2]))[:tries]  # fmt: skip
+            ranked = _lightest_first(by_width, min_width=3)[:tries]
             kept = 0
             for _, rules, tied, _ in ranked:
                 largest = tiled_by_level_rules(rules, tied, (max_side - 1) // 2, wall=wall)
@@ -467,7 +472,7 @@ def _lightest_by_class(rules: tuple[str, ...], tied: int, extent: int, passes: i
     """From a one-rule-per-level design cut ``extent`` cells from its axis, a first-improvement descent over a rule
     per in-degree class (:func:`.samples.level_rule_moves`) on the largest static load (held and sliding ground),
     among designs of the same height that a local rule grows whole; the lightest found (None when none is)."""
-    from structgen.domains.structures.samples import by_level_rules, level_rule_moves
+    from structgen.domains.structures.samples import IN_DEGREE_CLASSES, by_level_rules, level_rule_moves
     from structgen.domains.structures.tall import largest_static_load, teachable
 
     levels = len(rules) + 1
@@ -479,7 +484,7 @@ def _lightest_by_class(rules: tuple[str, ...], tied: int, extent: int, passes: i
             return math.inf, None
         return largest_static_load(structure), structure
 
-    best: tuple[list, int] = ([(rule,) * 4 for rule in rules], tied)
+    best: tuple[list, int] = ([(rule,) * len(IN_DEGREE_CLASSES) for rule in rules], tied)
     best_load, best_structure = load(best)
     for _ in range(passes):
         improved = False
@@ -546,8 +551,7 @@ def taught_clipped(
             for height, by_width in _lightest_by_level(max_side, max_levels, beam, wall, extent, per_width=False):
                 if height < lowest:
                     continue
-                ranked = sorted((entry for entries in by_width.values() for entry in entries),
-                                key=lambda entry: (entry[0], entry[1], entry[2]))  # fmt: skip
+                ranked = _lightest_first(by_width)
                 kept = 0
                 for _, _, _, candidate in ranked:
                     kept += add(candidate, height)
