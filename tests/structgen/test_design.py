@@ -18,12 +18,14 @@ from structgen.domains.structures.design import (
     Spec,
     UnmeetableSpec,
     _Found,
+    _grow_answer,
     _judge,
     add_taught,
     build_library,
     design,
     dimensions,
     load_library,
+    screened,
     tallest_possible,
     taught_clipped,
     taught_tilings,
@@ -160,10 +162,10 @@ def test_design_on_the_command_line(library, tmp_path, capsys):
 def test_the_shipped_library_answers_specs_across_the_documented_range():
     library = load_library()
     met = library.specs()
-    assert DEFAULT_LIBRARY.exists() and len(met) >= 370  # of the 528 specs with width at most depth
+    assert DEFAULT_LIBRARY.exists() and len(met) >= 360  # of the 528 specs with width at most depth
     wide_and_low = [(9, 9, 3), (11, 11, 3), (8, 11, 5), (1, 11, 4)]  # wider than a pyramid of their height: tilings
     assert set(wide_and_low) <= met
-    assert {(3, 3, 6), (2, 8, 6), (5, 5, 7)} <= met  # narrower than a pyramid of their height: the narrow designs
+    assert {(2, 8, 6), (2, 9, 6), (9, 11, 7)} <= met  # narrower than a pyramid of their height: the narrow designs
     assert all(height <= 7 for width, _, height in met if width <= 6)
     for width, depth, height in wide_and_low[:2]:
         structure = design(Spec(width, depth, height), 3, library)
@@ -172,6 +174,18 @@ def test_the_shipped_library_answers_specs_across_the_documented_range():
     for width, depth, height in [sorted(met)[i] for i in rng.choice(len(met), 12, replace=False)]:
         structure = design(Spec(width, depth, height), int(rng.integers(100)), library)
         assert dimensions(structure) == (width, depth, height) and check_statics(structure).stands
+
+
+@pytest.mark.slow
+def test_the_shipped_librarys_heavily_loaded_answers_hold_in_pybullets_first_moments():
+    from structgen.domains.structures.tall import transient_peak
+
+    library = load_library()
+    assert library.info["screen_above_share"] == 0.7  # built with the transient screen as its last step
+    heavy = np.flatnonzero((library.peaks > 0.7) & (library.answers[:, 3] >= 4) & (library.answers[:, 7] <= 120))
+    for row in np.random.default_rng(3).choice(heavy, 4, replace=False):
+        structure = _grow_answer(library, library.answers[row])
+        assert transient_peak(structure) <= 52.5, library.answers[row]
 
 
 def test_tilings_meet_footprints_wider_than_a_pyramid_of_their_height(library):
@@ -208,6 +222,32 @@ def test_designs_cut_to_a_narrow_box_meet_specs_taller_than_a_pyramid_of_their_w
     six = by_level_rules(("V", "S", "C", "SC", "SC"), 1, 1)
     assert dimensions(six) == (3, 3, 6) and check_statics(six).stands
     assert transient_peak(six) > 52.5
+
+
+@pytest.mark.slow
+def test_the_transient_screen_drops_answers_that_break_in_pybullet_and_keeps_the_rest(library):
+    from structgen.domains.structures.samples import by_level_rules
+    from structgen.domains.structures.tall import transient_peak
+    from structgen.domains.structures.teach import teach
+
+    # A 3x3 frame of six levels that the static analysis lets stand and PyBullet breaks in its first moments.
+    six = by_level_rules(("V", "S", "C", "SC", "SC"), 1, 1)
+    weak = add_taught(library, [(6, teach(six).weights)], specs=np.array([(3, 3, 6)]), kind="clipped")
+    assert (3, 3, 6) in weak.specs()
+    kept = screened(weak)
+    assert (3, 3, 6) not in kept.specs() and kept.info["screen_answers_dropped"] >= 1
+    assert kept.families == weak.families[: len(kept.families)]  # the NCA left without answers is gone
+    assert kept.answers[:, 0].max() < len(kept.families) == len(kept.weights)
+    safe = weak.peaks <= 0.7  # loaded lightly by the static analysis: not simulated, all kept
+    assert safe.any() and (~safe).sum() == kept.info["screen_simulated"]
+    np.testing.assert_array_equal(kept.answers[kept.peaks <= 0.7][:, 1:], weak.answers[safe][:, 1:])
+    assert len(kept.answers) > safe.sum()  # some simulated answers hold
+    for row in kept.answers[kept.peaks > 0.7]:  # each kept answer, renumbered, still grows its spec, and holds
+        structure = _grow_answer(kept, row)
+        assert dimensions(structure) == tuple(int(v) for v in row[1:4]) and transient_peak(structure) <= 52.5
+    in_workers = screened(weak, workers=2)
+    np.testing.assert_array_equal(in_workers.answers, kept.answers)
+    assert screened(weak, above_share=1.0).answers.shape == weak.answers.shape  # none simulated, none dropped
 
 
 @pytest.mark.slow
