@@ -702,14 +702,11 @@ def _cover(
     return kept
 
 
-def _transient_peak_of(job: tuple[np.ndarray, list[str]], row: np.ndarray) -> float:
+def _transient_peak_of(library: DesignLibrary, row: np.ndarray) -> float:
     """The largest joint force in the faithful preset's first 0.3 s of what ``row`` grows (a worker's job)."""
     from structgen.domains.structures.tall import transient_peak
 
-    weights, families = job
-    nca, width, depth, height, x_seed, y_seed = (int(v) for v in row[:6])
-    box = box_for(width, depth, height, families[nca], x_seed, y_seed)
-    return transient_peak(grow_population(weights[nca][None], FAMILIES[families[nca]], box[None])[0])
+    return transient_peak(_grow_answer(library, row))
 
 
 def screened(
@@ -734,7 +731,7 @@ def screened(
     rows = np.flatnonzero(library.peaks > above_share)
     bar = tqdm(total=len(rows), desc="design library: transient screen", unit="answer", disable=not progress)
     with WorkerPool(workers, quiet=True) as pool:
-        job = functools.partial(_transient_peak_of, (library.weights.astype(np.float64), library.families))
+        job = functools.partial(_transient_peak_of, library)
         peaks = pool.map(job, [library.answers[row] for row in rows], done=lambda _: bar.update(1))
     bar.close()
     keep = np.ones(len(library.answers), dtype=bool)
@@ -744,11 +741,11 @@ def screened(
     renumber = np.full(len(library.families), -1, dtype=np.int64)
     renumber[used] = np.arange(len(used))
     answers[:, 0] = renumber[answers[:, 0]]  # in the same order, so the answers stay sorted
-    lost = library.specs() - {tuple(int(v) for v in row[1:4]) for row in answers}
-    info = {**library.info, "screen_above_share": above_share, "screen_simulated": len(rows),
-            "screen_answers_dropped": int((~keep).sum()), "screen_specs_lost": len(lost),
-            "screen_seconds": round(time.perf_counter() - started, 1)}  # fmt: skip
-    return DesignLibrary([library.families[n] for n in used], library.weights[used], answers, static_peaks, info)
+    kept = DesignLibrary([library.families[n] for n in used], library.weights[used], answers, static_peaks)
+    kept.info = {**library.info, "screen_above_share": above_share, "screen_simulated": len(rows),
+                 "screen_answers_dropped": int((~keep).sum()), "screen_specs_lost": len(library.specs() - kept.specs()),
+                 "screen_seconds": round(time.perf_counter() - started, 1)}  # fmt: skip
+    return kept
 
 
 def add_taught(
