@@ -194,6 +194,17 @@ class Structure:
         """A copy of this structure with ``updates`` merged into its metadata."""
         return Structure(self._vertices, self._edges, {**self._metadata, **updates})
 
+    def in_growth_order(self) -> Structure:
+        """The same structure listed as an NCA's growth lists it: vertices by cell (x, then y, then z), edges by
+        their endpoints. PyBullet's solver visits joints in the order their bodies were made, so a design judged in
+        another order can carry a few newtons more or less than the grown structure does."""
+        order = np.lexsort(self._vertices.T[::-1])
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        edges = np.sort(rank[self._edges], axis=1) if len(self._edges) else self._edges
+        edges = edges[np.lexsort(edges.T[::-1])] if len(edges) else edges
+        return Structure._trusted(self._vertices[order], edges, self.metadata)
+
     # -- metrics ----------------------------------------------------------------------------------------------------
     @property
     def n_vertices(self) -> int:

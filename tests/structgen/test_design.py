@@ -208,7 +208,7 @@ def test_designs_cut_to_a_narrow_box_meet_specs_taller_than_a_pyramid_of_their_w
     from structgen.domains.structures.tall import transient_peak
 
     # Three cells wide, a pyramid is two levels tall; one rule per level cut a cell from the axis holds at five.
-    taught = taught_clipped(max_side=3, max_levels=6, per_height=1, lowest=5)
+    taught = taught_clipped(max_side=3, max_levels=6, per_height=1, lowest=5, by_class_from=None)
     assert {height for height, _ in taught} == {5}
     spec = Spec(3, 3, 5)
     assert not len(library.candidates(spec)[0])
@@ -222,6 +222,20 @@ def test_designs_cut_to_a_narrow_box_meet_specs_taller_than_a_pyramid_of_their_w
     six = by_level_rules(("V", "S", "C", "SC", "SC"), 1, 1)
     assert dimensions(six) == (3, 3, 6) and check_statics(six).stands
     assert transient_peak(six) > 52.5
+
+
+@pytest.mark.slow
+def test_a_rule_per_in_degree_class_holds_six_levels_in_a_3x3_box_where_one_rule_per_level_breaks(library):
+    from structgen.domains.structures.tall import transient_peak
+
+    taught = taught_clipped(max_side=3, max_levels=6, lowest=6, one_rule=False)
+    assert taught and {height for height, _ in taught} == {6}
+    assert taught_clipped(max_side=3, max_levels=6, lowest=6, by_class_from=None) == []  # one rule a level: none
+    clipped = add_taught(library, taught, specs=np.array([(3, 3, 6)]), kind="clipped")
+    assert (3, 3, 6) in clipped.specs() and (3, 3, 6) not in library.specs()
+    for seed in range(3):
+        structure = design(Spec(3, 3, 6), seed, clipped)
+        assert dimensions(structure) == (3, 3, 6) and transient_peak(structure) <= 52.5
 
 
 @pytest.mark.slow
@@ -248,6 +262,12 @@ def test_the_transient_screen_drops_answers_that_break_in_pybullet_and_keeps_the
     in_workers = screened(weak, workers=2)
     np.testing.assert_array_equal(in_workers.answers, kept.answers)
     assert screened(weak, above_share=1.0).answers.shape == weak.answers.shape  # none simulated, none dropped
+    # Extended by one NCA, only its answers are simulated; the library's own were screened before.
+    added = weak.answers[:, 0] >= len(library.families)
+    only_new = screened(weak, from_nca=len(library.families))
+    assert only_new.info["screen_simulated"] == int((added & ~safe).sum()) < kept.info["screen_simulated"]
+    assert (3, 3, 6) not in only_new.specs()
+    np.testing.assert_array_equal(only_new.answers[only_new.answers[:, 0] < len(library.families)], weak.answers[~added])
 
 
 @pytest.mark.slow

@@ -195,3 +195,17 @@ def test_failed_save_leaves_the_existing_file_untouched(tmp_path, monkeypatch):
         l_shape().with_metadata(note="new").save(path)
     assert path.read_bytes() == before
     assert os.listdir(tmp_path) == ["s.json"]  # no temporary file left behind
+
+
+def test_in_growth_order_lists_any_ordering_of_a_grown_structure_as_growth_did():
+    from structgen.nca import NCAConfig, grow, n_params
+
+    grown = grow(np.random.default_rng(3).normal(0, 0.3, n_params(NCAConfig())), NCAConfig(iterations=6))
+    assert grown.n_edges > 10
+    rng = np.random.default_rng(0)
+    order = rng.permutation(grown.n_vertices)
+    rank = np.argsort(order)
+    shuffled = Structure(grown.vertices[order], rank[grown.edges][rng.permutation(grown.n_edges)], grown.metadata)
+    assert shuffled != grown
+    assert shuffled.in_growth_order() == grown
+    assert grown.in_growth_order() == grown

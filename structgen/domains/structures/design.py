@@ -134,13 +134,9 @@ def _cells_key(structure: Structure) -> bytes:
     """The same for the same cells and members, whatever order growth listed them in. (:func:`_shape_key`, which
     keeps two orders apart, still decides which answers a library lists, so that the same options give the same
     library as before this key.)"""
-    vertices = structure.vertices - structure.vertices.min(axis=0)
-    order = np.lexsort(vertices.T[::-1])
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    edges = np.sort(rank[structure.edges], axis=1) if structure.n_edges else structure.edges
-    edges = edges[np.lexsort(edges.T[::-1])] if len(edges) else edges
-    return hashlib.sha1(vertices[order].tobytes() + edges.astype(np.int64).tobytes()).digest()[:8]
+    ordered = structure.in_growth_order()
+    vertices = ordered.vertices - ordered.vertices.min(axis=0)
+    return hashlib.sha1(vertices.tobytes() + ordered.edges.astype(np.int64).tobytes()).digest()[:8]
 
 
 @dataclass
@@ -503,7 +499,8 @@ def _lightest_by_class(rules: tuple[str, ...], tied: int, extent: int, passes: i
 
 def taught_clipped(
     max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS, beam: int = 12, per_height: int = 3, lowest: int = 4,
-    by_class_from: int | None = 7, class_extent: int = 3, starts: int = 2, passes: int = 3, seed: int = 0,
+    by_class_from: int | None = 5, class_extent: int = 5, starts: int = 2, passes: int = 3, seed: int = 0,
+    one_rule: bool = True,
 ) -> list[tuple[int, np.ndarray]]:  # fmt: skip
     """Designs cut to narrow boxes, taught: ``(height, weights)``. A pyramid is only as wide as its height lets it
     spread, so the narrow, tall specs are out of its reach; cut ``e`` cells from its axis (``by_level_rules(...,
@@ -516,21 +513,21 @@ def taught_clipped(
     solid and one cell thick, that stand (the static analysis) and that a local rule grows (a beam search as
     :func:`taught_pyramids`', over all widths rather than per width and wider: a narrow beam misses the 3x3
     six-level one, a prefix's load ranking its descendants poorly). From
-    ``by_class_from`` levels, where one rule per level stands only in wide boxes, the ``starts`` lightest solid ones
-    cut at most ``class_extent`` cells from the axis are also improved with a rule per in-degree class
-    (:func:`_lightest_by_class`, ``passes`` passes, moves in an order drawn from ``seed``), which holds at seven
-    levels in a 5x5 box, as it bought the tall tower its ninth level. (Wider boxes meet those heights
-    already, and their designs take a second or more a judgement.) Each distinct design is taught once, and only
-    if it also holds through the faithful preset's first 0.3 s (:func:`.tall.transient_peak`): the static analysis
-    lets narrow, tall frames stand that PyBullet breaks within 0.06 s (3x3 at six and seven levels: 60 N against
-    its 86 to 90 % of the break force)."""
+    ``by_class_from`` levels the ``starts`` lightest solid ones cut at most ``class_extent`` cells from the axis are
+    also improved with a rule per in-degree class (:func:`_lightest_by_class`, ``passes`` passes, moves in an order
+    drawn from ``seed`` and the design's place in this loop, so that each descent is the same whichever others
+    run), as it bought the tall tower its ninth level: at six levels a 3x3 box then holds (46 N in the first 0.3 s
+    where its lightest one-rule design takes 60 N) and a 5x5 one carries 41 N. ``one_rule=False`` leaves the
+    one-rule designs out (to add the per-class ones to a library that has them). Each distinct design is taught
+    once, and only if it also holds through the faithful preset's first 0.3 s (:func:`.tall.transient_peak`): the
+    static analysis lets narrow, tall frames stand that PyBullet breaks within 0.06 s (3x3 at six and seven
+    levels: 60 N against its 86 to 90 % of the break force)."""
     from physics import PhysicsConfig
     from physics.statics import check_statics
     from structgen.domains.structures.tall import teachable, transient_peak
     from structgen.domains.structures.teach import TeachError, teach
 
     break_force = PhysicsConfig().break_force
-    rng = random.Random(seed)
     taught = []
     seen: set[bytes] = set()
 
@@ -550,20 +547,21 @@ def taught_clipped(
         taught.append((height, result.weights))
         return True
 
-    for wall in (False, True):
+    for wall in (False, True) if one_rule else (False,):  # walls have no per-class designs
         for extent in range(1, (max_side - 1) // 2 + 1):
             for height, by_width in _lightest_by_level(max_side, max_levels, beam, wall, extent, per_width=False):
                 if height < lowest:
                     continue
                 ranked = _lightest_first(by_width)
                 kept = 0
-                for _, _, _, candidate in ranked:
+                for _, _, _, candidate in ranked if one_rule else ():
                     kept += add(candidate, height)
                     if kept == per_height:
                         break
                 if wall or by_class_from is None or height < by_class_from or extent > class_extent:
                     continue
-                for _, rules, tied, _ in ranked[:starts]:
+                for start, (_, rules, tied, _) in enumerate(ranked[:starts]):
+                    rng = random.Random(f"{seed}/{extent}/{height}/{start}")
                     add(_lightest_by_class(rules, tied, extent, passes, rng), height)
     return taught
 
@@ -710,8 +708,9 @@ def _transient_peak_of(library: DesignLibrary, row: np.ndarray) -> float:
 
 
 def screened(
-    library: DesignLibrary, above_share: float = SCREEN_ABOVE_SHARE, workers: int = 0, progress: bool = False
-) -> DesignLibrary:
+    library: DesignLibrary, above_share: float = SCREEN_ABOVE_SHARE, workers: int = 0, progress: bool = False,
+    from_nca: int = 0,
+) -> DesignLibrary:  # fmt: skip
     """``library`` without the answers PyBullet breaks: each answer the static analysis loads above ``above_share``
     of the break force is grown and run for the faithful preset's first 0.3 s with unbreakable joints
     (:func:`.tall.transient_peak`, where these structures carry the most), and goes if any joint's force passes the
@@ -720,7 +719,8 @@ def screened(
     simulated so, 323 broke (13 of 100 two levels tall, 195 of 484 six levels tall), none of the 196 at or below 0.7
     of the break force, which is why those are not simulated. NCAs left with no answer are dropped. The same
     library gives the same result whatever ``workers`` (processes; 0: this one); an answer whose worker dies is
-    dropped. ``info`` counts what went."""
+    dropped. Only the answers of NCAs numbered ``from_nca`` and on are simulated: those of the NCAs before were
+    screened already (a library extended by :func:`add_taught`). ``info`` counts what went."""
     from tqdm import tqdm
 
     from evolution.pool import Lost, WorkerPool
@@ -728,7 +728,7 @@ def screened(
 
     started = time.perf_counter()
     break_force = PhysicsConfig().break_force
-    rows = np.flatnonzero(library.peaks > above_share)
+    rows = np.flatnonzero((library.peaks > above_share) & (library.answers[:, 0] >= from_nca))
     bar = tqdm(total=len(rows), desc="design library: transient screen", unit="answer", disable=not progress)
     with WorkerPool(workers, quiet=True) as pool:
         job = functools.partial(_transient_peak_of, library)
