@@ -720,7 +720,8 @@ def screened(
     of the break force, which is why those are not simulated. NCAs left with no answer are dropped. The same
     library gives the same result whatever ``workers`` (processes; 0: this one); an answer whose worker dies is
     dropped. Only the answers of NCAs numbered ``from_nca`` and on are simulated: those of the NCAs before were
-    screened already (a library extended by :func:`add_taught`). ``info`` counts what went."""
+    screened already (a library extended by :func:`add_taught`). ``info`` counts what went (``screen_*``, or
+    ``screen_added_*`` from a later NCA, keeping the first screen's counts)."""
     from tqdm import tqdm
 
     from evolution.pool import Lost, WorkerPool
@@ -742,9 +743,10 @@ def screened(
     renumber[used] = np.arange(len(used))
     answers[:, 0] = renumber[answers[:, 0]]  # in the same order, so the answers stay sorted
     kept = DesignLibrary([library.families[n] for n in used], library.weights[used], answers, static_peaks)
-    kept.info = {**library.info, "screen_above_share": above_share, "screen_simulated": len(rows),
-                 "screen_answers_dropped": int((~keep).sum()), "screen_specs_lost": len(library.specs() - kept.specs()),
-                 "screen_seconds": round(time.perf_counter() - started, 1)}  # fmt: skip
+    counts = {"above_share": above_share, "simulated": len(rows), "answers_dropped": int((~keep).sum()),
+              "specs_lost": len(library.specs() - kept.specs()), "seconds": round(time.perf_counter() - started, 1)}  # fmt: skip
+    prefix = "screen_added_" if from_nca else "screen_"
+    kept.info = {**library.info, **{prefix + key: value for key, value in counts.items()}}
     return kept
 
 

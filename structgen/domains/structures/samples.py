@@ -179,7 +179,7 @@ def level_rule_moves(rules: Iterable[LevelRule], tied_levels: int, rng: random.R
     with ``tied_levels`` in the family of :func:`by_level_rules`: one class's rule in one level, or how many of the
     lowest levels are tied (0 to 3); shuffled by ``rng``, so that a first-improvement descent over them does not
     always favour the top level. The step of the per-class searches (``benchmarks/tall_classes.py``,
-    :func:`.design.taught_by_class`)."""
+    :func:`.design.taught_clipped`)."""
     levels = [rule if isinstance(rule, tuple) else (rule,) * len(IN_DEGREE_CLASSES) for rule in rules]
     found = []
     for level, rule in enumerate(levels):
