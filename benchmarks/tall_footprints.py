@@ -13,7 +13,7 @@ Prints a markdown table: per footprint, the tallest design that holds in the fai
 transient, where tall towers break), its size and peak force, and for the next height the best design the search
 found with its peak, its largest static load, and the load on its lowest joints (those at the ground level) against
 the 52.5 N limit. ``--also`` adds towers found otherwise (structure files, e.g. grown from ``docs/tall_grown_9.npy``):
-each counts for the footprints it fits in when it holds in the first 0.3 s (simulated in the file's body order).
+each counts for the footprints it fits in when it holds in the first 0.3 s (simulated in the order growth lists it).
 With ``--figure``, the tallest that holds against the footprint, the next height's peak beside it.
 """
 

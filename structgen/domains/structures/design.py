@@ -553,11 +553,12 @@ def taught_clipped(
                 if height < lowest:
                     continue
                 ranked = _lightest_first(by_width)
-                kept = 0
-                for _, _, _, candidate in ranked if one_rule else ():
-                    kept += add(candidate, height)
-                    if kept == per_height:
-                        break
+                if one_rule:
+                    kept = 0
+                    for _, _, _, candidate in ranked:
+                        kept += add(candidate, height)
+                        if kept == per_height:
+                            break
                 if wall or by_class_from is None or height < by_class_from or extent > class_extent:
                     continue
                 for start, (_, rules, tied, _) in enumerate(ranked[:starts]):
