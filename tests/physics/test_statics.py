@@ -350,6 +350,21 @@ def test_an_extent_keeps_the_footprint_within_it_as_a_growth_box_does():
         by_level_rules(["S"], extent=-1)
 
 
+def test_a_box_extent_cuts_growth_to_a_box_off_the_axis():
+    wide = by_level_rules(["S", "S", "S"])
+    box = (0, 1, -2, 1)  # a 2 x 4 footprint, the axis at its low x edge
+    cut = by_level_rules(["S", "S", "S"], extent=box)
+    kept = {tuple(v) for v in wide.vertices.tolist() if 0 <= v[0] <= 1 and -2 <= v[1] <= 1}
+    assert {tuple(v) for v in cut.vertices.tolist()} == kept
+    assert tuple(int(v) for v in np.ptp(cut.vertices, axis=0) + 1) == (2, 4, 4)
+    square = by_level_rules(["S", "S", "S"], extent=1)  # an integer is the same box each way
+    same = by_level_rules(["S", "S", "S"], extent=(-1, 1, -1, 1))
+    assert np.array_equal(square.vertices, same.vertices) and np.array_equal(square.edges, same.edges)
+    for bad in ((1, 2, -1, 1), (0, 1, -1), (0.0, 1, -1, 1), [0, 1, -1, 1]):  # the axis outside; not four whole offsets
+        with pytest.raises(ValueError, match="extent must be"):
+            by_level_rules(["S"], extent=bad)
+
+
 def test_one_level_taller_gives_each_distinct_design_once_within_the_cap():
     found = list(by_level_rules_one_taller([("S",), ("S",)], max_vertices=30))
     shapes = [(d.vertices.tobytes(), d.edges.tobytes()) for _, _, d in found]

@@ -26,7 +26,9 @@ from structgen.domains.structures.design import (
     dimensions,
     load_library,
     screened,
+    spec_box,
     tallest_possible,
+    taught_boxed,
     taught_clipped,
     taught_tilings,
 )
@@ -289,3 +291,22 @@ def test_a_rule_per_in_degree_class_carries_what_one_rule_per_level_cannot_in_a_
     assert found is not None and dimensions(found) == (3, 3, 7)
     assert largest_static_load(found) < 0.8 * largest_static_load(start)
     assert _lightest_by_class(rules, tied, 1, 3, random.Random(0)).edges.tolist() == found.edges.tolist()  # repeats
+
+
+@pytest.mark.slow
+def test_designs_searched_in_a_specs_own_box_meet_an_even_footprint_no_square_cut_reaches(library):
+    from structgen.domains.structures.samples import by_level_rules
+    from structgen.domains.structures.tall import transient_peak
+
+    assert spec_box(2, 2) == (0, 1, 0, 1) and spec_box(3, 4) == (-1, 1, -1, 2) and spec_box(1, 1) == (0, 0, 0, 0)
+    assert dimensions(by_level_rules(("S",) * 4, 0, spec_box(2, 5))) == (2, 5, 5)
+    # Two by two cells and five levels tall: the seed at a corner of the top, a design grown in that box holds. The
+    # footprint stops at six levels, where nothing of the search holds, and taller heights are not tried.
+    taught = taught_boxed([(2, 2, 5), (2, 2, 6), (2, 2, 7)], workers=2)
+    assert [height for height, _ in taught] == [5]
+    boxed = add_taught(library, taught, specs=np.array([(2, 2, 5)]), kind="boxed")
+    assert (2, 2, 5) in boxed.specs() and (2, 2, 5) not in library.specs() and boxed.info["boxed_ncas"] == 1
+    structure = design(Spec(2, 2, 5), 0, boxed)
+    assert dimensions(structure) == (2, 2, 5) and transient_peak(structure) <= 52.5
+    with pytest.raises(ValueError, match="width at most depth"):
+        taught_boxed([(3, 2, 4)])

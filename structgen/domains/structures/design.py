@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from evolution.files import atomic_write
+from structgen.domains.structures.samples import Box
 from structgen.nca import NCAConfig, grow_population, n_params
 from structgen.structure import Structure
 
@@ -367,7 +368,7 @@ def _lightest_first(by_width: dict[int, list[tuple]], min_width: int = 1) -> lis
 
 
 def _lightest_by_level(
-    max_side: int, max_levels: int, beam: int, wall: bool = False, extent: int | None = None, per_width: bool = True
+    max_side: int, max_levels: int, beam: int, wall: bool = False, extent: int | Box | None = None, per_width: bool = True
 ) -> Iterator[tuple[int, dict[int, list[tuple]]]]:
     """For each height from 2 to ``max_levels``: the one-rule-per-level designs (:func:`.samples.by_level_rules`,
     one cell thick with ``wall``, cut ``extent`` cells from their axis when given) a local rule grows, by width (the
@@ -468,10 +469,14 @@ def taught_tilings(
     return taught
 
 
-def _lightest_by_class(rules: tuple[str, ...], tied: int, extent: int, passes: int, rng: random.Random) -> Structure | None:
-    """From a one-rule-per-level design cut ``extent`` cells from its axis, a first-improvement descent over a rule
-    per in-degree class (:func:`.samples.level_rule_moves`) on the largest static load (held and sliding ground),
-    among designs of the same height that a local rule grows whole; the lightest found (None when none is)."""
+def _lightest_by_class(
+    rules: tuple[str, ...], tied: int, extent: int | Box, passes: int, rng: random.Random,
+    footprint: tuple[int, int] | None = None,
+) -> Structure | None:  # fmt: skip
+    """From a one-rule-per-level design cut ``extent`` cells from its axis (or to a box), a first-improvement descent
+    over a rule per in-degree class (:func:`.samples.level_rule_moves`) on the largest static load (held and sliding
+    ground), among designs of the same height (and ``footprint``, when given) that a local rule grows whole; the
+    lightest found (None when none is)."""
     from structgen.domains.structures.samples import IN_DEGREE_CLASSES, by_level_rules, level_rule_moves
     from structgen.domains.structures.tall import largest_static_load, teachable
 
@@ -480,6 +485,7 @@ def _lightest_by_class(rules: tuple[str, ...], tied: int, extent: int, passes: i
     def load(design: tuple[list, int]) -> tuple[float, Structure | None]:
         structure = by_level_rules(*design, extent)
         if (structure is None or structure.n_vertices > MAX_VERTICES or dimensions(structure)[2] != levels
+                or (footprint is not None and dimensions(structure)[:2] != footprint)
                 or not teachable(structure, whole=True)):  # fmt: skip
             return math.inf, None
         return largest_static_load(structure), structure
@@ -567,17 +573,103 @@ def taught_clipped(
     return taught
 
 
+def spec_box(width: int, depth: int) -> Box:
+    """The growth box of a ``width`` x ``depth`` footprint around a seed at its middle (the lower middle of an even
+    side), as offsets from the seed: the box :func:`box_for` gives with that seed place."""
+    return (-((width - 1) // 2), width - 1 - (width - 1) // 2, -((depth - 1) // 2), depth - 1 - (depth - 1) // 2)
+
+
+@dataclass(frozen=True)
+class _BoxedSearch:
+    """One footprint's step of :func:`taught_boxed` (a worker's job): ``(height, weights, peak)`` for each height it
+    holds, lowest first."""
+
+    beam: int
+    candidates: int
+    starts: int
+    passes: int
+    seed: int
+
+    def __call__(self, job: tuple[int, int, tuple[int, ...]]) -> list[tuple[int, np.ndarray, float]]:
+        from physics import PhysicsConfig
+        from physics.statics import check_statics
+        from structgen.domains.structures.tall import teachable, transient_peak
+        from structgen.domains.structures.teach import TeachError, teach
+
+        width, depth, heights = job
+        box, break_force = spec_box(width, depth), PhysicsConfig().break_force
+        taught: list[tuple[int, np.ndarray, float]] = []
+        for height, by_width in _lightest_by_level(depth, max(heights), self.beam, extent=box, per_width=False):
+            if height not in heights:
+                continue
+            fills = [e for e in _lightest_first(by_width) if dimensions(e[3])[:2] == (width, depth)]
+            designs = [c for _, _, _, c in fills if teachable(c, whole=True) and check_statics(c).stands][: self.candidates]
+            for start, (_, rules, tied, _) in enumerate(fills[: self.starts]):
+                rng = random.Random(f"{self.seed}/{width}x{depth}x{height}/{start}")
+                found = _lightest_by_class(rules, tied, box, self.passes, rng, footprint=(width, depth))
+                if found is not None and check_statics(found).stands:
+                    designs.append(found)
+            # The static analysis is lenient on narrow, tall frames: the one that holds in PyBullet's first 0.3 s
+            # with the most to spare is taught.
+            peaks = sorted((transient_peak(d), k) for k, d in enumerate(designs))
+            for peak, k in peaks:
+                if peak > break_force:
+                    break
+                try:
+                    taught.append((height, teach(designs[k]).weights, peak))
+                    break
+                except TeachError:
+                    continue
+            if not taught or taught[-1][0] != height:
+                break  # a taller design in the same box carries more still
+        return taught
+
+
+def taught_boxed(
+    specs: np.ndarray | list[tuple[int, int, int]], beam: int = 12, candidates: int = 2, starts: int = 2,
+    passes: int = 2, seed: int = 0, workers: int = 0, progress: bool = False,
+) -> list[tuple[int, np.ndarray]]:  # fmt: skip
+    """Designs searched in each spec's own box, taught: ``(height, weights)``. :func:`taught_clipped` cuts its
+    designs to square boxes around their axis, so a footprint with an even side, or one longer than wide, gets only
+    what a square design leaves when grown there; here the one-rule-per-level beam search runs with the growth cut
+    to the footprint's box (:func:`spec_box`, the seed at its middle), and from the ``starts`` lightest designs that
+    fill it a per-class descent (:func:`_lightest_by_class`, ``passes`` passes) runs in the same box. Of the
+    ``candidates`` lightest one-rule designs that stand by the static analysis and the per-class ones, the one with
+    the lowest peak in PyBullet's first 0.3 s (:func:`.tall.transient_peak`) is taught if that peak is within the
+    break force. ``specs`` (width at most depth) are taken a footprint at a time, lowest height first, and a
+    footprint stops at the first height none holds. Footprints run in ``workers`` processes (0: this one); the
+    result is the same whatever ``workers``."""
+    from tqdm import tqdm
+
+    from evolution.pool import Lost, WorkerPool
+
+    by_footprint: dict[tuple[int, int], list[int]] = {}
+    for width, depth, height in (tuple(int(v) for v in spec) for spec in specs):
+        if width > depth:
+            raise ValueError(f"specs must have width at most depth, got {width}x{depth}")
+        by_footprint.setdefault((width, depth), []).append(height)
+    jobs = [(w, d, tuple(sorted(set(h)))) for (w, d), h in sorted(by_footprint.items())]
+    bar = tqdm(total=len(jobs), desc="design library: boxed designs", unit="footprint", disable=not progress)
+    with WorkerPool(workers, quiet=True) as pool:
+        found = pool.map(_BoxedSearch(beam, candidates, starts, passes, seed), jobs, done=lambda _: bar.update(1))
+    bar.close()
+    return [(height, weights) for result in found if not isinstance(result, Lost) for height, weights, _ in result]
+
+
 def build_library(
     ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 64, answers_each: int = 6,
     starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
-    tilings: bool = True, clipped: bool = True, screen: bool = True, workers: int = 0, progress: bool = False,
+    tilings: bool = True, clipped: bool = True, screen: bool = True, boxed: bool = True, workers: int = 0,
+    progress: bool = False,
 ) -> DesignLibrary:  # fmt: skip
     """Search ``ncas`` NCAs by MAP-Elites over the spec grid (footprints up to ``max_side`` square, heights up to
     ``max_levels``; see the module's docstring), keep the ``keep`` that cover the most specs with up to
     ``answers_each`` answers each, and list everything those meet; then, with ``tilings``, add the taught tilings,
-    and with ``clipped`` the taught designs cut to narrow boxes (:func:`add_taught`); last, with ``screen``, the
-    answers that break in PyBullet's first 0.3 s are dropped (:func:`screened`, in ``workers`` processes). The same
-    arguments give the same library, whatever ``workers``."""
+    and with ``clipped`` the taught designs cut to narrow boxes (:func:`add_taught`); then, with ``screen``, the
+    answers that break in PyBullet's first 0.3 s are dropped (:func:`screened`, in ``workers`` processes). Last, with
+    ``boxed``, designs searched in the boxes of the specs still unmet (:func:`taught_boxed`, those equilibrium does
+    not rule out) are added, and their answers screened alike. The same arguments give the same library, whatever
+    ``workers``."""
     from ribs.archives import GridArchive
     from tqdm import tqdm
 
@@ -646,6 +738,14 @@ def build_library(
         library.info["clipped_seconds"] = round(time.perf_counter() - clipped_started, 1)
     if screen:
         library = screened(library, workers=workers, progress=progress)
+    if boxed:
+        boxed_started = time.perf_counter()
+        met, first = library.specs(), len(library.families)
+        unmet = [s for s in map(tuple, specs.tolist()) if s not in met and s[2] <= tallest_possible(s[0], s[1])]
+        library = add_taught(library, taught_boxed(unmet, workers=workers, progress=progress), specs, "boxed")
+        if screen:
+            library = screened(library, workers=workers, progress=progress, from_nca=first)
+        library.info["boxed_seconds"] = round(time.perf_counter() - boxed_started, 1)
     library.info.update({
         "name": f"design library (seed {seed}, {ncas} NCAs searched)", "ncas_searched": ncas, "seed": seed,
         "specs_each": specs_each, "search_seconds": round(searched, 1),

@@ -21,6 +21,7 @@ from structgen.structure import Structure
 
 __all__ = [
     "IN_DEGREE_CLASSES",
+    "Box",
     "LEVEL_RULES",
     "WALL_RULES",
     "braced",
@@ -172,6 +173,8 @@ def in_degree_class(members_from_above: int) -> int:
 
 
 LevelRule = str | tuple[str, ...]
+#: A growth box as offsets from a design's axis: ``(x_low, x_high, y_low, y_high)``.
+Box = tuple[int, int, int, int]
 
 
 def level_rule_moves(rules: Iterable[LevelRule], tied_levels: int, rng: random.Random) -> list[tuple[list[tuple[str, ...]], int]]:
@@ -225,8 +228,31 @@ def _check_rule(rule: object) -> bool:
     )
 
 
+def _whole(value: object) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def _extent_bounds(extent: int | Box | None) -> Box | None:
+    """``extent`` (None, cells from the axis each way, or a :data:`Box`) as a box, checked."""
+    if extent is None:
+        return None
+    if _whole(extent) and extent >= 0:  # type: ignore[operator]
+        return (-int(extent), int(extent), -int(extent), int(extent))  # type: ignore[call-overload]
+    if (isinstance(extent, tuple) and len(extent) == 4 and all(_whole(v) for v in extent)
+            and extent[0] <= 0 <= extent[1] and extent[2] <= 0 <= extent[3]):  # fmt: skip
+        return tuple(int(v) for v in extent)  # type: ignore[return-value]
+    raise ValueError(
+        "extent must be None, a non-negative integer, or (x_low, x_high, y_low, y_high) whole offsets "
+        f"from the axis with each low <= 0 <= high; got {extent!r}"
+    )
+
+
 def by_level_rules(
-    rules: tuple[LevelRule, ...] | list[LevelRule], tied_levels: int = 0, extent: int | None = None, *, wall: bool = False
+    rules: tuple[LevelRule, ...] | list[LevelRule],
+    tied_levels: int = 0,
+    extent: int | Box | None = None,
+    *,
+    wall: bool = False,
 ) -> Structure | None:
     """A structure grown down from one top vertex, one rule per level (top first; letters as in :data:`LEVEL_RULES`):
     ``len(rules) + 1`` vertices tall, its lowest ``tied_levels`` levels also joined to their side neighbours. None when
@@ -237,9 +263,11 @@ def by_level_rules(
     can send more down than one a single member reaches. Both are the kind of regularity an NCA's shared local rule
     can express (:func:`.tall.teachable` says whether a given design's levels look different enough).
     ``extent`` keeps the footprint within that many cells of the axis, dropping reach beyond it as an NCA's growth
-    box does. ``wall`` keeps the design in the plane x = 0, one cell thick: each rule's reach across it dropped (S
-    and O reach along the wall only, C nowhere). :mod:`.tall` searches the one-rule designs for the tallest an NCA
-    can grow that stands; ``benchmarks/tall_classes.py`` the per-class ones.
+    box does; a :data:`Box` ``(x_low, x_high, y_low, y_high)`` of offsets from the axis cuts it to a box the axis
+    need not be the middle of (an even side, a seed off the middle). ``wall`` keeps the design in the plane x = 0,
+    one cell thick: each rule's reach across it dropped (S and O reach along the wall only, C nowhere). :mod:`.tall`
+    searches the one-rule designs for the tallest an NCA can grow that stands; ``benchmarks/tall_classes.py`` the
+    per-class ones.
     """
     if not rules or not all(_check_rule(rule) for rule in rules):
         raise ValueError(
@@ -248,8 +276,7 @@ def by_level_rules(
         )
     if not isinstance(tied_levels, int) or isinstance(tied_levels, bool) or tied_levels < 0:
         raise ValueError(f"tied_levels must be a non-negative integer, got {tied_levels!r}")
-    if extent is not None and (not isinstance(extent, int) or isinstance(extent, bool) or extent < 0):
-        raise ValueError(f"extent must be a non-negative integer or None, got {extent!r}")
+    bounds = _extent_bounds(extent)
     top = len(rules)
     level: dict[tuple[int, int], int] = {(0, 0): 1}  # cell -> members reaching it from above
     edges = []
@@ -261,7 +288,7 @@ def by_level_rules(
                 if wall and dx:
                     continue
                 cell = (x + dx, y + dy)
-                if extent is not None and max(abs(cell[0]), abs(cell[1])) > extent:
+                if bounds is not None and not (bounds[0] <= cell[0] <= bounds[1] and bounds[2] <= cell[1] <= bounds[3]):
                     continue
                 below[cell] = below.get(cell, 0) + 1
                 edges.append(((x, y, z), (cell[0], cell[1], z - 1)))
@@ -276,7 +303,7 @@ def by_level_rules(
 
 
 def by_level_rules_one_taller(
-    prefixes: Iterable[tuple[str, ...]], max_vertices: int, extent: int | None = None, *, wall: bool = False
+    prefixes: Iterable[tuple[str, ...]], max_vertices: int, extent: int | Box | None = None, *, wall: bool = False
 ) -> Iterator[tuple[tuple[str, ...], int, Structure]]:
     """``(rules, tied_levels, design)`` for every :func:`by_level_rules` design one level taller than one of
     ``prefixes`` (each rule of :data:`LEVEL_RULES` added below, with 0, 1 or 2 of the lowest levels tied), in that
