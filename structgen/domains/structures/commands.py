@@ -457,9 +457,11 @@ def cmd_design_library(args: argparse.Namespace) -> int:
     pyramids (wider than one pyramid of their height can be), and designs cut to narrow boxes (taller than a pyramid
     of their width can be), and add every spec they meet. Last, every answer the static analysis loads above 70 %
     of the break force is simulated for PyBullet's first 0.3 s and dropped if a joint would break (--workers
-    processes). The same options give the same library on the same machine, whatever --workers. About half an hour
-    per thousand NCAs on one core, ten minutes for the tilings, about an hour for the narrow designs (half of it
-    their rules per in-degree class, from five levels), and about an hour on 2 cores for the screen.
+    processes). Last, for the specs still unmet, designs are searched in each one's own box, taught, added and
+    screened alike. The same options give the same library on the same machine, whatever --workers. About half an
+    hour per thousand NCAs on one core, ten minutes for the tilings, about an hour for the narrow designs (half of
+    it their rules per in-degree class, from five levels), about an hour on 2 cores for the screen and 45 minutes
+    on 2 cores for the designs in their own boxes.
     """
     from structgen.domains.structures.design import build_library
 

@@ -23,7 +23,9 @@ a box wider than tall (and walls one cell thick, end to end, in a box one cell t
 at three levels, 1x11 at four) the search leaves. Then the same rules cut to narrow boxes (:func:`taught_clipped`),
 which meet some narrow, tall specs no pyramid reaches. Last, the static analysis being lenient near the break
 force, every answer it loads above 70 % of it is simulated for PyBullet's first 0.3 s and dropped if a joint would
-break there (:func:`screened`). Weights are kept as float32, as the file stores them.
+break there (:func:`screened`). Then designs searched in the boxes of the specs still unmet (:func:`taught_boxed`:
+even sides, boxes longer than wide), their answers screened alike. Weights are kept as float32, as the file stores
+them.
 
 A spec is ``width x depth`` cells on the ground (x by y) and ``height`` levels (z extent ``height - 1``); a spec
 with width over depth is met by a depth-by-width answer turned a quarter. Different seeds pick different answers
