@@ -301,9 +301,8 @@ def test_designs_searched_in_a_specs_own_box_meet_an_even_footprint_no_square_cu
 
     assert spec_box(2, 2) == (0, 1, 0, 1) and spec_box(3, 4) == (-1, 1, -1, 2) and spec_box(1, 1) == (0, 0, 0, 0)
     assert dimensions(by_level_rules(("S",) * 4, 0, spec_box(2, 5))) == (2, 5, 5)
-    # Two by two cells and five levels tall: the seed at a corner of the top, a design grown in that box holds. The
-    # footprint stops at six levels, where nothing of the search holds, and taller heights are not tried.
-    taught = taught_boxed([(2, 2, 5), (2, 2, 6), (2, 2, 7)], workers=2)
+    # Two by two cells and five levels tall: the seed at a corner of the top, a design grown in that box holds.
+    taught = taught_boxed([(2, 2, 5)])
     assert [height for height, _ in taught] == [5]
     boxed = add_taught(library, taught, specs=np.array([(2, 2, 5)]), kind="boxed")
     assert (2, 2, 5) in boxed.specs() and (2, 2, 5) not in library.specs() and boxed.info["boxed_ncas"] == 1
@@ -311,3 +310,19 @@ def test_designs_searched_in_a_specs_own_box_meet_an_even_footprint_no_square_cu
     assert dimensions(structure) == (2, 2, 5) and transient_peak(structure) <= 52.5
     with pytest.raises(ValueError, match="width at most depth"):
         taught_boxed([(3, 2, 4)])
+
+
+def test_a_footprint_searched_in_its_own_box_stops_at_the_first_height_nothing_holds(monkeypatch):
+    import structgen.domains.structures.design as design_module
+
+    heights = []
+    descent = design_module._lightest_by_class
+
+    def counted(rules, *args, **kwargs):
+        heights.append(len(rules) + 1)
+        return descent(rules, *args, **kwargs)
+
+    monkeypatch.setattr(design_module, "_lightest_by_class", counted)
+    # Two cells long and one wide: nothing the search finds of four levels holds there, so five is not searched.
+    assert taught_boxed([(1, 2, 4), (1, 2, 5)]) == []
+    assert heights and set(heights) == {4}
