@@ -583,7 +583,7 @@ def spec_box(width: int, depth: int) -> Box:
 
 @dataclass(frozen=True)
 class _BoxedSearch:
-    """One footprint's step of :func:`taught_boxed` (a worker's job): ``(height, weights, peak)`` for each height it
+    """One footprint's step of :func:`taught_boxed` (a worker's job): ``(height, weights)`` for each height it
     holds, lowest first."""
 
     beam: int
@@ -592,7 +592,7 @@ class _BoxedSearch:
     passes: int
     seed: int
 
-    def __call__(self, job: tuple[int, int, tuple[int, ...]]) -> list[tuple[int, np.ndarray, float]]:
+    def __call__(self, job: tuple[int, int, tuple[int, ...]]) -> list[tuple[int, np.ndarray]]:
         from physics import PhysicsConfig
         from physics.statics import check_statics
         from structgen.domains.structures.tall import teachable, transient_peak
@@ -600,7 +600,7 @@ class _BoxedSearch:
 
         width, depth, heights = job
         box, break_force = spec_box(width, depth), PhysicsConfig().break_force
-        taught: list[tuple[int, np.ndarray, float]] = []
+        taught: list[tuple[int, np.ndarray]] = []
         for height, by_width in _lightest_by_level(depth, max(heights), self.beam, extent=box, per_width=False):
             if height not in heights:
                 continue
@@ -618,7 +618,7 @@ class _BoxedSearch:
                 if peak > break_force:
                     break
                 try:
-                    taught.append((height, teach(designs[k]).weights, peak))
+                    taught.append((height, teach(designs[k]).weights))
                     break
                 except TeachError:
                     continue
@@ -640,7 +640,7 @@ def taught_boxed(
     the lowest peak in PyBullet's first 0.3 s (:func:`.tall.transient_peak`) is taught if that peak is within the
     break force. ``specs`` (width at most depth) are taken a footprint at a time, lowest height first, and a
     footprint stops at the first height none holds. Footprints run in ``workers`` processes (0: this one); the
-    result is the same whatever ``workers``."""
+    result is the same whatever ``workers``, and a footprint whose worker dies adds nothing."""
     from tqdm import tqdm
 
     from evolution.pool import Lost, WorkerPool
@@ -655,7 +655,7 @@ def taught_boxed(
     with WorkerPool(workers, quiet=True) as pool:
         found = pool.map(_BoxedSearch(beam, candidates, starts, passes, seed), jobs, done=lambda _: bar.update(1))
     bar.close()
-    return [(height, weights) for result in found if not isinstance(result, Lost) for height, weights, _ in result]
+    return [taught for result in found if not isinstance(result, Lost) for taught in result]
 
 
 def build_library(
