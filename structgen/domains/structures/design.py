@@ -578,7 +578,8 @@ def taught_clipped(
 def spec_box(width: int, depth: int) -> Box:
     """The growth box of a ``width`` x ``depth`` footprint around a seed at its middle (the lower middle of an even
     side), as offsets from the seed: the box :func:`box_for` gives with that seed place."""
-    return (-((width - 1) // 2), width - 1 - (width - 1) // 2, -((depth - 1) // 2), depth - 1 - (depth - 1) // 2)
+    box = box_for(width, depth, 1, "down", (width - 1) // 2, (depth - 1) // 2)
+    return (int(box[0, 0]), int(box[0, 1]), int(box[1, 0]), int(box[1, 1]))
 
 
 @dataclass(frozen=True)
@@ -605,11 +606,18 @@ class _BoxedSearch:
             if height not in heights:
                 continue
             fills = [e for e in _lightest_first(by_width) if dimensions(e[3])[:2] == (width, depth)]
-            designs = [c for _, _, _, c in fills if teachable(c, whole=True) and check_statics(c).stands][: self.candidates]
+            designs: list[Structure] = []
+            for _, _, _, candidate in fills:  # lightest first, so judging stops at the ones kept
+                if len(designs) == self.candidates:
+                    break
+                if teachable(candidate, whole=True) and check_statics(candidate).stands:
+                    designs.append(candidate)
             for start, (_, rules, tied, _) in enumerate(fills[: self.starts]):
                 rng = random.Random(f"{self.seed}/{width}x{depth}x{height}/{start}")
                 found = _lightest_by_class(rules, tied, box, self.passes, rng, footprint=(width, depth))
-                if found is not None and check_statics(found).stands:
+                # A descent that moved nothing gives back a design already listed: simulated once.
+                if (found is not None and _cells_key(found) not in {_cells_key(d) for d in designs}
+                        and check_statics(found).stands):  # fmt: skip
                     designs.append(found)
             # The static analysis is lenient on narrow, tall frames: the one that holds in PyBullet's first 0.3 s
             # with the most to spare is taught.
