@@ -365,6 +365,28 @@ def test_a_box_extent_cuts_growth_to_a_box_off_the_axis():
             by_level_rules(["S"], extent=bad)
 
 
+def test_a_mat_fills_the_footprint_on_the_ground_and_keeps_the_structure_whole():
+    from structgen.domains.structures.samples import on_mat
+
+    tower = by_level_rules(["S", "S"])  # 5 x 5 cells, three levels
+    matted = on_mat(tower, 7, 9)
+    assert tuple(int(v) for v in np.ptp(matted.vertices, axis=0) + 1) == (7, 9, 3)
+    ground = {tuple(v) for v in matted.vertices.tolist() if v[2] == 0}
+    assert ground == {(x, y, 0) for x in range(7) for y in range(9)}  # every floor cell, nothing off it
+    placed = tower.vertices - tower.vertices.min(axis=0) + [1, 2, 0]  # in the middle: (7 - 5) // 2, (9 - 5) // 2
+    assert np.array_equal(matted.vertices[: tower.n_vertices], placed)
+    assert {tuple(e) for e in tower.edges.tolist()} <= {tuple(e) for e in matted.edges.tolist()}
+    floor = 6 * 9 + 7 * 8  # side-neighbour pairs of a 7 x 9 grid
+    ties = sum(1 for i, j in tower.edges.tolist() if tower.vertices[i, 2] == tower.vertices[j, 2] == tower.vertices[:, 2].min())
+    assert matted.n_edges == tower.n_edges + floor - ties and matted.n_components == 1
+    assert check_statics(matted).stands
+    assert np.array_equal(on_mat(tower, 5, 5).vertices[: tower.n_vertices], tower.vertices - tower.vertices.min(axis=0))
+    with pytest.raises(ValueError, match="cannot hold"):
+        on_mat(tower, 4, 9)
+    with pytest.raises(ValueError, match="at must place"):
+        on_mat(tower, 7, 9, at=(3, 0))
+
+
 def test_one_level_taller_gives_each_distinct_design_once_within_the_cap():
     found = list(by_level_rules_one_taller([("S",), ("S",)], max_vertices=30))
     shapes = [(d.vertices.tobytes(), d.edges.tobytes()) for _, _, d in found]

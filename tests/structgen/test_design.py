@@ -30,6 +30,7 @@ from structgen.domains.structures.design import (
     tallest_possible,
     taught_boxed,
     taught_clipped,
+    taught_on_mats,
     taught_tilings,
 )
 from structgen.nca import load_weights
@@ -326,3 +327,21 @@ def test_a_footprint_searched_in_its_own_box_stops_at_the_first_height_nothing_h
     # Two cells long and one wide: nothing the search finds of four levels holds there, so five is not searched.
     assert taught_boxed([(1, 2, 4), (1, 2, 5)]) == []
     assert heights and set(heights) == {4}
+
+
+def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any_box_walls(library):
+    from structgen.domains.structures.tall import transient_peak
+
+    # The tower's top four levels stand on 3 x 3 cells; nothing in the library is 5 x 7 or 4 x 5 at four levels.
+    assert (3, 3, 4) in library.specs() and not {(5, 7, 4), (4, 5, 4)} & library.specs()
+    taught = taught_on_mats(library, [(4, 5, 4), (5, 7, 4)])
+    assert [height for height, _ in taught] == [4]  # one answer chosen for both, taught once on the larger mat
+    matted = add_taught(library, taught, specs=np.array([(4, 5, 4), (5, 7, 4), (4, 4, 4)]), kind="mat")
+    assert {(4, 5, 4), (5, 7, 4), (4, 4, 4)} <= matted.specs() and matted.info["mat_ncas"] == 1
+    for spec in (Spec(4, 5, 4), Spec(7, 5, 4)):  # in a smaller box than it was taught in, the walls stop the mat
+        structure = design(spec, 0, matted)
+        assert dimensions(structure) == (spec.width, spec.depth, 4) and transient_peak(structure) <= 52.5
+        floor = {tuple(v[:2]) for v in (structure.vertices - structure.vertices.min(axis=0)).tolist() if v[2] == 0}
+        assert len(floor) == spec.width * spec.depth  # every ground cell
+    with pytest.raises(ValueError, match="width at most depth"):
+        taught_on_mats(library, [(5, 4, 4)])

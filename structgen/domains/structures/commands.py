@@ -455,13 +455,15 @@ def cmd_design_library(args: argparse.Namespace) -> int:
     objective the safety margin below the break force), growing each in the boxes of --specs-each random specs; keep
     the --keep NCAs that answer the most specs and list every spec each meets; then teach NCAs to grow tilings of
     pyramids (wider than one pyramid of their height can be), and designs cut to narrow boxes (taller than a pyramid
-    of their width can be), and add every spec they meet. Last, every answer the static analysis loads above 70 %
-    of the break force is simulated for PyBullet's first 0.3 s and dropped if a joint would break (--workers
-    processes). Last, for the specs still unmet, designs are searched in each one's own box, taught, added and
-    screened alike. The same options give the same library on the same machine, whatever --workers. About half an
-    hour per thousand NCAs on one core, ten minutes for the tilings, about an hour for the narrow designs (half of
-    it their rules per in-degree class, from five levels), about an hour on 2 cores for the screen and 45 minutes
-    on 2 cores for the designs in their own boxes.
+    of their width can be), and add every spec they meet. Then every answer the static analysis loads above 70 % of
+    the break force is simulated for PyBullet's first 0.3 s and dropped if a joint would break (--workers
+    processes). Then, for the specs still unmet, designs are searched in each one's own box, taught, added and
+    screened alike; last, answers of smaller footprints are set on a floor mat that fills an unmet spec's footprint
+    (the mat lies on the ground and carries only itself), taught, added and screened alike. The same options give
+    the same library on the same machine, whatever --workers. About half an hour per thousand NCAs on one core, ten
+    minutes for the tilings, about an hour for the narrow designs (half of it their rules per in-degree class, from
+    five levels), about an hour on 2 cores for the screen, 45 minutes on 2 cores for the designs in their own boxes
+    and a few minutes for the mats.
     """
     from structgen.domains.structures.design import build_library
 

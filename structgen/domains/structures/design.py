@@ -24,8 +24,9 @@ at three levels, 1x11 at four) the search leaves. Then the same rules cut to nar
 which meet some narrow, tall specs no pyramid reaches. Last, the static analysis being lenient near the break
 force, every answer it loads above 70 % of it is simulated for PyBullet's first 0.3 s and dropped if a joint would
 break there (:func:`screened`). Then designs searched in the boxes of the specs still unmet (:func:`taught_boxed`:
-even sides, boxes longer than wide), their answers screened alike. Weights are kept as float32, as the file stores
-them.
+even sides, boxes longer than wide), their answers screened alike; and last, for specs wider than one met at
+their height, the met answer set on a floor mat that fills the wider footprint (:func:`taught_on_mats`). Weights
+are kept as float32, as the file stores them.
 
 A spec is ``width x depth`` cells on the ground (x by y) and ``height`` levels (z extent ``height - 1``); a spec
 with width over depth is met by a depth-by-width answer turned a quarter. Different seeds pick different answers
@@ -666,10 +667,57 @@ def taught_boxed(
     return [taught for result in found if not isinstance(result, Lost) for taught in result]
 
 
+def taught_on_mats(
+    library: DesignLibrary, specs: np.ndarray | list[tuple[int, int, int]], tries: int = 4
+) -> list[tuple[int, np.ndarray]]:
+    """NCAs taught to grow a design the library has on a floor mat (:func:`.samples.on_mat`): ``(height, weights)``.
+    A spec no answer meets may be wider than one that is met at its height (a tower that stands on 3x3 cells where
+    nothing 11x11 does); that answer set on a mat filling the spec's footprint meets it, the mat lying on the ground
+    and carrying only itself. For each of ``specs`` (width at most depth), the ``down`` answers of its height that
+    fit inside it, the smallest footprint and then the lowest static load first (``tries`` of them), are grown and
+    set in the middle of a mat of the spec's footprint, and the first that holds there in PyBullet's first 0.3 s
+    (:func:`.tall.transient_peak`; the mat ties the feet together, which moves their load) is chosen. Each answer
+    chosen is taught once, on the mat of the largest footprint it was chosen for (in that box, so the mat's rule is
+    seen spreading every way it can), falling back to the next largest where no local rule grows it; grown in
+    another box, the NCA spreads the mat to that box's walls, which :func:`add_taught` finds."""
+    from physics import PhysicsConfig
+    from structgen.domains.structures.samples import on_mat
+    from structgen.domains.structures.tall import transient_peak
+    from structgen.domains.structures.teach import TeachError, teach
+
+    break_force = PhysicsConfig().break_force
+    answers, down = library.answers, np.array([family == "down" for family in library.families])
+    chosen: dict[int, list[tuple[int, int]]] = {}  # answer row -> the footprints it holds on a mat of
+    for width, depth, height in sorted((tuple(int(v) for v in spec) for spec in specs), key=lambda s: (s[2], s[0] * s[1], s)):
+        if width > depth:
+            raise ValueError(f"specs must have width at most depth, got {width}x{depth}")
+        fit = np.flatnonzero(down[answers[:, 0]] & (answers[:, 3] == height) & (answers[:, 1] <= width)
+                             & (answers[:, 2] <= depth))  # fmt: skip
+        for k in fit[np.lexsort((library.peaks[fit], answers[fit, 1] * answers[fit, 2]))][:tries]:
+            if transient_peak(on_mat(_grow_answer(library, answers[k]), width, depth)) <= break_force:
+                chosen.setdefault(int(k), []).append((width, depth))
+                break
+    taught = []
+    for k, footprints in chosen.items():
+        row = answers[k]
+        base, height = _grow_answer(library, row), int(row[3])
+        for width, depth in sorted(footprints, key=lambda f: (-f[0] * f[1], f)):
+            target = on_mat(base, width, depth)
+            seed = ((width - int(row[1])) // 2 + int(row[4]), (depth - int(row[2])) // 2 + int(row[5]))
+            top = int(np.flatnonzero((target.vertices == [*seed, height - 1]).all(axis=1))[0])
+            try:
+                taught.append((height, teach(target, seed_vertex=top, box=box_for(width, depth, height, "down", *seed)).weights))
+                break
+            except TeachError:
+                continue
+    return taught
+
+
 def build_library(
     ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 64, answers_each: int = 6,
     starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
-    tilings: bool = True, clipped: bool = True, screen: bool = True, boxed: bool = True, workers: int = 0,
+    tilings: bool = True, clipped: bool = True, screen: bool = True, boxed: bool = True, mats: bool = True,
+    workers: int = 0,
     progress: bool = False,
 ) -> DesignLibrary:  # fmt: skip
     """Search ``ncas`` NCAs by MAP-Elites over the spec grid (footprints up to ``max_side`` square, heights up to
@@ -678,8 +726,9 @@ def build_library(
     and with ``clipped`` the taught designs cut to narrow boxes (:func:`add_taught`); then, with ``screen``, the
     answers that break in PyBullet's first 0.3 s are dropped (:func:`screened`, in ``workers`` processes). Last, with
     ``boxed``, designs searched in the boxes of the specs still unmet (:func:`taught_boxed`, those equilibrium does
-    not rule out) are added, and their answers screened alike. The same arguments give the same library, whatever
-    ``workers``."""
+    not rule out) are added, and their answers screened alike; and with ``mats``, for the specs still unmet, answers
+    of smaller footprints set on a floor mat filling theirs (:func:`taught_on_mats`), screened alike. The same
+    arguments give the same library, whatever ``workers``."""
     from ribs.archives import GridArchive
     from tqdm import tqdm
 
@@ -748,14 +797,19 @@ def build_library(
         library.info["clipped_seconds"] = round(time.perf_counter() - clipped_started, 1)
     if screen:
         library = screened(library, workers=workers, progress=progress)
-    if boxed:
-        boxed_started = time.perf_counter()
+    for kind, wanted, teach_for in (
+        ("boxed", boxed, lambda _, unmet: taught_boxed(unmet, workers=workers, progress=progress)),
+        ("mat", mats, taught_on_mats),  # from the answers of the library as it stands by then
+    ):  # fmt: skip
+        if not wanted:
+            continue
+        step_started = time.perf_counter()
         met, first = library.specs(), len(library.families)
         unmet = [s for s in map(tuple, specs.tolist()) if s not in met and s[2] <= tallest_possible(s[0], s[1])]
-        library = add_taught(library, taught_boxed(unmet, workers=workers, progress=progress), specs, "boxed")
+        library = add_taught(library, teach_for(library, unmet), specs, kind)
         if screen:
-            library = screened(library, workers=workers, progress=progress, from_nca=first)
-        library.info["boxed_seconds"] = round(time.perf_counter() - boxed_started, 1)
+            library = screened(library, workers=workers, progress=progress, from_nca=first, step=kind)
+        library.info[f"{kind}_seconds"] = round(time.perf_counter() - step_started, 1)
     library.info.update({
         "name": f"design library (seed {seed}, {ncas} NCAs searched)", "ncas_searched": ncas, "seed": seed,
         "specs_each": specs_each, "search_seconds": round(searched, 1),
@@ -820,7 +874,7 @@ def _transient_peak_of(library: DesignLibrary, row: np.ndarray) -> float:
 
 def screened(
     library: DesignLibrary, above_share: float = SCREEN_ABOVE_SHARE, workers: int = 0, progress: bool = False,
-    from_nca: int = 0,
+    from_nca: int = 0, step: str = "added",
 ) -> DesignLibrary:  # fmt: skip
     """``library`` without the answers PyBullet breaks: each answer the static analysis loads above ``above_share``
     of the break force is grown and run for the faithful preset's first 0.3 s with unbreakable joints
@@ -832,7 +886,7 @@ def screened(
     library gives the same result whatever ``workers`` (processes; 0: this one); an answer whose worker dies is
     dropped. Only the answers of NCAs numbered ``from_nca`` and on are simulated: those of the NCAs before were
     screened already (a library extended by :func:`add_taught`). ``info`` counts what went (``screen_*``, or
-    ``screen_added_*`` from a later NCA, keeping the first screen's counts)."""
+    ``screen_<step>_*`` from a later NCA, keeping the earlier screens' counts)."""
     from tqdm import tqdm
 
     from evolution.pool import Lost, WorkerPool
@@ -856,7 +910,7 @@ def screened(
     kept = DesignLibrary([library.families[n] for n in used], library.weights[used], answers, static_peaks)
     counts = {"above_share": above_share, "simulated": len(rows), "answers_dropped": int((~keep).sum()),
               "specs_lost": len(library.specs() - kept.specs()), "seconds": round(time.perf_counter() - started, 1)}  # fmt: skip
-    prefix = "screen_added_" if from_nca else "screen_"
+    prefix = f"screen_{step}_" if from_nca else "screen_"
     kept.info = {**library.info, **{prefix + key: value for key, value in counts.items()}}
     return kept
 

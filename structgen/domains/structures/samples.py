@@ -34,6 +34,7 @@ __all__ = [
     "flat_edge",
     "in_degree_class",
     "level_rule_moves",
+    "on_mat",
     "parse_level_rules",
     "random_growth",
     "six_level_rule_design",
@@ -124,6 +125,36 @@ def _from_cell_pairs(edges: list[tuple[tuple[int, int, int], tuple[int, int, int
         for point in pair:
             index.setdefault(point, len(index))
     return Structure(list(index), [[index[a], index[b]] for a, b in edges], metadata)
+
+
+def on_mat(structure: Structure, width: int, depth: int, at: tuple[int, int] | None = None) -> Structure:
+    """``structure`` set on a floor mat that fills a ``width`` x ``depth`` footprint: every ground cell of it a
+    vertex, joined to its side neighbours (the structure's own ground vertices among them). The mat lies on the
+    ground and carries nothing but itself, so a structure that stands on a smaller footprint gives one of this
+    footprint that stands too, nearly always (the mat ties its feet together, which moves their load a little); and
+    an NCA taught to grow it spreads the mat to the walls of whatever box it grows in. ``at``: where the
+    structure's low corner sits on the mat, in cells (default: the middle, the lower middle where the room left is
+    odd). Vertices are cells from the mat's low corner; the structure's own come first, in their order."""
+    cells = structure.vertices - structure.vertices.min(axis=0)
+    span = cells.max(axis=0) + 1
+    if not (_whole(width) and _whole(depth) and width >= span[0] and depth >= span[1]):
+        raise ValueError(f"a mat of {width!r} x {depth!r} cells cannot hold a structure {span[0]} x {span[1]} cells wide")
+    room = (width - int(span[0]), depth - int(span[1]))
+    at = (room[0] // 2, room[1] // 2) if at is None else at
+    if not (len(at) == 2 and all(_whole(v) and 0 <= v <= r for v, r in zip(at, room))):
+        raise ValueError(f"at must place the structure on the mat: 0..{room[0]} by 0..{room[1]} cells, got {at!r}")
+    cells = cells + [int(at[0]), int(at[1]), 0]
+    index = {tuple(c): i for i, c in enumerate(cells.tolist())}
+    for x in range(width):
+        for y in range(depth):
+            index.setdefault((x, y, 0), len(index))
+    edges = {tuple(sorted(edge)) for edge in structure.edges.tolist()}
+    for x in range(width):
+        for y in range(depth):
+            edges.update(tuple(sorted((index[(x, y, 0)], index[(x + dx, y + dy, 0)])))
+                         for dx, dy in ((1, 0), (0, 1)) if x + dx < width and y + dy < depth)  # fmt: skip
+    metadata = {**structure.metadata, "mat": [int(width), int(depth)]}
+    return Structure(list(index), sorted(edges), metadata)
 
 
 def sparse_pyramid(levels: int) -> Structure:
