@@ -60,6 +60,7 @@ __all__ = [
     "Spec",
     "UnmeetableSpec",
     "build_library",
+    "canonical_specs",
     "design",
     "load_library",
     "tallest_possible",
@@ -294,8 +295,9 @@ def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, phys
 
 
 # -- building the library -----------------------------------------------------------------------------------------------
-def _canonical_specs(max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS) -> np.ndarray:
-    """Every spec of the grid with width at most depth."""
+def canonical_specs(max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS) -> np.ndarray:
+    """Every spec of the grid with width at most depth (a wider one is met by its answer turned a quarter): the 528
+    specs of the documented range, by default."""
     return np.array([(w, d, h) for w in range(1, max_side + 1) for d in range(w, max_side + 1) for h in range(1, max_levels + 1)])
 
 
@@ -750,7 +752,7 @@ def build_library(
         for family in FAMILIES
     }  # fmt: skip
     found = _Found()
-    specs = _canonical_specs(max_side, max_levels)
+    specs = canonical_specs(max_side, max_levels)
 
     def add(new: list[tuple[str, np.ndarray]]) -> None:
         ids = []
@@ -924,7 +926,7 @@ def add_taught(
     can be added to a library already built; ``info`` counts what ``kind`` added."""
     if not taught:
         return library
-    specs = _canonical_specs() if specs is None else specs
+    specs = canonical_specs() if specs is None else specs
     first = len(library.families)
     weights = np.concatenate([library.weights.astype(np.float32), np.stack([w for _, w in taught]).astype(np.float32)])
     families = [*library.families, *["down"] * len(taught)]
