@@ -719,8 +719,7 @@ def build_library(
     ncas: int = 2_000, seed: int = 0, *, specs_each: int = 48, batch: int = 16, keep: int = 64, answers_each: int = 6,
     starts: dict[str, list[np.ndarray]] | None = None, max_side: int = MAX_SIDE, max_levels: int = MAX_LEVELS,
     tilings: bool = True, clipped: bool = True, screen: bool = True, boxed: bool = True, mats: bool = True,
-    workers: int = 0,
-    progress: bool = False,
+    workers: int = 0, progress: bool = False,
 ) -> DesignLibrary:  # fmt: skip
     """Search ``ncas`` NCAs by MAP-Elites over the spec grid (footprints up to ``max_side`` square, heights up to
     ``max_levels``; see the module's docstring), keep the ``keep`` that cover the most specs with up to
