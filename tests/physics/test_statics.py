@@ -383,8 +383,9 @@ def test_a_mat_fills_the_footprint_on_the_ground_and_keeps_the_structure_whole()
     assert np.array_equal(on_mat(tower, 5, 5).vertices[: tower.n_vertices], tower.vertices - tower.vertices.min(axis=0))
     with pytest.raises(ValueError, match="cannot hold"):
         on_mat(tower, 4, 9)
-    with pytest.raises(ValueError, match="at must place"):
-        on_mat(tower, 7, 9, at=(3, 0))
+    for bad in ((3, 0), (1,), 1, (1.0, 2)):  # off the mat; not two whole cells
+        with pytest.raises(ValueError, match="at must place"):
+            on_mat(tower, 7, 9, at=bad)
 
 
 def test_one_level_taller_gives_each_distinct_design_once_within_the_cap():

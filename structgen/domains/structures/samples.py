@@ -141,7 +141,7 @@ def on_mat(structure: Structure, width: int, depth: int, at: tuple[int, int] | N
         raise ValueError(f"a mat of {width!r} x {depth!r} cells cannot hold a structure {span[0]} x {span[1]} cells wide")
     room = (width - int(span[0]), depth - int(span[1]))
     at = (room[0] // 2, room[1] // 2) if at is None else at
-    if not (len(at) == 2 and all(_whole(v) and 0 <= v <= r for v, r in zip(at, room))):
+    if not (isinstance(at, (tuple, list)) and len(at) == 2 and all(_whole(v) and 0 <= v <= r for v, r in zip(at, room))):
         raise ValueError(f"at must place the structure on the mat: 0..{room[0]} by 0..{room[1]} cells, got {at!r}")
     cells = cells + [int(at[0]), int(at[1]), 0]
     index = {tuple(c): i for i, c in enumerate(cells.tolist())}
