@@ -703,10 +703,11 @@ def taught_on_mats(
     for k, footprints in chosen.items():
         row = answers[k]
         base, height = _grow_answer(library, row), int(row[3])
+        # The seed is the answer's own: on_mat keeps the base's vertices first, in their order.
+        top = int(np.flatnonzero((base.vertices - base.vertices.min(axis=0) == [row[4], row[5], height - 1]).all(axis=1))[0])
         for width, depth in sorted(footprints, key=lambda f: (-f[0] * f[1], f)):
             target = on_mat(base, width, depth)
-            seed = ((width - int(row[1])) // 2 + int(row[4]), (depth - int(row[2])) // 2 + int(row[5]))
-            top = int(np.flatnonzero((target.vertices == [*seed, height - 1]).all(axis=1))[0])
+            seed = target.vertices[top, :2]
             try:
                 taught.append((height, teach(target, seed_vertex=top, box=box_for(width, depth, height, "down", *seed)).weights))
                 break
