@@ -20,11 +20,13 @@ from structgen.domains.structures.design import (
     _Found,
     _grow_answer,
     _judge,
+    above_ground,
     add_taught,
     build_library,
     design,
     dimensions,
     load_library,
+    on_a_mat,
     screened,
     spec_box,
     tallest_possible,
@@ -33,6 +35,7 @@ from structgen.domains.structures.design import (
     taught_on_mats,
     taught_tilings,
 )
+from structgen.domains.structures import samples
 from structgen.nca import load_weights
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
@@ -155,6 +158,7 @@ def test_design_on_the_command_line(library, tmp_path, capsys):
     assert main(["design", "--footprint", "5x5", "--height", "6", "--library", str(path), "-o", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["dimensions"] == [5, 5, 6] and summary["stands"] and summary["peak_load_share"] <= 1.0
+    assert summary["on_mat"] is False and summary["above_ground"] == list(above_ground(Structure.load(out)))
     assert dimensions(Structure.load(out)) == (5, 5, 6)
     assert main(["design", "--footprint", "7x7", "--height", "8", "--library", str(path), "-o", str(tmp_path / "no.json")]) == 2
     assert "the nearest that can be met: footprint 7x7, height 6" in capsys.readouterr().err
@@ -332,7 +336,7 @@ def test_a_footprint_searched_in_its_own_box_stops_at_the_first_height_nothing_h
     assert heights and set(heights) == {4}
 
 
-def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any_box_walls(library):
+def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any_box_walls(library, tmp_path, capsys):
     from structgen.domains.structures.tall import transient_peak
 
     # The tower's top four levels stand on 3 x 3 cells; nothing in the library is 5 x 7 or 4 x 5 at four levels.
@@ -346,5 +350,22 @@ def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any
         assert dimensions(structure) == (spec.width, spec.depth, 4) and transient_peak(structure) <= 52.5
         floor = {tuple(v[:2]) for v in (structure.vertices - structure.vertices.min(axis=0)).tolist() if v[2] == 0}
         assert len(floor) == spec.width * spec.depth  # every ground cell
+        assert structure.metadata["design"]["above_ground"] == [3, 3]  # the tower, turned or not
+    # Seven cells of floor are more than the 3 x 3 tower's members can reach: the user is told it stands on a mat.
+    path = matted.save(tmp_path / "mats.npz")
+    assert main(["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "-o", str(tmp_path / "m.json")]) == 0
+    assert "a 3x3 tower on a floor mat filling the footprint" in capsys.readouterr().out
     with pytest.raises(ValueError, match="width at most depth"):
         taught_on_mats(library, [(5, 4, 4)])
+
+
+def test_a_tower_on_a_mat_is_told_from_a_frame_that_fills_its_footprint():
+    pyramid = samples.sparse_pyramid(4)  # every ground vertex reached from the level above
+    assert not on_a_mat(pyramid) and dimensions(pyramid) == (7, 7, 4) and above_ground(pyramid) == (5, 5)
+    assert on_a_mat(samples.on_mat(pyramid, 9, 7)) and above_ground(samples.on_mat(pyramid, 9, 7)) == above_ground(pyramid)
+    width, depth, _ = dimensions(pyramid)
+    # A mat one cell wider each way is within the reach of the members above: nothing tells it from a tied foot.
+    assert not on_a_mat(samples.on_mat(pyramid, width, depth))
+    flat = samples.on_mat(samples.column(1), 3, 3)
+    assert not on_a_mat(flat) and above_ground(flat) is None
+    assert on_a_mat(samples.on_mat(samples.column(3), 1, 4, at=(0, 0)))  # a post at one end of a one-cell-wide wall

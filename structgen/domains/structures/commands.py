@@ -410,6 +410,8 @@ def cmd_design(args: argparse.Namespace) -> int:
     standing, in milliseconds; the library's answers that the static analysis loads near the break force were also
     simulated for PyBullet's first 0.3 s when it was built, and those that break there left out. --seed picks among
     the library's answers for the spec. A spec no answer meets is an error naming the nearest spec that can be met.
+    Some specs are met by a tower of a smaller footprint standing on a floor mat that fills the spec's: the output
+    says so (--json: "on_mat", and "above_ground", the footprint of the levels above the ground).
     Writes OUT by its suffix (json, glb, obj, stl, ply).
     """
     from structgen.domains.structures.design import Spec, UnmeetableSpec, design, dimensions, load_library
@@ -434,14 +436,16 @@ def cmd_design(args: argparse.Namespace) -> int:
         "file": str(path), "spec": made["spec"], "seed": args.seed, "dimensions": list(dimensions(structure)),
         "vertices": structure.n_vertices, "members": structure.n_edges, "stands": report.stands,
         "peak_load_share": float(np.nanmax(shares)) if structure.n_edges else 0.0, "answers": made["answers"],
-        "seconds": round(seconds, 3),
+        "on_mat": made["on_mat"], "above_ground": made["above_ground"], "seconds": round(seconds, 3),
     }  # fmt: skip
     if args.json:
         print(json.dumps(summary))
     else:
         print(
             f"{path}: {spec}: {structure.n_vertices} vertices, {structure.n_edges} members, peak load "
-            f"{summary['peak_load_share']:.0%} of the break force, stands (static analysis); "
+            f"{summary['peak_load_share']:.0%} of the break force, stands (static analysis)"
+            + ("; a {}x{} tower on a floor mat filling the footprint".format(*made["above_ground"]) if made["on_mat"] else "")
+            + "; "
             + (f"one of {made['answers']} answers (--seed picks)" if made["answers"] > 1 else "the only answer")
             + f", {seconds:.2f} s"
         )

@@ -59,10 +59,12 @@ __all__ = [
     "DesignLibrary",
     "Spec",
     "UnmeetableSpec",
+    "above_ground",
     "build_library",
     "canonical_specs",
     "design",
     "load_library",
+    "on_a_mat",
     "tallest_possible",
 ]
 
@@ -128,6 +130,30 @@ def _seed_places(side: int) -> range:
 def dimensions(structure: Structure) -> tuple[int, int, int]:
     """(width, depth, height in levels) of a structure's bounding box."""
     return tuple(int(v) for v in np.ptp(structure.vertices, axis=0) + 1)  # type: ignore[return-value]
+
+
+def above_ground(structure: Structure) -> tuple[int, int] | None:
+    """(width, depth) of the cells a structure's vertices above its lowest level cover (None for one level): the
+    footprint of what stands on the ground, which a tower on a floor mat keeps smaller than its own."""
+    vertices = structure.vertices
+    raised = vertices[vertices[:, 2] > vertices[:, 2].min()]
+    if not len(raised):
+        return None
+    return tuple(int(v) for v in np.ptp(raised[:, :2], axis=0) + 1)  # type: ignore[return-value]
+
+
+def on_a_mat(structure: Structure) -> bool:
+    """Whether ``structure`` stands on a floor mat (as :func:`.samples.on_mat` makes and :func:`taught_on_mats`
+    teaches): part of its lowest level lies more than a cell beyond the footprint of the levels above, where no member
+    from above can reach (they reach a cell sideways at most), so it is floor joined along the ground. A design that
+    meets a spec so is honest to it (the footprint is what touches the ground, and it stands), but is a smaller tower
+    on a floor rather than a frame that fills the footprint, which a user may want to know."""
+    raised = structure.vertices[structure.vertices[:, 2] > structure.vertices[:, 2].min()]
+    if not len(raised):
+        return False
+    low, high = raised[:, :2].min(axis=0) - 1, raised[:, :2].max(axis=0) + 1
+    ground = structure.vertices[structure.vertices[:, 2] == structure.vertices[:, 2].min(), :2]
+    return bool(((ground < low) | (ground > high)).any())
 
 
 def _shape_key(structure: Structure) -> bytes:
@@ -290,6 +316,7 @@ def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, phys
         return structure.with_metadata(design={
             "spec": asdict(spec), "seed": seed, "nca": nca, "family": library.families[nca], "seed_place": [x_seed, y_seed],
             "turned": turned, "answers": int(len(rows)), "library": library.info.get("name", "design library"),
+            "on_mat": on_a_mat(structure), "above_ground": above_ground(structure),
         })  # fmt: skip
     raise UnmeetableSpec(f"none of the {len(rows)} answers for {spec} stands under these physics settings")
 
