@@ -34,6 +34,7 @@ from structgen.domains.structures.design import (
     taught_clipped,
     taught_on_mats,
     taught_tilings,
+    with_mat_flags,
 )
 from structgen.domains.structures import samples
 from structgen.nca import load_weights
@@ -127,7 +128,14 @@ def test_a_library_saves_and_loads_back(library, tmp_path):
     np.testing.assert_array_equal(loaded.answers, library.answers)
     np.testing.assert_array_equal(loaded.weights, library.weights.astype(np.float64))
     assert design(Spec(5, 5, 6), 1, loaded) == design(Spec(5, 5, 6), 1, library)
+    assert loaded.on_mat is None  # a library built before the flags: design grows answers in seed order alone
+    flagged = load_library(with_mat_flags(library).save(tmp_path / "flagged.npz"))
+    np.testing.assert_array_equal(flagged.on_mat, np.zeros(len(library.answers), dtype=bool))  # towers, no mats
     from structgen.errors import InputError
+
+    np.savez(tmp_path / "short.npz", **{**np.load(tmp_path / "flagged.npz"), "on_mat": np.zeros(3, dtype=bool)})
+    with pytest.raises(InputError, match=r"not a design library of this structgen .*on_mat \(3,\)"):
+        load_library(tmp_path / "short.npz")
 
     (tmp_path / "bad.npz").write_bytes(b"not a zip")
     with pytest.raises(InputError, match="not a design library"):
@@ -146,6 +154,9 @@ def test_building_a_small_library_is_reproducible_and_its_answers_hold():
     assert (first.answers[:, 1] <= first.answers[:, 2]).all() and first.answers[:, 1:4].max() <= 4
     # On so small a grid every step has work left: a design searched in its own box, an answer set on a mat.
     assert first.info["boxed_ncas"] >= 1 and first.info["mat_ncas"] >= 1 and len(first.specs()) >= 28  # of 30
+    np.testing.assert_array_equal(first.on_mat, again.on_mat)
+    for row in range(0, len(first.answers), max(1, len(first.answers) // 8)):  # flagged as grown
+        assert first.on_mat[row] == on_a_mat(_grow_answer(first, first.answers[row]))
     for row in first.answers[:: max(1, len(first.answers) // 6)]:
         width, depth, height = (int(v) for v in row[1:4])
         structure = design(Spec(width, depth, height), 0, first)
@@ -178,6 +189,11 @@ def test_the_shipped_library_answers_specs_across_the_documented_range():
     assert {(3, 3, 6), (4, 11, 6), (8, 10, 7)} <= met  # their rules per in-degree class
     assert {(2, 2, 5), (4, 4, 6), (6, 8, 7)} <= met  # designs searched in the spec's own box
     assert {(1, 9, 5), (3, 6, 6), (11, 11, 6), (6, 10, 7)} <= met  # smaller footprints' answers on a floor mat
+    # Which answers stand on a mat is known without growing them, and a spec with answers that fill it gets those.
+    for row in np.random.default_rng(5).choice(len(library.answers), 20, replace=False):
+        assert library.on_mat[row] == on_a_mat(_grow_answer(library, library.answers[row]))
+    assert not any(design(Spec(5, 5, 6), seed, library).metadata["design"]["on_mat"] for seed in range(5))
+    assert design(Spec(11, 11, 6), 0, library).metadata["design"]["on_mat"]  # met by towers on mats alone
     assert all(height <= 7 for width, _, height in met if width <= 6)
     for width, depth, height in wide_and_low[:2]:
         structure = design(Spec(width, depth, height), 3, library)
@@ -355,6 +371,9 @@ def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any
     path = matted.save(tmp_path / "mats.npz")
     assert main(["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "-o", str(tmp_path / "m.json")]) == 0
     assert "a 3x3 tower on a floor mat filling the footprint" in capsys.readouterr().out
+    refused = ["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "--no-mat", "-o", str(tmp_path / "n.json")]
+    assert main(refused) == 2 and not (tmp_path / "n.json").exists()
+    assert "stand on a floor mat, which was refused" in capsys.readouterr().err
     with pytest.raises(ValueError, match="width at most depth"):
         taught_on_mats(library, [(5, 4, 4)])
 

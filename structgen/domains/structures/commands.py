@@ -411,7 +411,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     simulated for PyBullet's first 0.3 s when it was built, and those that break there left out. --seed picks among
     the library's answers for the spec. A spec no answer meets is an error naming the nearest spec that can be met.
     Some specs are met by a tower of a smaller footprint standing on a floor mat that fills the spec's: the output
-    says so (--json: "on_mat", and "above_ground", the footprint of the levels above the ground).
+    says so (--json: "on_mat", and "above_ground", the footprint of the levels above the ground); --no-mat refuses them.
     Writes OUT by its suffix (json, glb, obj, stl, ply).
     """
     from structgen.domains.structures.design import Spec, UnmeetableSpec, design, dimensions, load_library
@@ -425,7 +425,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     library = load_library(args.library)
     try:
-        structure = design(spec, args.seed, library)
+        structure = design(spec, args.seed, library, mats=not args.no_mat)
     except UnmeetableSpec as err:
         raise InputError(str(err)) from None
     seconds = time.perf_counter() - started
@@ -755,6 +755,8 @@ class StructureCommands(DomainCommands):
              number("--height", 1, 10_000, help="levels (the z extent is one less)", required=True),
              number("--max-members", 0, 10**9, help="at most this many edges (default: any)"),
              seed("which of the spec's answers: different seeds, different designs where the library has several"),
+             flag("--no-mat", "refuse answers that are a smaller tower on a floor mat filling the footprint (some specs "
+                  "have no other)"),
              option("--library", type=Path, metavar="FILE.npz", help="a design library (default: the one that ships, "
                     "built by structgen design-library)"),
              output(help="the design (json, glb, obj, stl, ply)"), json_flag(),

@@ -66,6 +66,7 @@ __all__ = [
     "load_library",
     "on_a_mat",
     "tallest_possible",
+    "with_mat_flags",
 ]
 
 DEFAULT_LIBRARY = Path(__file__).with_name("design_library.npz")
@@ -173,22 +174,26 @@ def _cells_key(structure: Structure) -> bytes:
 @dataclass
 class DesignLibrary:
     """NCAs and the specs they meet: ``answers`` rows of (nca, width, depth, height, x_seed, y_seed, edges, vertices)
-    with ``peaks`` (the largest member load over the break force), widths never above depths."""
+    with ``peaks`` (the largest member load over the break force), widths never above depths; ``on_mat``, where
+    known (:func:`with_mat_flags`), says which answers are a smaller tower on a floor mat, so that :func:`design`
+    can offer those last."""
 
     families: list[str]
     weights: np.ndarray  # (K, n_params) float32
     answers: np.ndarray  # (M, 8) int32
     peaks: np.ndarray  # (M,) float32
     info: dict[str, Any] = field(default_factory=dict)
+    on_mat: np.ndarray | None = None  # (M,) bool
 
     COLUMNS = ("nca", "width", "depth", "height", "x_seed", "y_seed", "edges", "vertices")
 
     def save(self, path: str | Path) -> Path:
         buffer = io.BytesIO()
+        flags = {} if self.on_mat is None else {"on_mat": self.on_mat.astype(bool)}
         np.savez_compressed(
             buffer, weights=self.weights.astype(np.float32), answers=self.answers.astype(np.int32),
             peaks=self.peaks.astype(np.float32), families=np.array(self.families),
-            info=np.array(json.dumps(self.info)),
+            info=np.array(json.dumps(self.info)), **flags,
         )  # fmt: skip
         return atomic_write(path, buffer.getvalue())
 
@@ -230,15 +235,18 @@ def load_library(path: str | Path | None = None) -> DesignLibrary:
             library = DesignLibrary(
                 families=[str(f) for f in data["families"]], weights=data["weights"].astype(np.float64),
                 answers=data["answers"], peaks=data["peaks"], info=json.loads(str(data["info"])),
+                on_mat=data["on_mat"].astype(bool) if "on_mat" in data.files else None,
             )  # fmt: skip
     except FileNotFoundError:
         raise InputError(f"{path}: no design library there (build one with structgen design-library)") from None
     except (OSError, ValueError, KeyError) as err:
         raise InputError(f"{path}: not a design library ({err})") from None
     bad = [f for f in library.families if f not in FAMILIES]
-    if bad or library.weights.shape[1:] != (n_params(FAMILIES["down"]),) or library.answers.shape[1:] != (8,):
+    flags_fit = library.on_mat is None or library.on_mat.shape == library.answers.shape[:1]
+    if bad or library.weights.shape[1:] != (n_params(FAMILIES["down"]),) or library.answers.shape[1:] != (8,) or not flags_fit:
         raise InputError(f"{path}: not a design library of this structgen (families {bad or 'fine'}, weights "
-                         f"{library.weights.shape}, answers {library.answers.shape})")  # fmt: skip
+                         f"{library.weights.shape}, answers {library.answers.shape}"
+                         + ("" if flags_fit else f", on_mat {library.on_mat.shape}") + ")")  # fmt: skip
     return library
 
 
@@ -253,6 +261,22 @@ def _grow_answer(library: DesignLibrary, row: np.ndarray) -> Structure:
     family = library.families[nca]
     box = box_for(width, depth, height, family, x_seed, y_seed)
     return grow_population(library.weights[nca][None], FAMILIES[family], box[None])[0]
+
+
+def with_mat_flags(library: DesignLibrary) -> DesignLibrary:
+    """``library`` with ``on_mat`` set: every answer grown (in batches, as :func:`_judge` grows them) and asked
+    :func:`on_a_mat`. A few milliseconds an answer; :func:`build_library` does it last."""
+    flags = np.zeros(len(library.answers), dtype=bool)
+    families = np.array([library.families[n] for n in library.answers[:, 0]])
+    for family in FAMILIES:
+        rows = np.flatnonzero(families == family)
+        for start in range(0, len(rows), 512):
+            part = rows[start : start + 512]
+            boxes = np.stack([box_for(*(int(v) for v in library.answers[r, 1:4]), family, int(library.answers[r, 4]),
+                                      int(library.answers[r, 5])) for r in part])  # fmt: skip
+            grown = grow_population(library.weights[library.answers[part, 0]], FAMILIES[family], boxes)
+            flags[part] = [on_a_mat(structure) for structure in grown]
+    return DesignLibrary(library.families, library.weights, library.answers, library.peaks, library.info, flags)
 
 
 def tallest_possible(width: int, depth: int, physics: Any = None, cap: int = 100) -> int:
@@ -288,9 +312,12 @@ def tallest_possible(width: int, depth: int, physics: Any = None, cap: int = 100
     return levels
 
 
-def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, physics: Any = None) -> Structure:
+def design(
+    spec: Spec, seed: int = 0, library: DesignLibrary | None = None, physics: Any = None, *, mats: bool = True
+) -> Structure:
     """A structure grown by one of the library's NCAs that meets ``spec`` exactly and that the static analysis finds
-    standing; ``seed`` picks among the answers. :class:`UnmeetableSpec` names the nearest spec that can be met."""
+    standing; ``seed`` picks among the answers. :class:`UnmeetableSpec` names the nearest spec that can be met.
+    ``mats=False`` passes over answers that are a smaller tower on a floor mat (:func:`on_a_mat`)."""
     from physics.statics import check_statics
 
     library = library or load_library()
@@ -303,12 +330,18 @@ def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, phys
             where += f" (no structure on a {spec.width}x{spec.depth} footprint stands over {possible} levels)"
         raise UnmeetableSpec(f"no design in the library meets {spec}{where}")
     order = rows[np.random.default_rng(seed).permutation(len(rows))]
+    if library.on_mat is not None:  # answers that fill the footprint first; a tower on a mat only where none stands
+        order = np.concatenate([order[~library.on_mat[order]], order[library.on_mat[order]]])
+    matted = 0
     for row in order:
         structure = _grow_answer(library, library.answers[row])
         if turned:
             structure = _turned(structure)
         if dimensions(structure) != (spec.width, spec.depth, spec.height):
             continue  # cannot happen with a library built by this code; checked all the same
+        if not mats and on_a_mat(structure):
+            matted += 1
+            continue
         report = check_statics(structure, physics)
         if not report.stands:
             continue
@@ -318,6 +351,9 @@ def design(spec: Spec, seed: int = 0, library: DesignLibrary | None = None, phys
             "turned": turned, "answers": int(len(rows)), "library": library.info.get("name", "design library"),
             "on_mat": on_a_mat(structure), "above_ground": above_ground(structure),
         })  # fmt: skip
+    if matted:
+        raise UnmeetableSpec(f"{matted} of the {len(rows)} answers for {spec} stand on a floor mat, which was refused, and "
+                             "none of the others stands under these physics settings")  # fmt: skip
     raise UnmeetableSpec(f"none of the {len(rows)} answers for {spec} stands under these physics settings")
 
 
@@ -839,6 +875,7 @@ def build_library(
         if screen:
             library = screened(library, workers=workers, progress=progress, from_nca=first, step=kind)
         library.info[f"{kind}_seconds"] = round(time.perf_counter() - step_started, 1)
+    library = with_mat_flags(library)
     library.info.update({
         "name": f"design library (seed {seed}, {ncas} NCAs searched)", "ncas_searched": ncas, "seed": seed,
         "specs_each": specs_each, "search_seconds": round(searched, 1),
