@@ -11,6 +11,7 @@ import pytest
 from physics.statics import check_statics
 from structgen import Structure
 from structgen.cli import main
+from structgen.domains.structures import samples
 from structgen.domains.structures.design import (
     DEFAULT_LIBRARY,
     FAMILIES,
@@ -36,7 +37,6 @@ from structgen.domains.structures.design import (
     taught_tilings,
     with_mat_flags,
 )
-from structgen.domains.structures import samples
 from structgen.nca import load_weights
 
 DOCS = Path(__file__).resolve().parents[2] / "docs"
@@ -371,8 +371,8 @@ def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any
     path = matted.save(tmp_path / "mats.npz")
     assert main(["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "-o", str(tmp_path / "m.json")]) == 0
     assert "a 3x3 tower on a floor mat filling the footprint" in capsys.readouterr().out
-    refused = ["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "--no-mat", "-o", str(tmp_path / "n.json")]
-    assert main(refused) == 2 and not (tmp_path / "n.json").exists()
+    refused = ["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "--no-mat", "-o"]
+    assert main([*refused, str(tmp_path / "n.json")]) == 2 and not (tmp_path / "n.json").exists()
     assert "stand on a floor mat, which was refused" in capsys.readouterr().err
     with pytest.raises(ValueError, match="width at most depth"):
         taught_on_mats(library, [(5, 4, 4)])

@@ -410,8 +410,9 @@ def cmd_design(args: argparse.Namespace) -> int:
     standing, in milliseconds; the library's answers that the static analysis loads near the break force were also
     simulated for PyBullet's first 0.3 s when it was built, and those that break there left out. --seed picks among
     the library's answers for the spec. A spec no answer meets is an error naming the nearest spec that can be met.
-    Some specs are met by a tower of a smaller footprint standing on a floor mat that fills the spec's: the output
-    says so (--json: "on_mat", and "above_ground", the footprint of the levels above the ground); --no-mat refuses them.
+    Some specs are met by a tower of a smaller footprint standing on a floor mat that fills the spec's: such an answer
+    is given only where no answer that fills the footprint stands, and the output says so (--json: "on_mat", and
+    "above_ground", the footprint of the levels above the ground); --no-mat refuses them.
     Writes OUT by its suffix (json, glb, obj, stl, ply).
     """
     from structgen.domains.structures.design import Spec, UnmeetableSpec, design, dimensions, load_library
