@@ -373,7 +373,7 @@ def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any
     assert "a 3x3 tower on a floor mat filling the footprint" in capsys.readouterr().out
     refused = ["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "--no-mat", "-o"]
     assert main([*refused, str(tmp_path / "n.json")]) == 2 and not (tmp_path / "n.json").exists()
-    assert "stand on a floor mat, which was refused" in capsys.readouterr().err
+    assert "are towers on a floor mat, which were refused" in capsys.readouterr().err
     with pytest.raises(ValueError, match="width at most depth"):
         taught_on_mats(library, [(5, 4, 4)])
 

@@ -351,9 +351,11 @@ def design(
             "turned": turned, "answers": int(len(rows)), "library": library.info.get("name", "design library"),
             "on_mat": on_a_mat(structure), "above_ground": above_ground(structure),
         })  # fmt: skip
+    if matted == len(rows):
+        raise UnmeetableSpec(f"all {len(rows)} answers for {spec} are towers on a floor mat, which were refused")
     if matted:
-        raise UnmeetableSpec(f"{matted} of the {len(rows)} answers for {spec} stand on a floor mat, which was refused, and "
-                             "none of the others stands under these physics settings")  # fmt: skip
+        raise UnmeetableSpec(f"{matted} of the {len(rows)} answers for {spec} are towers on a floor mat, which were "
+                             "refused, and none of the others stands under these physics settings")  # fmt: skip
     raise UnmeetableSpec(f"none of the {len(rows)} answers for {spec} stands under these physics settings")
 
 
