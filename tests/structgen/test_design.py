@@ -383,7 +383,7 @@ def test_a_tower_on_a_mat_is_told_from_a_frame_that_fills_its_footprint():
     assert not on_a_mat(pyramid) and dimensions(pyramid) == (7, 7, 4) and above_ground(pyramid) == (5, 5)
     assert on_a_mat(samples.on_mat(pyramid, 9, 7)) and above_ground(samples.on_mat(pyramid, 9, 7)) == above_ground(pyramid)
     width, depth, _ = dimensions(pyramid)
-    # A mat one cell wider each way is within the reach of the members above: nothing tells it from a tied foot.
+    # A mat of the pyramid's own footprint lies within a cell of the levels above: nothing tells it from a tied foot.
     assert not on_a_mat(samples.on_mat(pyramid, width, depth))
     flat = samples.on_mat(samples.column(1), 3, 3)
     assert not on_a_mat(flat) and above_ground(flat) is None
