@@ -374,6 +374,12 @@ def test_an_answer_set_on_a_mat_meets_a_wider_footprint_and_the_mat_stops_at_any
     refused = ["design", "--footprint", "7x5", "--height", "4", "--library", str(path), "--no-mat", "-o"]
     assert main([*refused, str(tmp_path / "n.json")]) == 2 and not (tmp_path / "n.json").exists()
     assert "are towers on a floor mat, which were refused" in capsys.readouterr().err
+    # A flagged library extended and screened keeps its flags, the new answers flagged as grown.
+    flagged = add_taught(with_mat_flags(library), taught, specs=np.array([(4, 5, 4), (5, 7, 4), (4, 4, 4)]), kind="mat")
+    np.testing.assert_array_equal(flagged.on_mat, with_mat_flags(matted).on_mat)
+    assert flagged.on_mat.any() and not flagged.on_mat.all()
+    kept = screened(flagged, from_nca=len(library.families), step="mat")
+    np.testing.assert_array_equal(kept.on_mat, with_mat_flags(kept).on_mat)
     with pytest.raises(ValueError, match="width at most depth"):
         taught_on_mats(library, [(5, 4, 4)])
 

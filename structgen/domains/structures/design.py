@@ -954,7 +954,8 @@ def screened(
     library gives the same result whatever ``workers`` (processes; 0: this one); an answer whose worker dies is
     dropped. Only the answers of NCAs numbered ``from_nca`` and on are simulated: those of the NCAs before were
     screened already (a library extended by :func:`add_taught`). ``info`` counts what went (``screen_*``, or
-    ``screen_<step>_*`` from a later NCA, keeping the earlier screens' counts)."""
+    ``screen_<step>_*`` from a later NCA, keeping the earlier screens' counts). Mat flags, where the library has them,
+    stay with the answers kept."""
     from tqdm import tqdm
 
     from evolution.pool import Lost, WorkerPool
@@ -975,7 +976,8 @@ def screened(
     renumber = np.full(len(library.families), -1, dtype=np.int64)
     renumber[used] = np.arange(len(used))
     answers[:, 0] = renumber[answers[:, 0]]  # in the same order, so the answers stay sorted
-    kept = DesignLibrary([library.families[n] for n in used], library.weights[used], answers, static_peaks)
+    flags = None if library.on_mat is None else library.on_mat[keep]
+    kept = DesignLibrary([library.families[n] for n in used], library.weights[used], answers, static_peaks, on_mat=flags)
     counts = {"above_share": above_share, "simulated": len(rows), "answers_dropped": int((~keep).sum()),
               "specs_lost": len(library.specs() - kept.specs()), "seconds": round(time.perf_counter() - started, 1)}  # fmt: skip
     prefix = f"screen_{step}_" if from_nca else "screen_"
@@ -989,7 +991,8 @@ def add_taught(
     """``library`` with taught NCAs (:func:`taught_tilings`, :func:`taught_clipped`: ``(height, weights)``) added,
     family ``down``, and every spec of their height each meets, its seed at every place of the box (where a tiling's
     tops fall decides what is cut at the walls). The NCAs and answers already there stay as they are, so this step
-    can be added to a library already built; ``info`` counts what ``kind`` added."""
+    can be added to a library already built; ``info`` counts what ``kind`` added. A library whose answers carry mat
+    flags (:func:`with_mat_flags`) keeps them, the new answers flagged alike, as :func:`screened` keeps them."""
     if not taught:
         return library
     specs = canonical_specs() if specs is None else specs
@@ -1006,4 +1009,8 @@ def add_taught(
     order = _spec_order(answers)
     info = {**library.info, f"{kind}_ncas": len(taught), f"{kind}_answers": len(found.rows),
             f"{kind}_specs": len({row[1:4] for row in found.rows})}  # fmt: skip
-    return DesignLibrary(families, weights, answers[order], peaks[order], info)
+    flags = None
+    if library.on_mat is not None:  # flag the new answers alone, so that an extended library keeps mats last
+        added = DesignLibrary(families, weights, answers[len(library.answers) :], peaks[len(library.answers) :])
+        flags = np.concatenate([library.on_mat, with_mat_flags(added).on_mat])[order]
+    return DesignLibrary(families, weights, answers[order], peaks[order], info, flags)
