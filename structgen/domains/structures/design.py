@@ -263,19 +263,23 @@ def _grow_answer(library: DesignLibrary, row: np.ndarray) -> Structure:
     return grow_population(library.weights[nca][None], FAMILIES[family], box[None])[0]
 
 
+def _grown(weights: np.ndarray, families: list[str], ncas: np.ndarray, places: np.ndarray) -> Iterator[tuple[int, Structure]]:
+    """``(i, structure)`` for each ``i``: NCA ``ncas[i]`` grown in the box of ``places[i]`` (width, depth, height,
+    x_seed, y_seed), a family at a time in batches of 512."""
+    for family in FAMILIES:
+        mine = np.flatnonzero([families[int(n)] == family for n in ncas])
+        for start in range(0, len(mine), 512):
+            part = mine[start : start + 512]
+            boxes = np.stack([box_for(*map(int, places[i, :3]), family, *map(int, places[i, 3:5])) for i in part])
+            yield from zip(part.tolist(), grow_population(weights[ncas[part]], FAMILIES[family], boxes))
+
+
 def with_mat_flags(library: DesignLibrary) -> DesignLibrary:
-    """``library`` with ``on_mat`` set: every answer grown (in batches, as :func:`_judge` grows them) and asked
+    """``library`` with ``on_mat`` set: every answer grown (:func:`_grown`, as :func:`_judge` grows them) and asked
     :func:`on_a_mat`. A few milliseconds an answer; :func:`build_library` does it last."""
     flags = np.zeros(len(library.answers), dtype=bool)
-    families = np.array([library.families[n] for n in library.answers[:, 0]])
-    for family in FAMILIES:
-        rows = np.flatnonzero(families == family)
-        for start in range(0, len(rows), 512):
-            part = rows[start : start + 512]
-            boxes = np.stack([box_for(*(int(v) for v in library.answers[r, 1:4]), family, int(library.answers[r, 4]),
-                                      int(library.answers[r, 5])) for r in part])  # fmt: skip
-            grown = grow_population(library.weights[library.answers[part, 0]], FAMILIES[family], boxes)
-            flags[part] = [on_a_mat(structure) for structure in grown]
+    for i, structure in _grown(library.weights, library.families, library.answers[:, 0], library.answers[:, 1:6]):
+        flags[i] = on_a_mat(structure)
     return DesignLibrary(library.families, library.weights, library.answers, library.peaks, library.info, flags)
 
 
@@ -386,33 +390,30 @@ def _judge(
     from physics.statics import overload_ratio
     from structgen.domains.structures.stress import member_load_shares
 
-    successes = []
-    for family in FAMILIES:
-        mine = tries[[families[ids[int(t[0])]] == family for t in tries]] if len(tries) else tries
-        for start in range(0, len(mine), 512):
-            part = mine[start : start + 512]
-            boxes = np.stack([box_for(int(t[1]), int(t[2]), int(t[3]), family, int(t[4]), int(t[5])) for t in part])
-            grown = grow_population(weights[[ids[int(t[0])] for t in part]], FAMILIES[family], boxes)
-            for t, structure in zip(part, grown):
-                spec = tuple(int(v) for v in t[1:4])
-                if dimensions(structure) != spec:
-                    continue
-                key, cells = (spec, _shape_key(structure)), (spec, _cells_key(structure))
-                if cells not in found.judged:
-                    found.judged[cells] = None
-                    if overload_ratio(structure) <= 1.0:  # a bound, linear in size: above it some joint is overloaded
-                        report, shares = member_load_shares(structure)
-                        if report.stands:
-                            found.judged[cells] = float(np.nanmax(shares)) if structure.n_edges else 0.0
-                peak = found.judged[cells]
-                if peak is None:
-                    continue
-                successes.append((int(t[0]), np.array(spec), 1.0 - peak))
-                if key in found.seen:
-                    continue
-                found.seen.add(key)
-                found.rows.append((ids[int(t[0])], *spec, int(t[4]), int(t[5]), structure.n_edges, structure.n_vertices))
-                found.peaks.append(peak)
+    successes: list[tuple[int, np.ndarray, float]] = []
+    if not len(tries):
+        return successes
+    for i, structure in _grown(weights, families, np.asarray(ids)[tries[:, 0]], tries[:, 1:6]):
+        t = tries[i]
+        spec = tuple(int(v) for v in t[1:4])
+        if dimensions(structure) != spec:
+            continue
+        key, cells = (spec, _shape_key(structure)), (spec, _cells_key(structure))
+        if cells not in found.judged:
+            found.judged[cells] = None
+            if overload_ratio(structure) <= 1.0:  # a bound, linear in size: above it some joint is overloaded
+                report, shares = member_load_shares(structure)
+                if report.stands:
+                    found.judged[cells] = float(np.nanmax(shares)) if structure.n_edges else 0.0
+        peak = found.judged[cells]
+        if peak is None:
+            continue
+        successes.append((int(t[0]), np.array(spec), 1.0 - peak))
+        if key in found.seen:
+            continue
+        found.seen.add(key)
+        found.rows.append((ids[int(t[0])], *spec, int(t[4]), int(t[5]), structure.n_edges, structure.n_vertices))
+        found.peaks.append(peak)
     return successes
 
 
