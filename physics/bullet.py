@@ -79,6 +79,7 @@ class Outcome:
     broken: tuple[tuple[int, float, float, float], ...]  # (joint, time, force, torque)
     joint_forces: np.ndarray  # (J,) force on each joint in the last step, N; NaN where broken
     peak_force: float  # largest joint force seen in any step, N
+    peak_forces: np.ndarray  # (J,) largest force each joint carried in any step, N (a broken one's includes its last)
     final_positions: np.ndarray  # (V, 3)
     cylinder_positions: np.ndarray  # (E, 3)
     cylinder_orientations: np.ndarray  # (E, 4)
@@ -183,6 +184,8 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
     alive = list(enumerate(joints))
     broken: list[tuple[int, float, float, float]] = []
     peak_sq = 0.0
+    # Each joint's own peak: where a structure is loaded in its first moments, not only how much at the worst.
+    joint_peak_sq = [0.0] * len(joints)
     quiet_checks, settled, exploded = 0, False, False
     steps_done = 0
     sphere_speeds = np.zeros(len(spheres))
@@ -194,8 +197,10 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
             fx, fy, fz, tx, ty, tz = read_joint(handle, physicsClientId=cid)
             force_sq = fx * fx + fy * fy + fz * fz
             torque_sq = tx * tx + ty * ty + tz * tz
-            if force_sq > peak_sq:
-                peak_sq = force_sq
+            if force_sq > joint_peak_sq[index]:
+                joint_peak_sq[index] = force_sq
+                if force_sq > peak_sq:
+                    peak_sq = force_sq
             if force_sq > force_limit_sq or torque_sq > torque_limit_sq:
                 remove(handle, physicsClientId=cid)
                 broken.append((index, n * dt, math.sqrt(force_sq), math.sqrt(torque_sq)))
@@ -233,6 +238,7 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
         broken=tuple(broken),
         joint_forces=joint_forces,
         peak_force=math.sqrt(peak_sq),
+        peak_forces=np.sqrt(np.array(joint_peak_sq, dtype=np.float64)),
         final_positions=positions[:v],
         cylinder_positions=positions[v:],
         cylinder_orientations=orientations[v:],

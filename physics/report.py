@@ -121,6 +121,7 @@ class StabilityReport:
     # "collapse": screened out by physics.statics.overload_ratio as falling apart entirely
     falling: int = 0
     final_speed: float = 0.0
+    peak_forces: np.ndarray | None = None  # (J,) the largest force each joint carried in any step, N; simulated only
 
     @property
     def intact(self) -> bool:
@@ -202,6 +203,8 @@ class StabilityReport:
             data["final_edge_ends"] = self.final_edge_ends.tolist()
             data["edges"] = self.edges.tolist()
             data["joint_forces"] = [None if np.isnan(f) else f for f in self.joint_forces.tolist()]
+            if self.peak_forces is not None:
+                data["peak_forces"] = self.peak_forces.tolist()
         return data
 
     @classmethod

@@ -68,6 +68,7 @@ def check_stability(
         broken_joints=broken,
         joint_forces=outcome.joint_forces,
         peak_force=outcome.peak_force,
+        peak_forces=outcome.peak_forces,
         initial_positions=bodies.sphere_positions,
         final_positions=outcome.final_positions,
         final_edge_ends=bodies.cylinder_ends(outcome.cylinder_positions, outcome.cylinder_orientations),

@@ -88,6 +88,19 @@ def test_the_transient_check_rates_the_peak_and_agrees_with_breakable_joints(con
     assert f"{report.peak_force:.1f} N" in report.verdict()
 
 
+@PRESETS
+def test_each_joint_keeps_its_own_peak(config):
+    # Unbreakable joints over the first moments: the largest any joint carried is the report's peak, every joint's
+    # own peak is at least what it carried in the last step, and a column's bottom joint peaks above its static load
+    # while its top joint, holding only the top sphere, stays near it.
+    report = check_transient(column(4), config, window=0.3)
+    peaks = report.peak_forces
+    assert peaks.shape == (report.n_joints,) and peaks.max() == report.peak_force
+    assert np.all(peaks >= report.joint_forces - 1e-9)
+    assert peaks[0] > 6 * G and peaks[-1] < 1.5 * G
+    assert report.to_dict()["peak_forces"] == peaks.tolist()
+
+
 def test_a_bad_transient_window_is_refused():
     with pytest.raises(ValueError, match="window must be a positive number of seconds, got 0"):
         check_transient(column(2), FAST, window=0)

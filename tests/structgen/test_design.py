@@ -107,6 +107,14 @@ def test_a_spec_taller_than_equilibrium_allows_on_its_footprint_says_so(library)
     assert tallest_possible(2, 2) < tallest_possible(2, 5) < tallest_possible(5, 5)  # more room, more members
     # Nothing the shipped library meets is taller than the bound allows (it would be wrong if anything were).
     assert all(height <= tallest_possible(width, depth) for width, depth, height in load_library().specs())
+    # Loading members only along their axes, or no more evenly than a ratio over the even share, can only lower it;
+    # a column has no diagonals to lose.
+    for width, depth in ((1, 1), (2, 5), (5, 5), (11, 11)):
+        heights = [tallest_possible(width, depth, axial=True, sharing=ratio) for ratio in (1.0, 1.25, 1.5, 2.0)]
+        assert heights == sorted(heights, reverse=True) and heights[0] <= tallest_possible(width, depth)
+    assert tallest_possible(1, 1, axial=True) == 3 and tallest_possible(11, 11, axial=True) < tallest_possible(11, 11)
+    with pytest.raises(ValueError, match="sharing must be a number from 1"):
+        tallest_possible(5, 5, sharing=0.9)
     with pytest.raises(UnmeetableSpec, match=r"no structure on a 1x1 footprint stands over 3 levels"):
         design(Spec(1, 1, 5), 0, library)
     with pytest.raises(UnmeetableSpec) as refused:

@@ -17,6 +17,7 @@ from structgen.domains.structures.stress import (
     LOAD_SCALE,
     NO_ANSWER,
     OVERLOADED,
+    level_shares,
     load_colours,
     member_load_shares,
 )
@@ -157,3 +158,37 @@ def test_overloaded_members_and_pieces_that_tip_get_their_own_colours():
     assert (load_colours(shares)[shares > 1.0, :3] == _rgb(OVERLOADED)).all()
     _, shares = member_load_shares(_arm(3))
     assert np.isnan(shares).all() and (load_colours(shares)[:, :3] == _rgb(NO_ANSWER)).all()
+
+
+# -- how evenly each pair of levels shares what lies above (level_shares) ---------------------------------------------------
+def test_a_column_shares_perfectly_at_every_level():
+    from physics.statics import joint_forces
+    from structgen.domains.structures.samples import column
+
+    tower = column(4)
+    rows = level_shares(tower, joint_forces(tower))
+    assert [(row.level, row.members, row.bodies_above) for row in rows] == [(0, 1, 5), (1, 1, 3), (2, 1, 1)]
+    np.testing.assert_allclose([row.even for row in rows], [6 * 9.81, 4 * 9.81, 2 * 9.81])
+    np.testing.assert_allclose([row.ratio for row in rows], 1.0)
+
+
+def test_the_even_share_counts_slopes_and_bodies_whichever_way_the_edges_run():
+    from physics.statics import joint_forces
+
+    apex_on_four_legs = [[1, 1, 1], [0, 0, 0], [2, 0, 0], [0, 2, 0], [2, 2, 0]]
+    down, mixed = [[0, 1], [0, 2], [0, 3], [0, 4]], [[1, 0], [0, 2], [3, 0], [0, 4]]
+    rows = [
+        level_shares(Structure(apex_on_four_legs, edges), joint_forces(Structure(apex_on_four_legs, edges)))
+        for edges in (down, mixed)
+    ]
+    assert rows[0] == rows[1] and len(rows[0]) == 1
+    (legs,) = rows[0]
+    # The apex and the legs stand on the legs' feet: 5 bodies over four corner diagonals' cosines (1/sqrt 3 each).
+    assert legs.members == 4 and legs.bodies_above == 1 and legs.even == pytest.approx(9.81 * 5 / (4 / np.sqrt(3)))
+    # Each foot joint holds up a quarter of the apex and its whole leg: the force can be no less than that.
+    assert legs.peak >= 9.81 * 1.25 - 1e-9 and legs.ratio < 1  # the fixed joints pass part of it by bending
+
+
+def test_level_shares_refuse_forces_that_do_not_fit_the_structure():
+    with pytest.raises(ValueError, match="two forces an edge"):
+        level_shares(leaning_frame(), np.ones(3))

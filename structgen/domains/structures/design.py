@@ -283,34 +283,70 @@ def with_mat_flags(library: DesignLibrary) -> DesignLibrary:
     return DesignLibrary(library.families, library.weights, library.answers, library.peaks, library.info, flags)
 
 
-def tallest_possible(width: int, depth: int, physics: Any = None, cap: int = 100) -> int:
+def tallest_possible(
+    width: int, depth: int, physics: Any = None, cap: int = 100, *, axial: bool = False, sharing: float = 1.0
+) -> int:
     """The most levels any structure of a ``width`` x ``depth`` footprint could have that the static analysis finds
     standing (``physics``: a :class:`physics.PhysicsConfig`, default the paper's), by equilibrium alone. Cut between
     two levels, everything above is held up only by the members crossing the cut, through the joints at their lower
     ends, and the verdict lets each carry at most the break force over the load factor, its own weight included.
     Counting the fewest bodies above each cut (a vertex a level, no more members than carry the load there, every
     load shared perfectly) bounds the height: 3 levels for a 1x1 footprint (a column of four breaks), 11 for 2x2.
-    An upper bound, not a design: real frames share their load unevenly (``benchmarks/design_limits.py --bound``)."""
+    An upper bound, not a design: real frames share their load unevenly (``benchmarks/design_limits.py --bound``).
+
+    Two assumptions tighten it into a model of what a design must achieve (``benchmarks/tall_sharing.py``):
+    ``axial`` lets a member carry load only along its axis, so a diagonal's joint takes the vertical load it passes
+    down over the cosine of its slope (side diagonals 1.41 times it, corner diagonals 1.73 times); ``sharing`` is how
+    far the most loaded member of a cut is above the even share (1: every member alike; PyBullet's spawn transient
+    alone puts 1.2 to 1.3 on a lone member), dividing what each member may carry. Neither is a law of the physics
+    (fixed joints let a diagonal pass load by bending), so with either the result is no longer a bound."""
     from physics import PhysicsConfig
 
     physics = physics or PhysicsConfig()
     if physics.sphere_mass != physics.cylinder_mass:
         raise ValueError("the bound counts bodies: spheres and cylinders must weigh alike")
+    if not (isinstance(sharing, (int, float)) and 1.0 <= sharing < math.inf):
+        raise ValueError(f"sharing must be a number from 1 (every member loaded alike) up, got {sharing!r}")
     body = physics.sphere_mass * physics.gravity
-    # A crossing member holds up at most this many bodies above the cut, its own weight being on its lower joint too.
-    per_member = (physics.break_force / physics.statics_load_factor - body) / body
-    below_each = min(3, width) * min(3, depth)  # members a vertex can send to the level below within the footprint
+    limit = physics.break_force / physics.statics_load_factor / sharing
+    across, along = min(3, width) - 1, min(3, depth) - 1  # cells a member can reach sideways within the footprint
+    below_each = (across + 1) * (along + 1)  # members a vertex can send to the level below within the footprint
+    # (bodies a member holds up above the cut, its own weight being on its lower joint too; members a vertex sends)
+    if axial:
+        slopes = ((1.0, 1), (math.sqrt(0.5), across + along), (math.sqrt(1 / 3), across * along))
+        kinds = sorted(((limit * cosine - body) / body, count) for cosine, count in slopes if count)[::-1]
+    else:
+        kinds = [((limit - body) / body, below_each)]
+    kinds = [(holds, count) for holds, count in kinds if holds > 0]
+    if not kinds:
+        return 1  # no member can even hold itself up: only the top level's vertices, lying on the ground
     crossing_cap = (3 * width - 2) * (3 * depth - 2)  # pairs of cells one level apart and at most a cell sideways
+
+    def fewest(above: float, vertices: int) -> list[int] | None:
+        """Members of each kind, strongest first, that hold ``above`` bodies from ``vertices`` vertices (None: they
+        cannot)."""
+        counts = []
+        for holds, count in kinds:
+            counts.append(min(count * vertices, math.ceil(above / holds - 1e-9)))
+            above -= counts[-1] * holds
+            if above <= 1e-9:
+                return counts
+        return None
+
     above, vertices, levels = 1.0, 1, 1  # the top level: one vertex
     while levels < cap:
-        members = math.ceil(above / per_member - 1e-9)
-        while members > below_each * vertices:  # more vertices on the upper level to send them from
+        counts = fewest(above, vertices)
+        while counts is None:  # more vertices on the upper level to send them from
+            if vertices >= width * depth:
+                return levels
             vertices += 1
             above += 1
-            members = math.ceil(above / per_member - 1e-9)
-        if members > crossing_cap or vertices > width * depth:
+            counts = fewest(above, vertices)
+        members = sum(counts)
+        if members > crossing_cap:
             return levels
-        vertices = max(1, math.ceil(members / below_each))  # the level below: as few vertices as take the members
+        # The level below: as few vertices as take the members, each taking at most its share of every kind.
+        vertices = max(1, math.ceil(members / below_each), *(math.ceil(n / c) for n, (_, c) in zip(counts, kinds)))
         above += members + vertices
         levels += 1
     return levels

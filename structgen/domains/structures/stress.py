@@ -8,6 +8,7 @@ piece with no static answer (it falls or tips whole) has no share (NaN) and gets
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -16,7 +17,17 @@ if TYPE_CHECKING:
     from physics import PhysicsConfig, StabilityReport
     from structgen.structure import Structure
 
-__all__ = ["LOAD_SCALE", "NO_ANSWER", "OVERLOADED", "load_colours", "load_key", "load_colormap", "member_load_shares"]
+__all__ = [
+    "LOAD_SCALE",
+    "NO_ANSWER",
+    "OVERLOADED",
+    "LevelShare",
+    "level_shares",
+    "load_colours",
+    "load_colormap",
+    "load_key",
+    "member_load_shares",
+]
 
 #: Shares from none (pale grey) through half the break force (orange) to the break force (dark red).
 LOAD_SCALE = ((0.0, "#cfd8dc"), (0.5, "#fdae61"), (1.0, "#a50026"))
@@ -80,3 +91,61 @@ def load_colormap() -> Any:
 
     colormap = LinearSegmentedColormap.from_list("load share", [(stop, colour) for stop, colour in LOAD_SCALE])
     return colormap.with_extremes(over=OVERLOADED, bad=NO_ANSWER)
+
+
+@dataclass(frozen=True)
+class LevelShare:
+    """How evenly the members between one level and the next carry what lies above them (forces in N)."""
+
+    level: int  # the lower level of the two, counted from the ground (0)
+    members: int  # members joining it to the level above
+    bodies_above: int  # spheres and cylinders above those members
+    even: float  # the force on each member's lower joint were they all loaded alike, along their axes
+    peak: float  # the largest force on a lower joint of those members
+
+    @property
+    def ratio(self) -> float:
+        """The peak over the even share: 1 where every member carries alike; below 1 where diagonals pass part of
+        their load by bending rather than along their axes."""
+        return self.peak / self.even
+
+
+def level_shares(structure: Structure, joint_forces: np.ndarray, config: PhysicsConfig | None = None) -> list[LevelShare]:
+    """Each pair of neighbouring levels of ``structure``, lowest first: the members between them, the even share and
+    the peak of ``joint_forces`` ((J,) N, in :mod:`physics.model`'s joint order, two per edge; the static analysis's
+    :func:`physics.statics.joint_forces` or a simulation's ``peak_forces``) on their lower joints.
+
+    Everything above a pair of levels stands on the lower joints of the members between them, so their forces'
+    upright parts add up to its weight and theirs, whatever the design. Were every member loaded alike along its
+    axis, each would carry that weight over the sum of the members' cosines of slope: the even share. A design
+    cannot hold where the even share is past the break force, and holds where the peak is within it, so the ratio
+    of the two is what uneven sharing (and the simulation's spawn transient) costs: ``benchmarks/tall_sharing.py``."""
+    from physics import PhysicsConfig
+
+    config = config or PhysicsConfig()
+    if config.sphere_mass != config.cylinder_mass:
+        raise ValueError("level shares count bodies: spheres and cylinders must weigh alike")
+    vertices, edges = np.asarray(structure.vertices), np.asarray(structure.edges).reshape(-1, 2)
+    forces = np.asarray(joint_forces, dtype=np.float64)
+    if forces.shape != (2 * len(edges),):
+        raise ValueError(
+            f"joint_forces must hold two forces an edge ({2 * len(edges)} for this structure), got shape {forces.shape}"
+        )
+    levels = vertices[:, 2] - vertices[:, 2].min() if len(vertices) else np.zeros(0, dtype=np.int64)
+    ends = levels[edges]  # (E, 2) each end's level
+    lower = np.minimum(ends[:, 0], ends[:, 1])
+    rises = ends[:, 1] - ends[:, 0]
+    lower_joint = forces.reshape(-1, 2)[np.arange(len(edges)), (rises < 0).astype(np.int64)]
+    span = vertices[edges[:, 1]] - vertices[edges[:, 0]]
+    cosine = np.abs(span[:, 2]) / np.linalg.norm(span, axis=1) if len(edges) else np.zeros(0)
+    body = config.sphere_mass * config.gravity
+    rows = []
+    for level in range(int(levels.max(initial=0))):
+        between = (lower == level) & (np.abs(rises) == 1)
+        if not between.any():
+            continue
+        above = int((levels > level).sum() + (lower > level).sum())
+        members = int(between.sum())
+        even = body * (above + members) / float(cosine[between].sum())
+        rows.append(LevelShare(level, members, above, even, float(np.nanmax(lower_joint[between]))))
+    return rows
