@@ -1,7 +1,7 @@
 """How evenly the tallest towers share their load, and how tall that lets anything stand: the evidence behind the
 twelve levels that are not reached.
 
-    python benchmarks/tall_sharing.py [--window 0.1] [--sharing 1 1.25 1.5 1.75 2]
+    python benchmarks/tall_sharing.py [--window 0.1] [--sharing 1 1.25 1.5 1.75 2] [--steady 2 [--radii 0.1 0.3 1]]
 
 Part one grows the towers that ship in docs/ (the grow commands of docs/structures.md) and, for each pair of
 neighbouring levels, compares the largest force on the lower joints of the members between them with the even share
@@ -10,6 +10,11 @@ their axes; everything above them stands on those joints). It does so for the st
 and for the largest force each joint carries in the first ``--window`` seconds of the faithful preset (joints
 unbreakable, the bodies in the order growth lists them), where these towers carry most. The ratio of peak to even
 share is what a design's uneven sharing costs, the spawn transient included.
+
+``--steady SECONDS`` also runs each tower that long (joints unbreakable, no early stop) and compares the forces of
+the last step, where the structure is nearly at rest, with the static analysis joint by joint, for each beam radius
+of ``--radii`` (``statics_beam_radius``, whose ratio of bending to axial stiffness decides how the analysis shares
+a redundant frame's load): the correlation, the largest miss, and the worst ratio at each tower's foot.
 
 Part two is the other side: the most levels any structure of a square footprint could stand if every cut's most
 loaded member carried ``sharing`` times the even share and no more (:func:`.design.tallest_possible` with
@@ -29,7 +34,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 
 import numpy as np  # noqa: E402
 
-from physics import PhysicsConfig, check_transient  # noqa: E402
+from physics import PhysicsConfig, check_stability, check_transient  # noqa: E402
 from physics.statics import joint_forces  # noqa: E402
 from structgen.domains.structures.design import tallest_possible  # noqa: E402
 from structgen.domains.structures.stress import level_shares  # noqa: E402
@@ -70,6 +75,25 @@ def towers(window: float, physics: PhysicsConfig) -> list[tuple[str, int, int, f
     return measured
 
 
+def steady(seconds: float, radii: list[float], physics: PhysicsConfig) -> None:
+    """The forces of each tower nearly at rest after ``seconds``, against the static analysis at each beam radius."""
+    print(f"| tower | forces after {seconds:g} s: worst ratio at the foot | beam radius | static analysis: worst ratio at "
+          "the foot | correlation, joint by joint | largest miss |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|")
+    for name, (file, config) in TOWERS.items():
+        structure = grow(load_weights(DOCS / file, config), config).in_growth_order()
+        held = physics.replace(**physics.room_for(structure.n_vertices, structure.n_edges), break_force=np.inf,
+                               horizon=seconds, early_stop=False)  # fmt: skip
+        resting = check_stability(structure, held).joint_forces
+        foot = level_shares(structure, resting, physics)[0].ratio
+        for radius in radii:
+            static = joint_forces(structure, physics.replace(statics_beam_radius=radius))
+            correlation = np.corrcoef(static, resting)[0, 1]
+            static_foot = level_shares(structure, static, physics)[0].ratio
+            print(f"| {name} | {foot:.2f} | {radius:g} m | {static_foot:.2f} | {correlation:.3f} | "
+                  f"{np.abs(static - resting).max():.1f} N |")  # fmt: skip
+
+
 def model(sharing: list[float], physics: PhysicsConfig) -> None:
     print("| most levels on a square footprint of side | " + " | ".join(str(f) for f in FOOTPRINTS) + " |")
     print("|---" + "|---:" * len(FOOTPRINTS) + "|")
@@ -86,9 +110,25 @@ def main() -> None:
     parser.add_argument("--sharing", type=float, nargs="+", default=[1.0, 1.25, 1.5, 1.75, 2.0],
                         help="peak-over-even ratios of the model's table (default 1 1.25 1.5 1.75 2)")  # fmt: skip
     parser.add_argument("--no-towers", action="store_true", help="print only the model's table")
+    parser.add_argument(
+        "--steady",
+        type=float,
+        metavar="SECONDS",
+        help="also run each tower this long and hold its resting forces against the static analysis",
+    )
+    parser.add_argument(
+        "--radii",
+        type=float,
+        nargs="+",
+        default=[0.1, 0.2, 0.3, 0.5, 1.0, 2.0],
+        help="beam radii (m) of the static analysis held against the resting forces (default 0.1 0.2 "
+        "0.3 0.5 1 2; the fitted default is 0.3)",
+    )
     args = parser.parse_args()
     if args.window <= 0 or any(ratio < 1 for ratio in args.sharing):
         parser.error("--window must be positive and every --sharing at least 1")
+    if (args.steady is not None and args.steady <= 0) or any(radius <= 0 for radius in args.radii):
+        parser.error("--steady and every --radii must be positive")
     # Judged as PyBullet judges: a joint breaks past the break force itself, no load factor.
     physics = PhysicsConfig().replace(statics_load_factor=1.0)
     measured = [] if args.no_towers else towers(args.window, physics)
@@ -101,6 +141,9 @@ def main() -> None:
         for name, side, levels, worst in measured:
             allowed = tallest_possible(side, side, physics, axial=True, sharing=worst)
             print(f"| {name} | {side}x{side} | {levels} | {worst:.2f} | {allowed} |")
+    if args.steady is not None:
+        print()
+        steady(args.steady, args.radii, physics)
 
 
 if __name__ == "__main__":
