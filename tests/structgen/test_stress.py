@@ -20,6 +20,7 @@ from structgen.domains.structures.stress import (
     level_shares,
     load_colours,
     member_load_shares,
+    member_peak_shares,
 )
 
 
@@ -192,3 +193,34 @@ def test_the_even_share_counts_slopes_and_bodies_whichever_way_the_edges_run():
 def test_level_shares_refuse_forces_that_do_not_fit_the_structure():
     with pytest.raises(ValueError, match="two forces an edge"):
         level_shares(leaning_frame(), np.ones(3))
+
+
+# -- where a simulation loads it (member_peak_shares, show --peaks) --------------------------------------------------------
+def test_a_members_peak_share_is_its_more_loaded_joints_simulated_peak():
+    from physics import check_statics, check_transient
+    from structgen.domains.structures.samples import column
+
+    report = check_transient(column(3), PhysicsConfig.preset("fast"), window=0.2)
+    shares = member_peak_shares(report)
+    assert shares.shape == (2,) and shares.max() == pytest.approx(report.peak_force / 52.5)
+    # The lower member holds up more than the upper one, and each peaks past its static load (the transient).
+    assert shares[0] > shares[1] > 2 * 9.81 / 52.5
+    with pytest.raises(ValueError, match="statics report has no simulated joint forces"):
+        member_peak_shares(check_statics(column(3)))
+    from structgen.domains.structures.render import check_figure
+
+    figure = check_figure(report, shares, "largest force in the simulation")
+    labels = [axes.get_ylabel() for axes in figure.axes]
+    assert "largest force in the simulation / break force (52.5 N); peak " + f"{shares.max():.0%}" in labels
+
+
+def test_peaks_on_the_command_line(tmp_path, capsys):
+    source = tmp_path / "frame.json"
+    leaning_frame().save(source)
+    assert main(["show", str(source), "-o", str(tmp_path / "peaks.png"), "--transient", "0.1", "--peaks"]) == 0
+    assert (tmp_path / "peaks.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    capsys.readouterr()
+    for extra in (["--statics"], ["--stress"]):
+        assert main(["show", str(source), "-o", str(tmp_path / "no.png"), "--peaks", *extra]) == 2
+        assert "--peaks colours members by a simulation's forces" in capsys.readouterr().err
+    assert not (tmp_path / "no.png").exists()

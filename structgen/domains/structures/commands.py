@@ -335,13 +335,20 @@ def cmd_render(args: argparse.Namespace) -> int:
     from structgen.domains.structures.render import render_check
 
     output = Path(args.output)
+    if args.peaks and (args.stress or args.statics):
+        raise InputError("--peaks colours members by a simulation's forces: it takes neither --stress (the static "
+                         "analysis's loads) nor --statics (no simulation)")  # fmt: skip
     structure, report = _checked(args)
-    shares = None
+    shares, label = None, "member load"
     if args.stress:
         from structgen.domains.structures.stress import member_load_shares
 
         _, shares = member_load_shares(structure, _physics_config(args))
-    render_check(report, output, dpi=args.dpi, load_shares=shares)
+    elif args.peaks:
+        from structgen.domains.structures.stress import member_peak_shares
+
+        shares, label = member_peak_shares(report), "largest force in the simulation"
+    render_check(report, output, dpi=args.dpi, load_shares=shares, load_label=label)
     print(f"{output}: {report.verdict()}; I = {report.integrity:.3f}, Q = {report.score:.3f}")
     return EXIT_OK
 
@@ -729,8 +736,13 @@ class StructureCommands(DomainCommands):
         verb("show", cmd_render, _FILE, output("OUT.png", "image to write"), dpi(), _PHYSICS,
              flag("--stress", "draw each member in the colour of its static load as a share of the break force (the "
                   "static analysis of the intact structure, with these physics settings), with a colour bar"),
+             flag("--peaks", "draw each member in the colour of the largest force either of its joints carried in the "
+                  "simulation, as a share of the break force, with a colour bar: where PyBullet loads it (with "
+                  "--transient 0.3, the spawn transient's peaks), which for tall frames is not where the static "
+                  "analysis does"),
              examples=["structgen show tower.json -o tower.png --preset fast",
-                       "structgen show tower.json -o stress.png --statics --stress"]),
+                       "structgen show tower.json -o stress.png --statics --stress",
+                       "structgen show nine.json -o peaks.png --transient 0.1 --peaks --set max_joints=5000"]),
         verb("teach", cmd_teach, option("file", metavar="FILE", help="structure JSON file to grow"),
              output("OUT.npy", "weights to write (.npy or .json)"),
              option("--seed-vertex", type=_seed_vertex, default="top", metavar="top|INDEX", help="the vertex growth starts "

@@ -216,21 +216,27 @@ def _after_segments(report: StabilityReport) -> np.ndarray:
 
 
 def render_check(
-    report: StabilityReport, path: str | os.PathLike, *, dpi: int = 110, load_shares: np.ndarray | None = None
+    report: StabilityReport,
+    path: str | os.PathLike,
+    *,
+    dpi: int = 110,
+    load_shares: np.ndarray | None = None,
+    load_label: str = "member load",
 ) -> Path:
     """Write :func:`check_figure`'s picture of ``report`` to ``path`` as a PNG, atomically."""
-    return atomic_write(path, figure_png(check_figure(report, load_shares), dpi))
+    return atomic_write(path, figure_png(check_figure(report, load_shares, load_label), dpi))
 
 
-def check_figure(report: StabilityReport, load_shares: np.ndarray | None = None) -> Any:
+def check_figure(report: StabilityReport, load_shares: np.ndarray | None = None, load_label: str = "member load") -> Any:
     """The structure as placed and as it ended up, side by side, as a matplotlib figure.
 
     Edges with a broken joint are red, in both pictures; in the first, a red cross marks each broken joint (when
     there are at most 200). The title spells out the paper's measures (integrity, height, complexity, score) and a
     legend says what the colours are; structures of 300 edges or more are drawn in height colours, with a colour bar.
     With ``load_shares`` (each edge's static load over the break force, from
-    :func:`structgen.domains.structures.stress.member_load_shares`) every edge is drawn in its load colour instead,
-    with that colour bar, and the broken joints are black crosses.
+    :func:`structgen.domains.structures.stress.member_load_shares`, or the simulated peaks of
+    :func:`~structgen.domains.structures.stress.member_peak_shares`) every edge is drawn in its load colour instead,
+    with that colour bar, ``load_label`` naming what the shares are, and the broken joints are black crosses.
     """
     from matplotlib.lines import Line2D
 
@@ -275,7 +281,7 @@ def check_figure(report: StabilityReport, load_shares: np.ndarray | None = None)
                 joints.append(here + radius * (there - here) / np.linalg.norm(there - here))
             axes.scatter(*np.array(joints).T, marker="x", s=60, color=cross, depthshade=False, linewidths=2)
     if loads is not None:
-        legend = _load_bar(figure, load_shares, report.config.break_force)
+        legend = _load_bar(figure, load_shares, report.config.break_force, load_label)
     elif large:  # drawn in height colours (see _draw), which a colour bar explains
         from matplotlib.cm import ScalarMappable
         from matplotlib.colors import ListedColormap, Normalize
@@ -296,7 +302,7 @@ def check_figure(report: StabilityReport, load_shares: np.ndarray | None = None)
     return figure
 
 
-def _load_bar(figure: Any, shares: np.ndarray, break_force: float) -> list[Any]:
+def _load_bar(figure: Any, shares: np.ndarray, break_force: float, label: str = "member load") -> list[Any]:
     """The load colours' colour bar on the right, and legend entries for the colours off the scale."""
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
@@ -308,7 +314,7 @@ def _load_bar(figure: Any, shares: np.ndarray, break_force: float) -> list[Any]:
     bar = figure.colorbar(scale, cax=figure.add_axes([0.9, 0.22, 0.012, 0.5]), format=lambda x, _: f"{x:.0%}")
     finite = shares[np.isfinite(shares)]
     peak = f"; peak {finite.max():.0%}" if len(finite) else ""
-    bar.set_label(f"member load / break force ({break_force:g} N){peak}", fontsize=8)
+    bar.set_label(f"{label} / break force ({break_force:g} N){peak}", fontsize=8)
     legend = [Line2D([], [], color=OVERLOADED, linewidth=2.6, label="over the break force")]
     if np.isnan(shares).any():
         legend.append(Line2D([], [], color=NO_ANSWER, linewidth=2.6, label="no static answer (falls whole)"))

@@ -27,6 +27,7 @@ __all__ = [
     "load_colormap",
     "load_key",
     "member_load_shares",
+    "member_peak_shares",
 ]
 
 #: Shares from none (pale grey) through half the break force (orange) to the break force (dark red).
@@ -51,6 +52,16 @@ def member_load_shares(structure: Structure, config: PhysicsConfig | None = None
     with np.errstate(invalid="ignore"):  # both joints NaN: fmax keeps NaN, as it should
         shares = np.fmax(loads[0::2], loads[1::2]) / config.break_force
     return report, shares
+
+
+def member_peak_shares(report: StabilityReport) -> np.ndarray:
+    """Each edge's share (E,) of the break force by a simulation: the largest force either of its joints carried in
+    any step of ``report``'s check (a joint that broke, up to the step it broke in). Where the static analysis and
+    PyBullet part ways on where a frame's load goes (tall towers: ``benchmarks/tall_sharing.py``), this is where the
+    simulation put it; a check in the first moments (``check_transient``) shows the spawn transient's peaks."""
+    if report.peak_forces is None:
+        raise ValueError(f"a {report.method} report has no simulated joint forces: peak shares need a PyBullet check")
+    return np.fmax(report.peak_forces[0::2], report.peak_forces[1::2]) / report.config.break_force
 
 
 def _rgb(colour: str) -> np.ndarray:
