@@ -343,7 +343,7 @@ def tallest_possible(
             above += 1
             counts = fewest(above, vertices)
         members = sum(counts)
-        if members > crossing_cap:
+        if members > crossing_cap or vertices > width * depth:
             return levels
         # The level below: as few vertices as take the members, each taking at most its share of every kind.
         vertices = max(1, math.ceil(members / below_each), *(math.ceil(n / c) for n, (_, c) in zip(counts, kinds)))
