@@ -171,6 +171,10 @@ def test_a_column_shares_perfectly_at_every_level():
     assert [(row.level, row.members, row.bodies_above) for row in rows] == [(0, 1, 5), (1, 1, 3), (2, 1, 1)]
     np.testing.assert_allclose([row.even for row in rows], [6 * 9.81, 4 * 9.81, 2 * 9.81])
     np.testing.assert_allclose([row.ratio for row in rows], 1.0)
+    # A level whose lower joints all broke (NaN in a simulation's last step) has no peak, said as NaN.
+    broken = joint_forces(tower)
+    broken[0] = np.nan
+    assert np.isnan(level_shares(tower, broken)[0].peak) and level_shares(tower, broken)[1].peak == rows[1].peak
 
 
 def test_the_even_share_counts_slopes_and_bodies_whichever_way_the_edges_run():

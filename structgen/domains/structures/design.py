@@ -298,7 +298,7 @@ def tallest_possible(
     ``axial`` lets a member carry load only along its axis, so a diagonal's joint takes the vertical load it passes
     down over the cosine of its slope (side diagonals 1.41 times it, corner diagonals 1.73 times); ``sharing`` is how
     far the most loaded member of a cut is above the even share (1: every member alike; PyBullet's spawn transient
-    alone puts 1.2 to 1.3 on a lone member), dividing what each member may carry. Neither is a law of the physics
+    alone puts 1.16 to 1.24 on a lone member), dividing what each member may carry. Neither is a law of the physics
     (fixed joints let a diagonal pass load by bending), so with either the result is no longer a bound."""
     from physics import PhysicsConfig
 

@@ -128,9 +128,10 @@ def level_shares(structure: Structure, joint_forces: np.ndarray, config: Physics
 
     Everything above a pair of levels stands on the lower joints of the members between them, so their forces'
     upright parts add up to its weight and theirs, whatever the design. Were every member loaded alike along its
-    axis, each would carry that weight over the sum of the members' cosines of slope: the even share. A design
-    cannot hold where the even share is past the break force, and holds where the peak is within it, so the ratio
-    of the two is what uneven sharing (and the simulation's spawn transient) costs: ``benchmarks/tall_sharing.py``."""
+    axis, each would carry that weight over the sum of the members' cosines of slope: the even share. A design holds
+    where the peak is within the break force, so the ratio of the two is what uneven sharing (and the simulation's
+    spawn transient) costs: ``benchmarks/tall_sharing.py``. A level whose forces are all NaN (broken joints, pieces
+    with no static answer) has a NaN peak."""
     from physics import PhysicsConfig
 
     config = config or PhysicsConfig()
@@ -158,5 +159,5 @@ def level_shares(structure: Structure, joint_forces: np.ndarray, config: Physics
         above = int((levels > level).sum() + (lower > level).sum())
         members = int(between.sum())
         even = body * (above + members) / float(cosine[between].sum())
-        rows.append(LevelShare(level, members, above, even, float(np.nanmax(lower_joint[between]))))
+        rows.append(LevelShare(level, members, above, even, float(np.fmax.reduce(lower_joint[between]))))
     return rows
