@@ -39,6 +39,7 @@ from physics.statics import joint_forces  # noqa: E402
 from structgen.domains.structures.design import tallest_possible  # noqa: E402
 from structgen.domains.structures.stress import level_shares  # noqa: E402
 from structgen.nca import NCAConfig, grow, load_weights  # noqa: E402
+from structgen.structure import Structure  # noqa: E402
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 #: The shipped towers with the growth settings of their grow commands in docs/structures.md.
@@ -51,13 +52,17 @@ TOWERS = {
 FOOTPRINTS = (5, 9, 13, 15, 21, 25)
 
 
-def towers(window: float, physics: PhysicsConfig) -> list[tuple[str, int, int, float]]:
+def grown() -> dict[str, Structure]:
+    """The shipped towers, listed in growth order (the order PyBullet's solver visits their bodies in)."""
+    return {name: grow(load_weights(DOCS / file, config), config).in_growth_order() for name, (file, config) in TOWERS.items()}
+
+
+def towers(structures: dict[str, Structure], window: float, physics: PhysicsConfig) -> list[tuple[str, int, int, float]]:
     """Prints part one's table; returns each tower's name, footprint side, levels and worst simulated ratio."""
     print(f"| tower | levels | members | bodies above | even share | static peak | ratio | first {window:g} s peak | ratio |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
     measured = []
-    for name, (file, config) in TOWERS.items():
-        structure = grow(load_weights(DOCS / file, config), config).in_growth_order()
+    for name, structure in structures.items():
         started = time.perf_counter()
         room = physics.replace(**physics.room_for(structure.n_vertices, structure.n_edges))
         simulated = level_shares(structure, check_transient(structure, room, window=window).peak_forces, physics)
@@ -75,13 +80,12 @@ def towers(window: float, physics: PhysicsConfig) -> list[tuple[str, int, int, f
     return measured
 
 
-def steady(seconds: float, radii: list[float], physics: PhysicsConfig) -> None:
+def steady(structures: dict[str, Structure], seconds: float, radii: list[float], physics: PhysicsConfig) -> None:
     """The forces of each tower nearly at rest after ``seconds``, against the static analysis at each beam radius."""
     print(f"| tower | forces after {seconds:g} s: worst ratio at the foot | beam radius | static analysis: worst ratio at "
           "the foot | correlation, joint by joint | largest miss |")  # fmt: skip
     print("|---|---:|---:|---:|---:|---:|")
-    for name, (file, config) in TOWERS.items():
-        structure = grow(load_weights(DOCS / file, config), config).in_growth_order()
+    for name, structure in structures.items():
         held = physics.replace(**physics.room_for(structure.n_vertices, structure.n_edges), break_force=np.inf,
                                horizon=seconds, early_stop=False)  # fmt: skip
         resting = check_stability(structure, held).joint_forces
@@ -131,7 +135,8 @@ def main() -> None:
         parser.error("--steady and every --radii must be positive")
     # Judged as PyBullet judges: a joint breaks past the break force itself, no load factor.
     physics = PhysicsConfig().replace(statics_load_factor=1.0)
-    measured = [] if args.no_towers else towers(args.window, physics)
+    structures = {} if args.no_towers and args.steady is None else grown()
+    measured = [] if args.no_towers else towers(structures, args.window, physics)
     print()
     model(args.sharing, physics)
     if measured:
@@ -143,7 +148,7 @@ def main() -> None:
             print(f"| {name} | {side}x{side} | {levels} | {worst:.2f} | {allowed} |")
     if args.steady is not None:
         print()
-        steady(args.steady, args.radii, physics)
+        steady(structures, args.steady, args.radii, physics)
 
 
 if __name__ == "__main__":

@@ -183,7 +183,6 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
 
     alive = list(enumerate(joints))
     broken: list[tuple[int, float, float, float]] = []
-    peak_sq = 0.0
     # Each joint's own peak: where a structure is loaded in its first moments, not only how much at the worst.
     joint_peak_sq = [0.0] * len(joints)
     quiet_checks, settled, exploded = 0, False, False
@@ -199,8 +198,6 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
             torque_sq = tx * tx + ty * ty + tz * tz
             if force_sq > joint_peak_sq[index]:
                 joint_peak_sq[index] = force_sq
-                if force_sq > peak_sq:
-                    peak_sq = force_sq
             if force_sq > force_limit_sq or torque_sq > torque_limit_sq:
                 remove(handle, physicsClientId=cid)
                 broken.append((index, n * dt, math.sqrt(force_sq), math.sqrt(torque_sq)))
@@ -237,7 +234,7 @@ def _run(client: _Client, bodies: Bodies, handles: tuple[list[int], list[int], l
     return Outcome(
         broken=tuple(broken),
         joint_forces=joint_forces,
-        peak_force=math.sqrt(peak_sq),
+        peak_force=math.sqrt(max(joint_peak_sq, default=0.0)),
         peak_forces=np.sqrt(np.array(joint_peak_sq, dtype=np.float64)),
         final_positions=positions[:v],
         cylinder_positions=positions[v:],

@@ -50,7 +50,7 @@ def member_load_shares(structure: Structure, config: PhysicsConfig | None = None
     if not structure.n_edges:
         return report, np.zeros(0)
     with np.errstate(invalid="ignore"):  # both joints NaN: fmax keeps NaN, as it should
-        shares = np.fmax(loads[0::2], loads[1::2]) / config.break_force
+        shares = _member_shares(loads, config.break_force)
     return report, shares
 
 
@@ -61,7 +61,13 @@ def member_peak_shares(report: StabilityReport) -> np.ndarray:
     simulation put it; a check in the first moments (``check_transient``) shows the spawn transient's peaks."""
     if report.peak_forces is None:
         raise ValueError(f"a {report.method} report has no simulated joint forces: peak shares need a PyBullet check")
-    return np.fmax(report.peak_forces[0::2], report.peak_forces[1::2]) / report.config.break_force
+    return _member_shares(report.peak_forces, report.config.break_force)
+
+
+def _member_shares(joint_values: np.ndarray, break_force: float) -> np.ndarray:
+    """(E,) each edge's more loaded joint of ``joint_values`` (J,), two joints an edge, over ``break_force``; NaN only
+    where both joints are."""
+    return np.fmax(joint_values[0::2], joint_values[1::2]) / break_force
 
 
 def _rgb(colour: str) -> np.ndarray:
