@@ -26,6 +26,7 @@ import json
 import os
 import stat
 import uuid
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +38,7 @@ __all__ = [
     "InputFileError",
     "atomic_write",
     "check_output",
+    "check_not_an_input",
     "parse_json",
     "path_error",
     "read_bytes",
@@ -246,9 +248,55 @@ def check_output(path: str | os.PathLike) -> Path:
             raise InputFileError(f"{path}: {folder} is a file, not a folder")
         if not os.access(folder, os.W_OK | os.X_OK):
             raise InputFileError(f"{path}: permission denied (cannot write in {folder})")
+        # The access check answers yes to the superuser and knows nothing of special file systems (/proc, a read-only
+        # mount): a file made and removed again is the one sure test.
+        probe = folder / f".structgen-probe-{uuid.uuid4().hex[:12]}"
+        try:
+            os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        except OSError as err:
+            raise InputFileError(f"{path}: cannot write in {folder} ({err.strerror.lower()})") from None
+        os.unlink(probe)
     except OSError as err:
         raise path_error(path, err, writing=True) from None
     return path
+
+
+def _resolved(path: Path) -> Path | None:
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError):  # a link loop: it names nothing that could be read
+        return None
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def check_not_an_input(
+    output: str | os.PathLike, inputs: Iterable[str | os.PathLike], *, folder: bool = False, replaced: bool = False
+) -> None:
+    """Fail now if writing ``output`` could replace one of ``inputs``: it is the same file or folder (by path or by
+    inode: a hard link, a symbolic link to it), or an existing file inside an input folder; an output ``folder``
+    that may be ``replaced`` whole (``--overwrite``) also may not hold an input. A new file in an input folder is
+    allowed (it replaces nothing)."""
+    target = Path(output)
+    resolved = _resolved(target)
+    for given in inputs:
+        source = Path(given)
+        if not os.path.lexists(source) or resolved is None:
+            continue
+        source_resolved = _resolved(source)
+        if source_resolved is None:
+            continue
+        if _same_file(target, source) or resolved == source_resolved:
+            raise InputFileError(f"{target}: is also an input of this command ({source}); writing it would replace it")
+        if source.is_dir() and resolved.is_relative_to(source_resolved) and os.path.lexists(target):
+            raise InputFileError(f"{target}: lies in {source}, which this command reads; writing it would replace a file there")
+        if folder and replaced and source_resolved.is_relative_to(resolved):
+            raise InputFileError(f"{target}: holds {source}, an input of this command; writing there could replace it")
 
 
 def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:

@@ -33,11 +33,13 @@ from structgen.registry.commands import (
     InputError,
     Parser,
     Verb,
+    check_outputs,
     flag,
     json_flag,
     number,
     option,
     output,
+    output_folder,
     output_path,
     renamed_verb_note,
     seed,
@@ -317,7 +319,8 @@ def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[doma
              seed("the run's seed (sets run.seed)", default=None),
              number("--workers", 0, MAX_WORKERS, help="local evaluation processes, 0 for none (run.workers)"),
              option("--cluster", metavar="ADDRESS", help="evaluate on the Dask scheduler at ADDRESS (run.cluster)"),
-             option("--run-dir", metavar="DIR", help="run folder to create (default runs/<domain>-<optimizer>-s<seed>-<time>)"),
+             option("--run-dir", type=output_folder, metavar="DIR",
+                    help="run folder to create (default runs/<domain>-<optimizer>-s<seed>-<time>)"),
              flag("--overwrite", "replace RUN_DIR if it is already a run folder"),
              set_option("the run, the problem or the optimizer", "optimizer.population=100 or run.seed=3 (--print-config "
                         "shows every setting of the chosen domain)"),
@@ -334,7 +337,7 @@ def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[doma
              examples=["structgen resume runs/qd", "structgen resume runs/qd --generations 200 --workers 2"]),
         verb("compare", cmd_compare,
              option("runs", nargs="+", metavar="RUN_DIR", help="run folders, of any domain and optimiser"),
-             output("OUT.png", "picture to write (default compare.png)", required=False, default=Path("compare.png")),
+             output("OUT.png", "picture to write (default compare.png)", required=False, default="compare.png"),
              option("--html", type=output_path, metavar="OUT.html", help="also write the table and the curves as one HTML "
                     "page to open in a browser"),
              json_flag("print the table as a JSON list"),
@@ -350,7 +353,7 @@ def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[doma
                  "structgen export runs/qd best.glb", "structgen export tower.json tower.stl",
                  "structgen export runs/qd -o elite.obj --elite index:12"]),
         verb("report", cmd_report, option("source", metavar="RUN_DIR|FILE", help="run folder, or a file"),
-             output("OUT.html", "page to write (default report.html)", required=False, default=Path("report.html")),
+             output("OUT.html", "page to write (default report.html)", required=False, default="report.html"),
              *choose, number("--elites", 0, 10**6, ELITES, "archive elites given a view, the best first (the others show "
                              "their numbers only)"),
              examples=["structgen report runs/qd -o qd.html", "structgen report tower.json -o tower.html"]),
@@ -466,6 +469,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         log.warning(note)
     handler: Callable[[argparse.Namespace], int] = args.handler
     try:
+        check_outputs(args)
         code = handler(args)
         sys.stdout.flush()  # a reader that stopped early shows here, not at interpreter exit
         return code

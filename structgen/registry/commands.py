@@ -41,6 +41,10 @@ __all__ = [
     "examples_epilog",
     "finite_number",
     "output_path",
+    "output_folder",
+    "check_outputs",
+    "OutputFile",
+    "OutputFolder",
     "renamed_verb_note",
     "print_table",
     "settings_from_args",
@@ -131,15 +135,57 @@ def device_name(text: str) -> str:
         raise argparse.ArgumentTypeError(str(err)) from None
 
 
+class OutputFile(type(Path())):  # type: ignore[misc]
+    """A path the command writes a file to (what :func:`output_path` returns): :func:`check_outputs` tells it from the
+    command's inputs by this type."""
+
+
+class OutputFolder(type(Path())):  # type: ignore[misc]
+    """A folder the command writes (a run folder, an experiment's folder): see :class:`OutputFile`."""
+
+
 def output_path(text: str) -> Path:
     """An argparse ``type`` for files a command will write: refused at once, before any work, if it cannot be
     written (its folder is a file, its name is too long, it is a folder)."""
     from evolution.files import InputFileError, check_output
 
     try:
-        return check_output(text)
+        return OutputFile(check_output(text))
     except InputFileError as err:
         raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def output_folder(text: str) -> Path:
+    """An argparse ``type`` for a folder a command writes (made, resumed, or with ``--overwrite`` replaced)."""
+    return OutputFolder(text)
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Refuse, before any work, a command whose output is one of its inputs: every value of ``args`` that names an
+    existing file or folder and is not an output counts as an input (:func:`evolution.files.check_not_an_input`),
+    and no two outputs may name the same file."""
+    from evolution.files import check_not_an_input
+
+    values = [value for name, value in vars(args).items() if name not in ("set", "handler")]
+    flat = [item for value in values for item in (value if isinstance(value, (list, tuple)) else [value])]
+    outputs = [item for item in flat if isinstance(item, (OutputFile, OutputFolder))]
+    inputs = [item for item in flat if isinstance(item, (str, Path)) and item not in outputs and _names_a_path(item)]
+    replaced = bool(getattr(args, "overwrite", False))
+    for number, target in enumerate(outputs):
+        folder = isinstance(target, OutputFolder)
+        check_not_an_input(target, inputs, folder=folder, replaced=folder and replaced)
+        for other in outputs[:number]:
+            if Path(other).absolute() == Path(target).absolute():
+                raise InputError(f"{target}: named as two outputs of this command; give each its own file")
+
+
+def _names_a_path(value: str | Path) -> bool:
+    import os
+
+    try:
+        return os.path.lexists(value)
+    except (ValueError, TypeError):  # a NUL byte: names nothing
+        return False
 
 
 def png_output_path(text: str) -> Path:
@@ -349,14 +395,25 @@ def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_sett
     return settings if args.generations is None else dataclasses.replace(settings, updates=args.generations)
 
 
+class _DistinctSeeds(argparse.Action):
+    """``--seeds`` with each seed once: two runs of one seed would share a folder (and race, run side by side)."""
+
+    def __call__(self, parser: Any, namespace: argparse.Namespace, values: Any, option_string: str | None = None) -> None:
+        repeated = sorted({seed for seed in values if values.count(seed) > 1})
+        if repeated:
+            parser.error(f"argument --seeds: seed {', '.join(map(str, repeated))} given twice; each seed runs once")
+        setattr(namespace, self.dest, values)
+
+
 def seed_run_options(*, config_help: str, config_default: str | None, seeds: list[int], seeds_help: str) -> Adder:
     """The options every ``experiment`` verb shares (one run per seed, several at a time, then a table):
     ``OUT_DIR``, ``--config``, ``--seeds``, ``--parallel`` and ``--json``. The experiment itself and how each run
     uses its processes are the verb's own."""
     return _together(lambda parser: parser, [
-        option("out_dir", metavar="OUT_DIR", help="folder for the runs and the table (made if missing)"),
+        option("out_dir", type=output_folder, metavar="OUT_DIR", help="folder for the runs and the table (made if missing)"),
         option("--config", default=config_default, metavar="TOML", help=f"each run's configuration ({config_help})"),
-        option("--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S", help=f"run seeds ({seeds_help})"),
+        option("--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S", action=_DistinctSeeds,
+               help=f"run seeds, each once ({seeds_help})"),
         number("--parallel", 1, 1024, 2, "runs at once"),
         json_flag("print the whole table as one JSON object, no progress bars"),
     ])  # fmt: skip

@@ -28,6 +28,8 @@ from structgen.errors import InputError
 __all__ = [
     "ELITES",
     "compare_page",
+    "content_security_policy",
+    "escaped",
     "hex_rgb",
     "image_figure",
     "item_page",
@@ -48,9 +50,10 @@ def image_figure(rgb: np.ndarray, title: str = "", labels: Any = None) -> dict[s
     ``labels`` (rows x columns of text) names each cell on hover."""
     import plotly.graph_objects as go
 
-    shown = {"hoverinfo": "x+y"} if labels is None else {"hovertext": np.asarray(labels).tolist(), "hoverinfo": "x+y+text"}
+    hover = None if labels is None else [[escaped(label, quotes=False) for label in row] for row in np.asarray(labels).tolist()]
+    shown = {"hoverinfo": "x+y"} if hover is None else {"hovertext": hover, "hoverinfo": "x+y+text"}
     figure = go.Figure(go.Image(z=np.asarray(rgb, dtype=np.uint8), **shown))
-    figure.update_layout(title=title, margin={"l": 10, "r": 10, "t": 40, "b": 10}, height=420)
+    figure.update_layout(title=escaped(title, quotes=False), margin={"l": 10, "r": 10, "t": 40, "b": 10}, height=420)
     figure.update_xaxes(visible=False)
     figure.update_yaxes(visible=False, scaleanchor="x")
     return plain_figure(figure)
@@ -163,8 +166,8 @@ def item_page(path: str | Path, spec: Any) -> str:
 def compare_page(runs: Mapping[str, Sequence[Mapping[str, Any]]], table: Sequence[Mapping[str, Any]]) -> str:
     """Several runs' progress on one page: ``runs`` maps a label to its metrics rows; ``table`` is compare's table."""
     columns = list(table[0]) if table else []
-    rows = "".join("<tr>" + "".join(f"<td>{html.escape(_shown(row[c]))}</td>" for c in columns) + "</tr>" for row in table)
-    head = "".join(f"<th>{html.escape(c.replace('_', ' '))}</th>" for c in columns)
+    rows = "".join("<tr>" + "".join(f"<td>{escaped(row[c])}</td>" for c in columns) + "</tr>" for row in table)
+    head = "".join(f"<th>{escaped(c.replace('_', ' '))}</th>" for c in columns)
     sections = [
         f'<section><h2>Runs</h2><table class="numbers"><tr>{head}</tr>{rows}</table></section>',
         _figure_section("progress", "Progress", _progress_figure(runs)),
@@ -206,7 +209,14 @@ def _progress_figure(runs: Mapping[str, Sequence[Mapping[str, Any]]]) -> dict[st
         for panel, (key, title) in enumerate(panels, start=1):
             values = [row.get(key) for row in rows]
             figure.add_trace(
-                go.Scatter(x=generations, y=values, name=label, legendgroup=label, showlegend=panel == 1, line={"color": colour}),
+                go.Scatter(
+                    x=generations,
+                    y=values,
+                    name=escaped(label, quotes=False),
+                    legendgroup=label,
+                    showlegend=panel == 1,
+                    line={"color": colour},
+                ),
                 row=panel,
                 col=1,
             )
@@ -226,7 +236,9 @@ def _heatmap(archive: Any, shown: np.ndarray, shape: Sequence[int] | None) -> di
     import plotly.graph_objects as go
 
     cells = archive.cells
-    names = list(archive.measure_names)
+    names = [
+        escaped(name, quotes=False).replace("%", "&#37;") for name in archive.measure_names
+    ]  # % would start a template field
     if cells.shape[1] == 1:
         cells, names = np.concatenate([cells, np.zeros_like(cells)], axis=1), [names[0], ""]
     size = cells[:, :2].max(axis=0) + 1 if len(cells) else np.array([1, 1])
@@ -267,16 +279,16 @@ def _settings_section(summary: Mapping[str, Any], folder: Any) -> str:
     if archive:
         rows += [("elites", f"{archive['elites']:,}"), ("coverage", f"{archive['coverage']:.1%}")]
         rows.append(("QD score", archive["qd_score"]))
-    cells = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(_shown(v))}</td></tr>" for k, v in rows)
+    cells = "".join(f"<tr><th>{escaped(k)}</th><td>{escaped(v)}</td></tr>" for k, v in rows)
     config = (folder / "config.toml").read_text() if (folder / "config.toml").is_file() else ""
     return (
         f'<section><h2>The run</h2><table class="numbers">{cells}</table>'
-        f"<details><summary>Settings (config.toml)</summary><pre>{html.escape(config)}</pre></details></section>"
+        f"<details><summary>Settings (config.toml)</summary><pre>{escaped(config)}</pre></details></section>"
     )
 
 
 def _figure_section(key: str, title: str, figure: Mapping[str, Any]) -> str:
-    return f'<section><h2>{html.escape(title)}</h2><div id="{key}" class="figure" data-figure="{key}"></div></section>' + (
+    return f'<section><h2>{escaped(title)}</h2><div id="{key}" class="figure" data-figure="{key}"></div></section>' + (
         f'<script type="application/json" id="{key}-data">{_json(figure)}</script>'
     )
 
@@ -287,6 +299,15 @@ def _elite_section() -> str:
         '<div class="elite"><div id="elite-view" class="figure"></div><table id="elite-fields" class="numbers"></table></div>'
         "</section>"
     )
+
+
+def escaped(value: Any, *, quotes: bool = True) -> str:
+    """``value`` as text that may stand anywhere in the page, or (``quotes=False``) in a figure's text: titles, hover
+    labels, axis and trace names, which Plotly reads as markup too (its ``<a>`` even takes a script). ``<``, ``>``
+    and ``&`` become entities, and in the page both quotes as well. Everything a page holds that came from a file
+    (names of measures and fields, their values, folder names, settings) goes through here; the page's own script
+    sets text, never markup."""
+    return html.escape(_shown(value), quote=quotes)
 
 
 def _shown(value: Any) -> str:
@@ -345,9 +366,16 @@ function showElite(index) {
   if (!view) return;
   document.getElementById("elite-title").textContent = "Elite: " + view.name;
   document.getElementById("elite-verdict").textContent = view.verdict || "";
-  const rows = Object.entries(view.fields || {}).map(([name, value]) =>
-    "<tr><th>" + name + "</th><td>" + (typeof value === "number" ? Number(value.toPrecision(6)) : value) + "</td></tr>");
-  document.getElementById("elite-fields").innerHTML = rows.join("");
+  // Names and values come from files: they are set as text, never parsed as markup.
+  const rows = Object.entries(view.fields || {}).map(([name, value]) => {
+    const row = document.createElement("tr"), head = document.createElement("th"), cell = document.createElement("td");
+    head.textContent = name;
+    cell.textContent = typeof value === "number" ? String(Number(value.toPrecision(6)))
+      : typeof value === "string" ? value : value === null || value === undefined ? "-" : JSON.stringify(value);
+    row.append(head, cell);
+    return row;
+  });
+  document.getElementById("elite-fields").replaceChildren(...rows);
   const target = document.getElementById("elite-view");
   const figure = view.lines3d ? lineSetFigure(view.lines3d) : view.figure;
   if (figure) Plotly.react(target, figure.data, figure.layout, CONFIG);
@@ -364,6 +392,22 @@ for (const div of document.querySelectorAll("div[data-figure]")) {
 }
 if (VIEWS.length) showElite(0);
 """
+
+
+def content_security_policy(*scripts: str) -> str:
+    """The page's Content-Security-Policy: only the given scripts run (named by their SHA-256, so no script written
+    into the page from a file, and no inline event handler, can), nothing is fetched from anywhere (pictures only as
+    data the page holds), no form is sent and no base address set. Plotly needs inline styles (it styles what it
+    draws), which let no markup from a file run."""
+
+    import base64
+    import hashlib
+
+    hashes = " ".join(f"'sha256-{base64.b64encode(hashlib.sha256(s.encode()).digest()).decode()}'" for s in scripts)
+    return (
+        f"default-src 'none'; script-src {hashes}; style-src 'unsafe-inline'; img-src data: blob:; "
+        "font-src data:; worker-src blob:; connect-src 'none'; base-uri 'none'; form-action 'none'"
+    )
 
 
 def _page(title: str, sections: Sequence[str], views: Sequence[Mapping[str, Any]]) -> str:
@@ -385,9 +429,12 @@ def _page(title: str, sections: Sequence[str], views: Sequence[Mapping[str, Any]
     views = compact
 
     stamp = time.strftime("%Y-%m-%d %H:%M")
+    plotly_js = get_plotlyjs()
     return (
-        f'<!doctype html>\n<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
-        f"<style>{_STYLE}</style><script>{get_plotlyjs()}</script></head>\n<body><h1>{html.escape(title)}</h1>\n"
+        f'<!doctype html>\n<html lang="en"><head><meta charset="utf-8">'
+        f'<meta http-equiv="Content-Security-Policy" content="{content_security_policy(plotly_js, _SCRIPT)}">'
+        f"<title>{escaped(title)}</title>"
+        f"<style>{_STYLE}</style><script>{plotly_js}</script></head>\n<body><h1>{escaped(title)}</h1>\n"
         + "\n".join(sections)
         + f'\n<script type="application/json" id="views-data">{_json(list(views))}</script>'
         + f'\n<script type="application/json" id="styles-data">{_json(styles)}</script>'

@@ -37,6 +37,7 @@ from structgen.registry.commands import (
     one_of,
     option,
     output,
+    output_folder,
     overwrite,
     png_output_path,
     real,
@@ -725,8 +726,8 @@ def _verbs(kind: LayoutKind) -> dict[str, Verb]:
                number("--episodes", 1, 10_000, 50, "episodes"), seed("episodes' seed")] * maze,
              text={"measures": _MEASURES["maze" if maze else "layout"]}, examples=[f"{me} measure layout.json --json"]),
         verb("train", cmd_train_agent,
-             option("--run-dir", required=True, type=Path, metavar="DIR", help="run folder (made, or resumed if it holds "
-                    "this training)"),
+             option("--run-dir", required=True, type=output_folder, metavar="DIR",
+                    help="run folder (made, or resumed if it holds this training)"),
              settings(AgentSettings, _AGENT_FIELDS),
              flag("--no-way-on", "do not tell the network which way the goal or the nearest unexplored floor lies on its "
                   "map (the agents of structgen 0.4 and before; give it again to go on with such a run, or use structgen "

@@ -39,6 +39,7 @@ from structgen.registry.commands import (
     one_of,
     option,
     output,
+    output_folder,
     output_path,
     overwrite,
     png_output_path,
@@ -784,7 +785,8 @@ class StructureCommands(DomainCommands):
              overwrite("the library file if it exists"),
              examples=["structgen design-library -o my_library.npz --ncas 500"]),
         verb("tall", cmd_tall,
-             option("--run-dir", metavar="DIR", help="run folder: new, empty, or one a search with the same settings "
+             option("--run-dir", type=output_folder, metavar="DIR", help="run folder: new, empty, or one a search with the same "
+                    "settings "
                     "started (it resumes; with more --levels it goes on from there); default runs/tall-<levels>"),
              overwrite(), settings(TallSettings, ("levels", "beam", "candidates", "max_vertices", "footprint")),
              option("--refine", action=argparse.BooleanOptionalAction, help="try every change of two levels' rules of the "

@@ -42,6 +42,10 @@ __all__ = [
 ]
 
 
+#: The domain the paper's experiments run (its configurations name it).
+_DOMAIN_ID = "structures-v0"
+
+
 @dataclass(frozen=True)
 class PaperExperiment:
     """One of the paper's experiments: its configuration file, its spawn budget, the spawns its figures show, and
@@ -248,11 +252,25 @@ def run_experiment(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
+    if len(set(seeds)) != len(seeds):
+        raise InputError(f"seeds {list(seeds)}: a seed given twice would run twice into one folder; give each once")
+    # Everything that can be refused is refused before the first run starts: the configuration's domain, every
+    # seed's folder, and where the results go.
     for seed in seeds:
         run_dir = out / f"seed-{seed}"
         if table_only and not (run_dir / "metrics.jsonl").is_file():
             raise InputError(f"{run_dir}: no run here to put in the table (run it without --table-only)")
-        check_seed_folder(run_dir, expected_run(config, (), seed, generations), any_length=True)
+        expected = expected_run(config, (), seed, generations)
+        if expected.domain != _DOMAIN_ID:
+            raise InputError(f"{config}: a run of the {expected.domain} domain; the paper's experiments are {_DOMAIN_ID} runs")
+        check_seed_folder(run_dir, expected, any_length=True)
+    if out.is_dir():
+        from evolution.files import check_output
+
+        for name in ("table.json", "table.md"):
+            check_output(out / name)
+    if results is not None:
+        _results_tables(results)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -283,22 +301,32 @@ def merge_results(report: dict[str, Any], stem: str | Path) -> None:
     """Put one experiment's table into the tables of all four (``STEM.json``, keyed by experiment, and ``STEM.md``,
     every experiment's table in the paper's order), replacing that experiment's earlier one."""
     stem = Path(stem)
-    path = stem.with_name(stem.name + ".json")
-    tables: dict[str, Any] = {}
-    if path.is_file():
-        try:
-            tables = json.loads(path.read_text())
-        except json.JSONDecodeError as err:
-            raise InputError(f"{path}: not the JSON these tables are kept in ({err.msg}, line {err.lineno})") from None
-        if not isinstance(tables, dict):
-            raise InputError(f"{path}: not the JSON these tables are kept in (an object keyed by experiment)")
+    path, tables = _results_tables(stem)
     tables[report["experiment"]] = report
     ordered = {name: tables[name] for name in EXPERIMENTS if name in tables}
-    stem.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, json.dumps(ordered, indent=1) + "\n")
     command = f"structgen structures experiment NAME OUT_DIR --results {stem}"
     text = f"# The stable-structures paper's experiments, run here\n\nWritten by `{command}`.\n\n"
     atomic_write(stem.with_name(stem.name + ".md"), text + "\n".join(table_markdown(t) for t in ordered.values()))
+
+
+def _results_tables(stem: str | Path) -> tuple[Path, dict[str, Any]]:
+    """``STEM.json`` and the tables it holds (none if it is not there yet), checked as :func:`merge_results` will
+    write it: both files writable, the JSON an object keyed by experiment."""
+    from evolution.files import MiB, check_output, read_json
+
+    stem = Path(stem)
+    path = stem.with_name(stem.name + ".json")
+    for target in (path, stem.with_name(stem.name + ".md")):
+        check_output(target)
+    if not path.exists():
+        return path, {}
+    tables = read_json(path, 64 * MiB)
+    if not isinstance(tables, dict) or not all(name in EXPERIMENTS and isinstance(table, dict) for name, table in tables.items()):
+        raise InputError(
+            f"{path}: not the JSON these tables are kept in (an object keyed by experiment: {', '.join(EXPERIMENTS)})"
+        )
+    return path, tables
 
 
 def _mean_se(values: Sequence[float]) -> str:
