@@ -44,6 +44,9 @@ __all__ = [
     "read_bytes",
     "read_json",
     "read_npy",
+    "read_npz",
+    "read_png",
+    "parse_npy",
     "read_weights",
     "read_text",
 ]
@@ -186,30 +189,96 @@ def read_json(path: str | os.PathLike, limit: int, *, what: str = "JSON") -> Any
 
 
 def read_npy(path: str | os.PathLike, limit: int) -> np.ndarray:
-    """The numeric array in the ``.npy`` file at ``path``.
+    """The numeric array in the ``.npy`` file at ``path`` (:func:`parse_npy`)."""
+    return parse_npy(read_bytes(path, limit), str(path))
+
+
+def parse_npy(data: bytes, source: str, *, text: bool = False) -> np.ndarray:
+    """The array in ``data``, the bytes of a ``.npy`` file (``source`` names it in errors).
 
     The header is read first and checked against the bytes that follow, so a header that claims more data than the
-    file holds is an error, not an allocation; object arrays (pickles) and non-numeric types are refused.
+    file holds is an error, not an allocation; object arrays (pickles) and non-numeric types are refused (``text``
+    admits arrays of text, which are not pickles either).
     """
-    data = read_bytes(path, limit)
     stream = io.BytesIO(data)
     try:
         version = np.lib.format.read_magic(stream)
         reader = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
         shape, fortran, dtype = reader(stream)
     except Exception as err:  # numpy says ValueError for most damage, other errors for some
-        raise InputFileError(f"{path}: not a valid .npy file ({err})") from None
-    if dtype.hasobject or dtype.kind not in "biuf" or dtype.fields is not None:
-        raise InputFileError(f"{path}: holds {dtype} values; expected numbers")
+        raise InputFileError(f"{source}: not a valid .npy file ({err})") from None
+    kinds = "biufU" if text else "biuf"
+    if dtype.hasobject or dtype.kind not in kinds or dtype.fields is not None or dtype.subdtype is not None:
+        raise InputFileError(f"{source}: holds {dtype} values; expected {'numbers or text' if text else 'numbers'}")
     count = int(np.prod(shape, dtype=object))
     body = len(data) - stream.tell()
     if count * dtype.itemsize != body:
         raise InputFileError(
-            f"{path}: its header says shape {tuple(shape)} of {dtype} ({_size(count * dtype.itemsize)}), "
+            f"{source}: its header says shape {tuple(shape)} of {dtype} ({_size(count * dtype.itemsize)}), "
             f"but {_size(body)} follow it (the file is cut short or damaged)"
         )
     array = np.frombuffer(data, dtype=dtype, count=count, offset=stream.tell())
     return array.reshape(shape, order="F" if fortran else "C").copy()
+
+
+def read_npz(path: str | os.PathLike, limit: int, unpacked: int, *, text: bool = False) -> dict[str, np.ndarray]:
+    """The arrays of the ``.npz`` archive at ``path`` by name, each checked as :func:`parse_npy` checks one.
+
+    The archive is at most ``limit`` bytes on disk and ``unpacked`` bytes unpacked: each member is read at most to
+    what is left of that, whatever its header claims, so a small file that inflates to gigabytes is an error, not
+    an allocation."""
+    import zipfile
+
+    data = read_bytes(path, limit)
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(data))
+        members = archive.infolist()
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as err:
+        raise InputFileError(f"{path}: not a .npz archive ({err})") from None
+    arrays: dict[str, np.ndarray] = {}
+    left = unpacked
+    for member in members:
+        name = member.filename[:-4] if member.filename.endswith(".npy") else member.filename
+        if member.file_size > left:
+            raise InputFileError(f"{path}: unpacks to more than the {_size(unpacked)} this file may hold ({name})")
+        try:
+            with archive.open(member) as handle:
+                body = handle.read(left + 1)
+        except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError) as err:
+            raise InputFileError(f"{path}: {name} cannot be unpacked ({err})") from None
+        if len(body) > left:
+            raise InputFileError(f"{path}: unpacks to more than the {_size(unpacked)} this file may hold ({name})")
+        left -= len(body)
+        arrays[name] = parse_npy(body, f"{path}: {name}", text=text)
+    return arrays
+
+
+#: Pictures larger than this are refused before they are decoded (the tools draw well under 4 million pixels).
+MAX_PICTURE_PIXELS = 50_000_000
+
+
+def read_png(path: str | os.PathLike, limit: int = 256 * MiB, max_pixels: int = MAX_PICTURE_PIXELS) -> np.ndarray:
+    """The PNG picture at ``path`` as an array of 0-1 colours (rows, columns, channels), as matplotlib shows one. Its
+    header is read first: a file that is not PNG, or one whose pixels would exceed ``max_pixels``, is refused
+    before anything is decoded (a small file can hold a picture of gigabytes)."""
+    import struct
+    import zlib
+
+    data = read_bytes(path, limit)
+    if data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR" or len(data) < 33:
+        raise InputFileError(f"{path}: not a PNG picture")
+    width, height = struct.unpack(">II", data[16:24])
+    if width * height > max_pixels:
+        raise InputFileError(f"{path}: a picture of {width:,} x {height:,} pixels, more than the {max_pixels:,} it may hold")
+    try:
+        from PIL import Image
+
+        with Image.open(io.BytesIO(data), formats=["PNG"]) as picture:
+            picture.load()
+            array = np.asarray(picture.convert("RGBA" if "A" in picture.getbands() else "RGB"))
+    except (OSError, ValueError, SyntaxError, zlib.error) as err:  # PIL's words for a damaged file
+        raise InputFileError(f"{path}: not a readable PNG picture ({err})") from None
+    return array.astype(np.float32) / 255.0
 
 
 def _not_a_file(path: Path) -> str | None:

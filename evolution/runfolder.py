@@ -148,6 +148,10 @@ class Archive:
         return {name: values[position].item() for name, values in self.columns.items()}
 
 
+#: Archive indices and cells are whole numbers from 0 to this (pyribs' archives index cells with 32-bit integers).
+_MAX_INDEX = 2**31 - 1
+
+
 def load_archive(run_dir: str | os.PathLike, problem: Problem | None = None) -> Archive:
     """The archive of the run in ``run_dir`` (a quality-diversity run); with ``problem``, each elite's genome too."""
     return RunFolder.open(run_dir).load_archive(problem)
@@ -641,9 +645,17 @@ class RunFolder:
                 continue
             whole = name == "index" or name.startswith("cell_")
             try:
-                values = [int(row[name]) if whole else float(row[name]) for row in rows]
+                # int() of more than a few digits is refused as Python refuses 5,000: an index is never that long.
+                values = [int(row[name]) if whole and len(row[name] or "") <= 12 else float(row[name]) for row in rows]
             except (TypeError, ValueError):
                 raise InputFileError(f"{path}: column {name!r} holds a value that is not a number") from None
+            if whole:
+                wrong = [n for n, value in enumerate(values) if not isinstance(value, int) or not 0 <= value <= _MAX_INDEX]
+                if wrong:
+                    raise InputFileError(
+                        f"{path}, line {wrong[0] + 2}: {name} = {rows[wrong[0]][name]!r} is not a whole number from 0 "
+                        f"to {_MAX_INDEX:,}"
+                    )
             columns[name] = np.array(values, dtype=np.int64 if whole else np.float64)
         genomes = None
         if problem is not None:

@@ -45,6 +45,7 @@ __all__ = [
     "manifest",
     "open_run",
     "other_run_kind",
+    "read_best",
     "resume",
     "check_numbers",
     "run_summary",
@@ -428,6 +429,24 @@ def check_numbers(source: str | Path, rows: list[dict[str, Any]], names: tuple[s
                 raise InputFileError(f"{where}: {name} = {value!r} is not a finite number")
 
 
+def read_best(path: str | Path) -> dict[str, Any]:
+    """A ``best.json`` (a run's best candidate, or one kept at a spawn), checked: a JSON object whose objective and
+    generation are finite numbers and whose measures and fields are objects of them; anything else is an
+    InputFileError naming the file and the field."""
+    from evolution.files import read_json
+
+    best = read_json(path, 1 << 24)
+    if not isinstance(best, dict):
+        raise InputFileError(f"{path}: not a best candidate's summary (a JSON object), but {type(best).__name__}")
+    check_numbers(path, [best], ("objective", "generation"), lines=False)
+    for key in ("measures", "fields"):
+        values = best.get(key) or {}
+        if not isinstance(values, dict):
+            raise InputFileError(f"{path}: {key} must be an object of numbers")
+        check_numbers(f"{path}, {key}", [values], tuple(values), lines=False)
+    return best
+
+
 def summary_of(folder: RunFolder, experiment: Experiment, rows: list[dict[str, Any]]) -> dict[str, Any]:
     """:func:`run_summary` of a run already opened, with its metrics already read."""
     manifest = folder.manifest()
@@ -448,17 +467,8 @@ def summary_of(folder: RunFolder, experiment: Experiment, rows: list[dict[str, A
     }
     best_file = folder / RunFolder.BEST / "best.json"
     if best_file.is_file():
-        from evolution.files import read_json
-
-        best = read_json(best_file, 1 << 24)
-        if isinstance(best, dict):
-            check_numbers(best_file, [best], ("objective", "generation"), lines=False)
-            for key in ("measures", "fields"):
-                values = best.get(key) or {}
-                if not isinstance(values, dict):
-                    raise InputFileError(f"{best_file}: {key} must be an object of numbers")
-                check_numbers(f"{best_file}, {key}", [values], tuple(values), lines=False)
-            summary["best"] = {key: best.get(key) for key in ("objective", "generation", "measures", "fields")}
+        best = read_best(best_file)
+        summary["best"] = {key: best.get(key) for key in ("objective", "generation", "measures", "fields")}
     if "qd_score" in last:
         summary["archive"] = {"elites": last.get("num_elites"), "coverage": last["coverage"], "qd_score": last["qd_score"]}
     summary["files"] = sorted(p.name + ("/" if p.is_dir() else "") for p in folder.path.iterdir() if not p.name.startswith("."))

@@ -41,6 +41,8 @@ __all__ = [
 
 #: Elites of an archive given a view at most (the best by objective); the others show their numbers only.
 ELITES = 1000
+#: The most cells an archive's heatmap may have (the largest archive of the paper's settings has 10,000).
+MAX_HEATMAP_CELLS = 1_000_000
 #: Columns of archive.csv that place an elite rather than describe it.
 _BOOKKEEPING = ("index", "objective", "threshold")
 
@@ -73,10 +75,11 @@ def line_set(
     drawn at the bottom of the scale), kept to a byte. ``lines`` and ``markers`` are Plotly ``Scatter3d`` traces
     without their coordinates (the segments, coloured by value; the points) and ``layout`` the figure's layout: the
     page fills the coordinates in. A structure of a thousand members takes about 10 KB, against 80 KB as a figure."""
+    points = np.asarray(points)
     steps = np.where(np.isnan(values), 255, np.round(np.clip(values, 0.0, 1.0) * 254))
     return {
         "lines3d": {
-            "points": _typed(np.asarray(points), np.int16),
+            "points": _typed(points, np.int16 if points.size == 0 or np.abs(points).max() < 2**15 else np.int32),
             "pairs": _typed(np.asarray(pairs), np.int32),
             "values": _typed(steps, np.uint8),
             "style": {"lines": lines.to_plotly_json(), "markers": markers.to_plotly_json(), "layout": plain_layout(layout)},
@@ -140,7 +143,8 @@ def run_page(run_dir: str | Path, *, elites: int = ELITES, progress: bool = Fals
                 genome = archive.genomes[row]
                 shown[row] = len(views)
                 views.append(_view(hooks, problem, genome, name, float(archive.objective[row]), {"measures": numbers}))
-            heatmap = _heatmap(archive, shown, getattr(experiment.optimizer_settings, "cells", None))
+            cells = getattr(experiment.optimizer_settings, "cells", None)
+            heatmap = _heatmap(archive, shown, cells, folder / RunFolder.ARCHIVE)
     finally:
         problem.close()
     title = f"{folder.path.name}: {experiment.domain}, {experiment.optimizer_name}"
@@ -230,7 +234,7 @@ def _any(runs: Mapping[str, Sequence[Mapping[str, Any]]], key: str) -> bool:
     return any(key in row for rows in runs.values() for row in rows)
 
 
-def _heatmap(archive: Any, shown: np.ndarray, shape: Sequence[int] | None) -> dict[str, Any]:
+def _heatmap(archive: Any, shown: np.ndarray, shape: Sequence[int] | None, source: Any = "archive.csv") -> dict[str, Any]:
     """The archive's objective over its first two measures' cells (``shape``, the archive's cells per measure); a
     cell's custom data is its elite's view (-1: none). One measure is drawn as a single row."""
     import plotly.graph_objects as go
@@ -243,7 +247,14 @@ def _heatmap(archive: Any, shown: np.ndarray, shape: Sequence[int] | None) -> di
         cells, names = np.concatenate([cells, np.zeros_like(cells)], axis=1), [names[0], ""]
     size = cells[:, :2].max(axis=0) + 1 if len(cells) else np.array([1, 1])
     if shape is not None:
-        size = np.maximum(size, [*list(shape)[:2], 1][:2])
+        configured = np.array([*list(shape)[:2], 1][:2])
+        if (size > configured).any():
+            raise InputError(f"{source}: an elite's cell {cells[:, :2].max(axis=0).tolist()} lies outside the archive's "
+                             f"{configured.tolist()} cells (the run's settings)")  # fmt: skip
+        size = configured
+    if int(size[0]) * int(size[1]) > MAX_HEATMAP_CELLS:
+        raise InputError(f"{source}: a heatmap of {int(size[0]):,} x {int(size[1]):,} cells is more than the "
+                         f"{MAX_HEATMAP_CELLS:,} a report draws")  # fmt: skip
     z = np.full((int(size[1]), int(size[0])), np.nan)
     custom = np.full(z.shape, -1, dtype=np.int64)
     z[cells[:, 1], cells[:, 0]] = archive.objective

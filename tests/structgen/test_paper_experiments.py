@@ -117,6 +117,10 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     assert (out / "seed-3" / "metrics.jsonl").read_text().count("\n") == 6
     code, _, err = cli(capsys, "structures", "experiment", "cutoff", tmp_path / "b", "--config", tmp_path / "none.toml")
     assert code == 2 and "none.toml" in err
+    assert not (tmp_path / "b").exists()  # refused before the folder was made
+    code, _, err = cli(capsys, "structures", "figure", tmp_path / "b")
+    assert code == 2 and "no such folder" in err
+    (tmp_path / "b").mkdir()
     code, _, err = cli(capsys, "structures", "figure", tmp_path / "b")
     assert code == 2 and "no pictures" in err
 

@@ -369,10 +369,16 @@ def cmd_regrow(args: argparse.Namespace) -> int:
 
     if args.weights is None:
         raise InputError("regrow needs the NCA that grew FILE: --weights FILE.npy")
+    from structgen.config import build
+
     structure = _load_structure(args.file)
-    growth = structure.metadata.get("growth") or {}
+    growth = structure.metadata.get("growth", {})
+    if not isinstance(growth, dict):
+        raise InputError(f"{args.file}: metadata.growth is {type(growth).__name__}, not the table of settings it was grown with")
     grown_with = {name: growth[name] for name in NCA_OPTIONS if name in growth}
-    config = settings_from_args({"nca": NCAConfig(**grown_with)}, args, NCA_OPTIONS)["nca"]
+    # The file's settings are checked as a configuration's are (type and range, named), before the options apply.
+    config = build(NCAConfig, grown_with, f"{args.file}: metadata.growth")
+    config = settings_from_args({"nca": config}, args, NCA_OPTIONS)["nca"]
     try:
         result = regrow(load_weights(args.weights, config), structure, config, args.damage, args.cut, args.seed)
     except ValueError as err:

@@ -225,29 +225,89 @@ class DesignLibrary:
         return Spec(int(best[0]), int(best[1]), int(best[2]), spec.max_members)
 
 
+#: A library file may hold this much on disk and unpacked (the shipped one: 2.9 MB, 3.9 MB unpacked).
+MAX_LIBRARY_BYTES, MAX_LIBRARY_UNPACKED = 64 << 20, 256 << 20
+#: No answer's box may be wider, deeper or taller than this (the shipped library's reach 11 cells and 8 levels):
+#: growing one allocates its box.
+MAX_LIBRARY_SIDE = 64
+
+
 def load_library(path: str | Path | None = None) -> DesignLibrary:
-    """The library at ``path`` (default: the one that ships with structgen)."""
+    """The library at ``path`` (default: the one that ships with structgen), read through the file gate and checked
+    field by field: a damaged or foreign file is an error naming the file and the field, before anything is grown."""
+    from evolution.files import InputFileError, parse_json, read_npz
     from structgen.errors import InputError
 
     path = Path(path) if path is not None else DEFAULT_LIBRARY
+    if not path.exists() and not path.is_symlink():
+        raise InputError(f"{path}: no design library there (build one with structgen design-library)")
     try:
-        with np.load(path, allow_pickle=False) as data:
-            library = DesignLibrary(
-                families=[str(f) for f in data["families"]], weights=data["weights"].astype(np.float64),
-                answers=data["answers"], peaks=data["peaks"], info=json.loads(str(data["info"])),
-                on_mat=data["on_mat"].astype(bool) if "on_mat" in data.files else None,
-            )  # fmt: skip
-    except FileNotFoundError:
-        raise InputError(f"{path}: no design library there (build one with structgen design-library)") from None
-    except (OSError, ValueError, KeyError) as err:
-        raise InputError(f"{path}: not a design library ({err})") from None
-    bad = [f for f in library.families if f not in FAMILIES]
-    flags_fit = library.on_mat is None or library.on_mat.shape == library.answers.shape[:1]
-    if bad or library.weights.shape[1:] != (n_params(FAMILIES["down"]),) or library.answers.shape[1:] != (8,) or not flags_fit:
-        raise InputError(f"{path}: not a design library of this structgen (families {bad or 'fine'}, weights "
-                         f"{library.weights.shape}, answers {library.answers.shape}"
-                         + ("" if flags_fit else f", on_mat {library.on_mat.shape}") + ")")  # fmt: skip
-    return library
+        arrays = read_npz(path, MAX_LIBRARY_BYTES, MAX_LIBRARY_UNPACKED, text=True)
+    except InputFileError as err:
+        raise InputError(str(err)) from None
+
+    def field_of(name: str, kinds: str, ndim: int) -> np.ndarray:
+        if name not in arrays:
+            raise InputError(f"{path}: not a design library (no {name!r} array; it holds {', '.join(arrays) or 'none'})")
+        array = arrays[name]
+        if array.dtype.kind not in kinds or array.ndim != ndim:
+            raise InputError(f"{path}: {name} is {array.dtype} of shape {array.shape}; a design library's is not")
+        return array
+
+    families = [str(f) for f in field_of("families", "U", 1)]
+    weights = field_of("weights", "f", 2)
+    answers = field_of("answers", "iu", 2)
+    peaks = field_of("peaks", "f", 1)
+    info_text = field_of("info", "U", 0)
+    on_mat = field_of("on_mat", "bu", 1) if "on_mat" in arrays else None
+    bad = sorted({f for f in families if f not in FAMILIES})
+    if bad:
+        raise InputError(f"{path}: families {bad} are not NCA families of this structgen ({', '.join(FAMILIES)})")
+    if weights.shape != (len(families), n_params(FAMILIES["down"])):
+        raise InputError(f"{path}: weights of shape {weights.shape}; {len(families)} NCAs of this structgen need "
+                         f"({len(families)}, {n_params(FAMILIES['down'])})")  # fmt: skip
+    if not np.isfinite(weights).all():
+        raise InputError(f"{path}: weights hold NaN or infinity")
+    if answers.shape[1:] != (len(DesignLibrary.COLUMNS),) or peaks.shape != answers.shape[:1]:
+        raise InputError(f"{path}: answers of shape {answers.shape} and peaks of {peaks.shape}; expected (M, 8) and (M,)")
+    if on_mat is not None and (on_mat.shape != answers.shape[:1] or not np.isin(on_mat, (0, 1)).all()):
+        raise InputError(f"{path}: on_mat of shape {on_mat.shape} is not one flag (0 or 1) an answer")
+    _check_answers(path, answers.astype(np.int64), len(families))
+    if not (np.isfinite(peaks) & (peaks >= 0)).all():
+        raise InputError(f"{path}: peaks hold a value that is not a finite share of the break force")
+    try:
+        info = parse_json(str(info_text), f"{path}: info")
+    except InputFileError as err:
+        raise InputError(str(err)) from None
+    if not isinstance(info, dict):
+        raise InputError(f"{path}: info is not a JSON object")
+    return DesignLibrary(
+        families=families, weights=weights.astype(np.float64), answers=answers.astype(np.int32), peaks=peaks,
+        info=info, on_mat=None if on_mat is None else on_mat.astype(bool),
+    )  # fmt: skip
+
+
+def _check_answers(path: Path, answers: np.ndarray, ncas: int) -> None:
+    """Every answer names an NCA of the library, a box of 1 to :data:`MAX_LIBRARY_SIDE` cells each way with its seed
+    inside, and counts of members and vertices that are not negative."""
+    from structgen.errors import InputError
+
+    nca, width, depth, height, x_seed, y_seed, edges, vertices = answers.T
+    problems = {
+        "nca": (nca < 0) | (nca >= ncas),
+        "width": (width < 1) | (width > MAX_LIBRARY_SIDE),
+        "depth": (depth < 1) | (depth > MAX_LIBRARY_SIDE),
+        "height": (height < 1) | (height > MAX_LIBRARY_SIDE),
+        "x_seed": (x_seed < 0) | (x_seed >= width),
+        "y_seed": (y_seed < 0) | (y_seed >= depth),
+        "edges": edges < 0,
+        "vertices": vertices < 1,
+    }
+    for name, wrong in problems.items():
+        if wrong.any():
+            row = int(np.flatnonzero(wrong)[0])
+            raise InputError(f"{path}: answers[{row}] has {name} {int(answers[row, DesignLibrary.COLUMNS.index(name)])}, "
+                             f"out of range ({int(wrong.sum())} answers so)")  # fmt: skip
 
 
 def _turned(structure: Structure) -> Structure:

@@ -14,8 +14,10 @@ evolution iteration" is generation 94 here (its iterations count after the first
 
 from __future__ import annotations
 
+import io
 import json
 import math
+import re
 import shutil
 import statistics
 import sys
@@ -25,8 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from evolution.files import atomic_write
+from evolution.files import atomic_write, read_png
 from structgen.errors import InputError
+from structgen.runs import read_best
 from structgen.runs.seed_runs import check_seed_folder, expected_run, run_seed
 
 __all__ = [
@@ -101,14 +104,23 @@ def _regime(mean_integrity: float) -> str:
     return "< 0.5" if mean_integrity < 0.5 else "0.5 to 1"
 
 
+#: What a table reads of each metrics row (absent ones count as 0 where the table allows it).
+_ROW_NUMBERS = (
+    "generation", "evaluations", "wall_s", "best_objective", "workers", "generation_mean_integrity",
+    "generation_max_standing_height", "generation_max_standing_vertices", "generation_max_standing_edges",
+)  # fmt: skip
+
+
 def seed_row(run_dir: Path, workers: int) -> dict[str, Any]:
     """One run's line of the table, from its metrics and its best candidate."""
-    from structgen.runs import open_run
+    from evolution import RunFolder
+    from structgen.runs import check_numbers, open_run
 
     folder, _ = open_run(run_dir)
     rows = folder.metrics()
     if not rows:
         raise InputError(f"{run_dir}: the run has no finished generation yet")
+    check_numbers(folder / RunFolder.METRICS, rows, _ROW_NUMBERS)
     first_whole = next((r for r in rows if r.get("generation_max_standing_edges", 0) > 0), None)
     tallest: dict[str, Any] = {}
     for spawn in TABLE_SPAWNS:
@@ -132,7 +144,8 @@ def seed_row(run_dir: Path, workers: int) -> dict[str, Any]:
         if seconds > 0 and structures > 0:
             # Core-seconds per structure: the evaluator's cost had it run on one core, as the paper's did.
             regimes.setdefault(_regime(row["generation_mean_integrity"]), []).append((seconds, seconds * cores / structures))
-    best = json.loads((folder.path / "best" / "best.json").read_text()) if (folder.path / "best" / "best.json").is_file() else {}
+    best_file = folder.path / "best" / "best.json"
+    best = read_best(best_file) if best_file.is_file() else {}
     return {
         "run": str(run_dir),
         "generations": rows[-1]["generation"],
@@ -304,6 +317,7 @@ def merge_results(report: dict[str, Any], stem: str | Path) -> None:
     path, tables = _results_tables(stem)
     tables[report["experiment"]] = report
     ordered = {name: tables[name] for name in EXPERIMENTS if name in tables}
+    stem.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, json.dumps(ordered, indent=1) + "\n")
     command = f"structgen structures experiment NAME OUT_DIR --results {stem}"
     text = f"# The stable-structures paper's experiments, run here\n\nWritten by `{command}`.\n\n"
@@ -317,8 +331,11 @@ def _results_tables(stem: str | Path) -> tuple[Path, dict[str, Any]]:
 
     stem = Path(stem)
     path = stem.with_name(stem.name + ".json")
+    folder = stem.parent  # made if missing: then the nearest folder that is there must take it
+    while not folder.exists() and not folder.is_symlink() and folder != folder.parent:
+        folder = folder.parent
     for target in (path, stem.with_name(stem.name + ".md")):
-        check_output(target)
+        check_output(target if folder == stem.parent else folder / target.name)
     if not path.exists():
         return path, {}
     tables = read_json(path, 64 * MiB)
@@ -409,33 +426,46 @@ def figure(out_dir: str | Path, output: str | Path | None = None) -> str:
     import matplotlib.pyplot as plt
 
     out = Path(out_dir)
-    kept = sorted(out.glob("seed-*-spawns/spawn-*/structure.png"))
+    if not out.is_dir():
+        raise InputError(f"{out}: no such folder (an experiment's OUT_DIR)")
+    kept: dict[tuple[int, int], Path] = {}
+    for picture in sorted(out.glob("seed-*-spawns/spawn-*/structure.png")):
+        seed_name, spawn_name = picture.parent.parent.name, picture.parent.name
+        named = re.fullmatch(r"seed-(\d{1,10})-spawns", seed_name), re.fullmatch(r"spawn-(\d{1,10})", spawn_name)
+        if not all(named):
+            raise InputError(f"{picture.parent}: not a folder an experiment keeps (seed-S-spawns/spawn-N, S and N numbers)")
+        kept[int(named[0].group(1)), int(named[1].group(1))] = picture
     if not kept:
         raise InputError(f"{out}: no pictures kept here (an experiment keeps them in seed-S-spawns/spawn-N/)")
-    seeds = sorted({p.parent.parent.name.removesuffix("-spawns") for p in kept}, key=lambda n: int(n.split("-")[1]))
-    spawns = sorted({int(p.parent.name.split("-")[1]) for p in kept})
+    seeds = sorted({seed for seed, _ in kept})
+    spawns = sorted({spawn for _, spawn in kept})
     target = Path(output) if output else out / "figure.png"
+    # Everything is read and checked before the figure is drawn: a damaged copy is refused, naming the file.
+    panels = {}
+    for place, picture in kept.items():
+        best_file = picture.parent / "best.json"
+        best = read_best(best_file) if best_file.is_file() else {}
+        panels[place] = read_png(picture), best
     fig, axes = plt.subplots(len(seeds), len(spawns), figsize=(4 * len(spawns), 4 * len(seeds)), squeeze=False)
     for row, seed in enumerate(seeds):
         for column, spawn in enumerate(spawns):
             ax = axes[row][column]
             ax.axis("off")
-            picture = out / f"{seed}-spawns" / f"spawn-{spawn}" / "structure.png"
-            if picture.is_file():
-                ax.imshow(plt.imread(picture))
-                best = json.loads((picture.parent / "best.json").read_text()) if (picture.parent / "best.json").is_file() else {}
+            if (seed, spawn) in panels:
+                image, best = panels[seed, spawn]
+                ax.imshow(image)
                 fields = best.get("fields", {})
                 ax.set_title(
-                    f"{seed}, best by spawn {spawn:,}\nQ {best.get('objective', float('nan')):.1f}, I "
+                    f"seed-{seed}, best by spawn {spawn:,}\nQ {best.get('objective', float('nan')):.1f}, I "
                     f"{fields.get('integrity', float('nan')):.2f}, H {fields.get('height', float('nan')):.1f}, "
                     f"V {fields.get('complexity', float('nan')):.0f}",
                     fontsize=9,
                 )
             else:
-                ax.set_title(f"{seed}: not kept at spawn {spawn:,}", fontsize=9)
+                ax.set_title(f"seed-{seed}: not kept at spawn {spawn:,}", fontsize=9)
     fig.tight_layout()
-    staging = target.with_name(target.name + ".partial.png")
-    fig.savefig(staging, dpi=64)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, dpi=64, format="png")
     plt.close(fig)
-    staging.replace(target)
+    atomic_write(target, buffer.getvalue())
     return str(target)
