@@ -401,6 +401,8 @@ def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
     return path
 
 
+#: The largest weight a network takes (the largest 32-bit float).
+MAX_WEIGHT = float(np.finfo(np.float32).max)
 #: Weight files larger than this are refused before they are read (a 52-60-26 network takes 38 KB).
 MAX_WEIGHTS_BYTES = 64 * MiB
 
@@ -432,4 +434,7 @@ def read_weights(path: str | os.PathLike, expected: int, network: str) -> np.nda
         raise ValueError(f"{path}: holds {len(data)} weights, but {network} has {expected}")
     if not np.isfinite(data).all():
         raise ValueError(f"{path}: weights contain NaN or infinity")
+    if len(data) and np.abs(data).max() > MAX_WEIGHT:
+        # The networks compute in 32-bit floats, where such a weight is infinite.
+        raise ValueError(f"{path}: a weight of {np.abs(data).max():g} is past the {MAX_WEIGHT:g} 32-bit floats can hold")
     return data.astype(np.float64)

@@ -200,3 +200,285 @@ def test_overwrite_never_replaces_a_folder_that_holds_an_input(qd_run, tmp_path,
     before = config.read_bytes()
     refused(capsys, "evolve", config, "--run-dir", run, "--overwrite", fragments=("an input of this command",))
     assert config.read_bytes() == before
+
+
+# -- refused before any work ----------------------------------------------------------------------------------------------
+EXPERIMENT = ("structures", "experiment", "cutoff")
+
+
+def _results_cases(tmp_path: Path) -> dict[str, Path]:
+    (tmp_path / "list.json").write_text("[1, 2]")
+    (tmp_path / "garbage.json").write_text("{not json")
+    (tmp_path / "folder.json").mkdir()
+    (tmp_path / "file").write_text("a file")
+    return {
+        "a list": tmp_path / "list",
+        "garbage": tmp_path / "garbage",
+        "a folder": tmp_path / "folder",
+        "under a file": tmp_path / "file" / "table",
+        "under /proc": Path("/proc/structgen-table"),
+    }
+
+
+@pytest.mark.parametrize("case", ["a list", "garbage", "a folder", "under a file", "under /proc"])
+def test_an_experiment_refuses_its_results_file_before_any_run(tmp_path, capsys, case):
+    out = tmp_path / "out"
+    refused(capsys, *EXPERIMENT, out, "--seeds", "0", "--spawns", "100", "--results", _results_cases(tmp_path)[case])
+    assert not out.exists()  # no seed ran, no folder made
+
+
+def test_an_experiment_refuses_another_domains_configuration_and_duplicate_seeds_before_any_run(tmp_path, capsys):
+    out = tmp_path / "out"
+    config = Path(__file__).resolve().parents[2] / "configs" / "fortress_paper.toml"
+    refused(capsys, *EXPERIMENT, out, "--seeds", "0", "--config", config, fragments=("fortress", "structures-v0"))
+    refused(capsys, *EXPERIMENT, out, "--seeds", "0", "0", "--parallel", "2", fragments=("seed 0 given twice",))
+    refused(capsys, "fortress", "experiment", "entities_nodes", out, "--seeds", "1", "1", fragments=("given twice",))
+    assert not out.exists()
+
+
+# -- the file gate for the newer files ------------------------------------------------------------------------------------
+def _small_library() -> dict:
+    """The shipped library cut to its first two NCAs and their answers: every field as the real one holds it."""
+    import numpy as np
+
+    from structgen.domains.structures.design import DEFAULT_LIBRARY
+
+    with np.load(DEFAULT_LIBRARY) as shipped:
+        arrays = {name: shipped[name] for name in shipped.files}
+    mine = arrays["answers"][:, 0] < 2
+    return {**arrays, "families": arrays["families"][:2], "weights": arrays["weights"][:2], "answers": arrays["answers"][mine],
+            "peaks": arrays["peaks"][mine], "on_mat": arrays["on_mat"][mine]}  # fmt: skip
+
+
+def _library_cases(tmp_path: Path) -> dict[str, tuple[Path, str]]:
+    import io
+    import zipfile
+
+    import numpy as np
+
+    base = _small_library()
+
+    def saved(name: str, **changes) -> Path:
+        path = tmp_path / f"{name}.npz"
+        np.savez(path, **{k: v for k, v in {**base, **changes}.items() if v is not None})
+        return path
+
+    answers = base["answers"]
+    nca = answers.copy()
+    nca[0, 0] = 7
+    seed = answers.copy()
+    seed[0, 4] = 2**30
+    wide = answers.copy()
+    wide[0, 1] = 10_000
+    nan = base["weights"].copy()
+    nan[0, 0] = np.nan
+    whole = tmp_path / "whole.npz"
+    np.savez(whole, **base)
+    data = whole.read_bytes()
+    (tmp_path / "empty.npz").write_bytes(b"")
+    (tmp_path / "cut.npz").write_bytes(data[: len(data) // 2])
+    (tmp_path / "renamed.npz").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(100))
+    with zipfile.ZipFile(tmp_path / "claims.npz", "w") as archive:  # a header claiming 19 TB of peaks
+        for name, value in base.items():
+            header = io.BytesIO()
+            shape = (5 * 10**12,) if name == "peaks" else value.shape
+            np.lib.format.write_array_header_1_0(header, {**np.lib.format.header_data_from_array_1_0(value), "shape": shape})
+            archive.writestr(f"{name}.npy", header.getvalue() + value.tobytes())
+    with zipfile.ZipFile(tmp_path / "bomb.npz", "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        with archive.open("weights.npy", "w", force_zip64=True) as member:  # 300 MiB of zeros in well under 1 MiB
+            header = io.BytesIO()
+            np.lib.format.write_array_header_1_0(header, {"descr": "<f4", "fortran_order": False, "shape": (300 << 18,)})
+            member.write(header.getvalue())
+            for _ in range(300):
+                member.write(bytes(1 << 20))
+    os.mkfifo(tmp_path / "fifo.npz")
+    return {
+        "nca out of range": (saved("nca", answers=nca), "nca 7"),
+        "seed outside its box": (saved("seed", answers=seed), "x_seed"),
+        "a box too wide": (saved("wide", answers=wide), "width 10000"),
+        "answers as text": (saved("text", answers=answers.astype(str)), "answers is <U"),
+        "info a list": (saved("info", info=np.array("[1, 2]")), "info is not a JSON object"),
+        "info garbage": (saved("garbage", info=np.array("{no")), "not valid JSON"),
+        "NaN weights": (saved("nan", weights=nan), "NaN"),
+        "no answers": (saved("none", answers=None), "no 'answers'"),
+        "empty": (tmp_path / "empty.npz", "not a .npz archive"),
+        "cut short": (tmp_path / "cut.npz", "not a .npz archive"),
+        "renamed": (tmp_path / "renamed.npz", "not a .npz archive"),
+        "a header claiming 19 TB": (tmp_path / "claims.npz", "cut short or damaged"),
+        "inflates past its limit": (tmp_path / "bomb.npz", "unpacks to more than"),
+        "a FIFO": (tmp_path / "fifo.npz", "not a regular file"),
+    }
+
+
+LIBRARY_CASES = [
+    "nca out of range", "seed outside its box", "a box too wide", "answers as text", "info a list", "info garbage",
+    "NaN weights", "no answers", "empty", "cut short", "renamed", "a header claiming 19 TB", "inflates past its limit",
+    "a FIFO",
+]  # fmt: skip
+
+
+def test_the_undamaged_small_library_is_read_back_and_designs(tmp_path, capsys):
+    """The base every damaged case starts from is a sound library: each case below fails by its own damage."""
+    _library_cases(tmp_path)
+    width, depth, height = (int(v) for v in _small_library()["answers"][0, 1:4])
+    out = tmp_path / "out.json"
+    footprint = f"{width}x{depth}"
+    code, _, err = cli(
+        capsys, "design", "--footprint", footprint, "--height", height, "--library", tmp_path / "whole.npz", "-o", out
+    )
+    assert code == 0 and out.is_file(), err
+
+
+@pytest.mark.parametrize("case", LIBRARY_CASES)
+def test_a_damaged_design_library_is_refused_in_one_line(tmp_path, capsys, case):
+    path, fragment = _library_cases(tmp_path)[case]
+    out = tmp_path / "out.json"
+    refused(
+        capsys, "design", "--footprint", "3x3", "--height", "3", "--library", path, "-o", out, fragments=(str(path), fragment)
+    )
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "growth, fragment",
+    [
+        ({"hidden": "eight"}, "hidden"), ({"hidden": 0}, "hidden = 0"), ({"iterations": -1}, "iterations = -1"),
+        ({"max_extent": 10**9}, "max_extent"), ({"build_down": [1]}, "build_down"), ([1, 2], "metadata.growth is list"),
+    ],
+    ids=["hidden a string", "hidden 0", "iterations -1", "max_extent 1e9", "build_down a list", "growth a list"],
+)  # fmt: skip
+def test_regrow_checks_the_growth_metadata_of_its_file(tmp_path, capsys, growth, fragment):
+    import numpy as np
+
+    structure = _files(tmp_path)["structure"]
+    data = json.loads(structure.read_text())
+    data["metadata"]["growth"] = {**data["metadata"]["growth"], **growth} if isinstance(growth, dict) else growth
+    structure.write_text(json.dumps(data))
+    np.save(tmp_path / "w.npy", np.zeros(4766))
+    capsys.readouterr()
+    refused(capsys, "regrow", structure, "--weights", tmp_path / "w.npy", fragments=(str(structure), fragment))
+
+
+def test_weights_past_what_32_bit_floats_hold_and_a_transient_shorter_than_a_step_are_refused(tmp_path, capsys):
+    import numpy as np
+
+    np.save(tmp_path / "huge.npy", np.full(4766, 1e308))
+    refused(capsys, "grow", "--weights", tmp_path / "huge.npy", "-o", tmp_path / "o.json", fragments=("32-bit",))
+    structure = _files(tmp_path)["structure"]
+    capsys.readouterr()
+    refused(capsys, "show", structure, "--transient", "1e-300", "-o", tmp_path / "o.png", fragments=("one physics step",))
+    assert not (tmp_path / "o.json").exists() and not (tmp_path / "o.png").exists()
+
+
+def _edit_archive(run: Path, column: str, value: str) -> None:
+    path = run / "archive.csv"
+    rows = list(csv.reader(path.read_text().splitlines()))
+    rows[1][rows[0].index(column)] = value
+    with open(path, "w", newline="") as handle:
+        csv.writer(handle).writerows(rows)
+
+
+@pytest.mark.parametrize(
+    "column, value, fragment",
+    [("index", "1" * 30, "index"), ("cell_height", "-1", "cell_height = '-1'"), ("cell_height", "24000", "outside")],
+    ids=["a 30-digit index", "a negative cell", "a cell past the archive"],
+)
+def test_a_report_refuses_an_archive_whose_cells_are_out_of_range(qd_run, tmp_path, capsys, column, value, fragment):
+    run = _copy_run(qd_run, tmp_path / "run")
+    _edit_archive(run, column, value)
+    refused(capsys, "report", run, "-o", tmp_path / "r.html", fragments=("archive.csv", fragment))
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_a_report_draws_a_structure_too_large_for_the_static_solve_with_its_loads_unknown(tmp_path, capsys):
+    structure = tmp_path / "long.json"  # 40,000 vertices in a row: coordinates past what 16 bits hold
+    structure.write_text(
+        json.dumps({"vertices": [[i, 0, 0] for i in range(40_000)], "edges": [[i, i + 1] for i in range(39_999)]})
+    )
+    code, _, err = cli(capsys, "report", structure, "-o", tmp_path / "long.html")
+    assert code == 0, err
+    from tests.structgen.test_report import views_of
+
+    (view,) = views_of((tmp_path / "long.html").read_text())
+    assert view["verdict"].startswith("static analysis not run") and view["lines3d"]["points"]["dtype"] == "i4"
+
+
+@pytest.fixture(scope="module")
+def experiment(tmp_path_factory) -> Path:
+    """A one-generation cutoff experiment (100 spawns), with a kept spawn folder for its figure."""
+    from structgen.cli import main
+
+    out = tmp_path_factory.mktemp("experiment") / "out"
+    assert main([*EXPERIMENT, str(out), "--seeds", "0", "--spawns", "100", "--workers", "0", "--json"]) == 0
+    shutil.copytree(out / "seed-0" / "best", out / "seed-0-spawns" / "spawn-100")
+    return out
+
+
+def _png_claiming(width: int, height: int) -> bytes:
+    import struct
+    import zlib
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + header + struct.pack(">I", zlib.crc32(b"IHDR" + header))
+
+
+def _damage(out: Path, case: str) -> None:
+    kept = out / "seed-0-spawns" / "spawn-100"
+    if case == "best.json garbage":
+        (kept / "best.json").write_text("{garbage")
+    elif case == "best.json a list":
+        (kept / "best.json").write_text("[1, 2]")
+    elif case == "objective a string":
+        best = json.loads((kept / "best.json").read_text())
+        (kept / "best.json").write_text(json.dumps({**best, "objective": "high"}))
+    elif case == "structure.png not a PNG":
+        (kept / "structure.png").write_text("not a picture")
+    elif case == "a picture of 20,000 x 20,000":
+        (kept / "structure.png").write_bytes(_png_claiming(20_000, 20_000))
+    elif case == "a folder seed-x":
+        shutil.copytree(out / "seed-0-spawns", out / "seed-x-spawns")
+    elif case == "a folder spawn-abc":
+        shutil.copytree(kept, kept.with_name("spawn-abc"))
+
+
+FIGURE_CASES = {
+    "best.json garbage": "not valid JSON", "best.json a list": "not a best candidate's summary",
+    "objective a string": "objective = 'high'", "structure.png not a PNG": "not a PNG picture",
+    "a picture of 20,000 x 20,000": "20,000 x 20,000 pixels", "a folder seed-x": "seed-x-spawns",
+    "a folder spawn-abc": "spawn-abc",
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(FIGURE_CASES))
+def test_a_figure_of_a_damaged_experiment_is_refused_naming_the_file(experiment, tmp_path, capsys, case):
+    out = tmp_path / "out"
+    shutil.copytree(experiment, out)
+    _damage(out, case)
+    refused(capsys, "structures", "figure", out, "-o", tmp_path / "f.png", fragments=(FIGURE_CASES[case],))
+    assert not (tmp_path / "f.png").exists()
+
+
+@pytest.mark.parametrize("case", ["best.json garbage", "best.json a list", "objective a string", "wall_s a string"])
+def test_a_table_of_a_damaged_run_is_refused_naming_the_file(experiment, tmp_path, capsys, case):
+    out = tmp_path / "out"
+    shutil.copytree(experiment, out)
+    best = out / "seed-0" / "best" / "best.json"
+    if case == "wall_s a string":
+        metrics = out / "seed-0" / "metrics.jsonl"
+        rows = [json.loads(line) for line in metrics.read_text().splitlines()]
+        rows[-1]["wall_s"] = "long"
+        metrics.write_text("".join(json.dumps(row) + "\n" for row in rows))
+        fragment = "wall_s = 'long'"
+    else:
+        shutil.copy(out / "seed-0-spawns" / "spawn-100" / "best.json", best)
+        _damage(out, case)
+        shutil.copy(out / "seed-0-spawns" / "spawn-100" / "best.json", best)
+        fragment = FIGURE_CASES[case]
+    table = (out / "table.md").read_bytes()
+    refused(capsys, *EXPERIMENT, out, "--seeds", "0", "--spawns", "100", "--table-only", fragments=(fragment,))
+    assert (out / "table.md").read_bytes() == table
+
+
+def test_the_figure_of_the_undamaged_experiment_is_drawn(experiment, tmp_path, capsys):
+    code, _, err = cli(capsys, "structures", "figure", experiment, "-o", tmp_path / "f.png")
+    assert code == 0 and (tmp_path / "f.png").read_bytes().startswith(b"\x89PNG"), err

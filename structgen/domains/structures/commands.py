@@ -145,6 +145,8 @@ def _checked(args: argparse.Namespace) -> tuple[Structure, Any]:
 
     config = _physics_config(args)
     structure = _load_structure(args.file)
+    if args.transient and args.transient < config.timestep:
+        raise InputError(f"--transient {args.transient:g}: shorter than one physics step ({config.timestep:g} s)")
     try:
         if args.transient:
             return structure, check_transient(structure, config, window=args.transient)
@@ -377,7 +379,10 @@ def cmd_regrow(args: argparse.Namespace) -> int:
         raise InputError(f"{args.file}: metadata.growth is {type(growth).__name__}, not the table of settings it was grown with")
     grown_with = {name: growth[name] for name in NCA_OPTIONS if name in growth}
     # The file's settings are checked as a configuration's are (type and range, named), before the options apply.
-    config = build(NCAConfig, grown_with, f"{args.file}: metadata.growth")
+    try:
+        config = build(NCAConfig, grown_with, f"{args.file}: metadata.growth")
+    except InputError as err:
+        raise InputError(str(err) if str(args.file) in str(err) else f"{args.file}: metadata.growth: {err}") from None
     config = settings_from_args({"nca": config}, args, NCA_OPTIONS)["nca"]
     try:
         result = regrow(load_weights(args.weights, config), structure, config, args.damage, args.cut, args.seed)

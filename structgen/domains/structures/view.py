@@ -19,10 +19,15 @@ def structure_view(structure: Structure, config: Any = None) -> dict[str, Any]:
     C and Q."""
     import plotly.graph_objects as go
 
+    from physics import InputError as TooLarge
     from structgen.domains.structures.stress import LOAD_SCALE, member_load_shares
     from structgen.runs.report import line_set
 
-    report, share = member_load_shares(structure, config)
+    try:
+        report, share = member_load_shares(structure, config)
+    except TooLarge as err:  # a structure past the static solve's memory budget is still drawn, its loads unknown
+        report, share = None, np.full(structure.n_edges, np.nan)
+        why = str(err)
     edges = structure.edges
     members = go.Scatter3d(
         mode="lines", name="members", hovertemplate="load %{customdata:.0%} of the break force (negative: no static "
@@ -36,6 +41,12 @@ def structure_view(structure: Structure, config: Any = None) -> dict[str, Any]:
         scene={"aspectmode": "data", "xaxis_title": "x", "yaxis_title": "y", "zaxis_title": "z (up)"},
     )  # fmt: skip
     view = line_set(structure.vertices, edges, share, lines=members, markers=joints, layout=layout)
+    if report is None:
+        return {
+            **view,
+            "verdict": f"static analysis not run: {why}",
+            "fields": {"vertices": structure.n_vertices, "edges": structure.n_edges},
+        }
     return {
         **view,
         "verdict": f"static analysis: {report.verdict()}",
