@@ -576,10 +576,10 @@ class RunFolder:
         except csv.Error as err:  # Python 3.10's reader refuses NUL bytes, which later versions read as text
             raise InputFileError(f"{not_an_archive}: {err}") from None
         for number, row in enumerate(rows, start=2):
-            try:
-                int(row["index"])
-            except (KeyError, TypeError, ValueError):
-                raise InputFileError(f"{path}, line {number}: no whole-number 'index' column") from None
+            text = row.get("index")
+            if not isinstance(text, str) or not text.strip().isdigit() or len(text) > 12 or int(text) > _MAX_INDEX:
+                shown = text if not isinstance(text, str) or len(text) <= 40 else f"{text[:20]}... ({len(text):,} characters)"
+                raise InputFileError(f"{path}, line {number}: index = {shown!r} is not a whole number from 0 to {_MAX_INDEX:,}")
         return rows
 
     def _genome_store(self, rows: list[dict[str, str]], problem: Problem) -> tuple[Path, Any] | None:

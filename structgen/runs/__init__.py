@@ -340,8 +340,11 @@ def elite_genome(folder: RunFolder, problem: Problem, elite: str) -> Any:
     if elite == "best":
         return folder.best_genome(problem)
     kind, _, value = elite.partition(":")
-    if kind != "index" or not value.lstrip("-").isdigit():
-        raise ConfigError(f"--elite {elite!r}: use 'best' or 'index:I' with I a cell index from archive.csv")
+    # Cell indices are whole numbers of at most ten digits (pyribs counts cells in 32 bits): a longer one names no
+    # cell, and Python refuses to read 5,000 digits as a number.
+    if kind != "index" or not value.lstrip("-").isdigit() or len(value) > 11:
+        shown = elite if len(elite) <= 40 else f"{elite[:30]}... ({len(elite):,} characters)"
+        raise ConfigError(f"--elite {shown!r}: use 'best' or 'index:I' with I a cell index from archive.csv")
     genome = folder.archive_genome(int(value), problem)
     return np.asarray(genome) if problem.flat else genome
 

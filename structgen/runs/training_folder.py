@@ -136,8 +136,9 @@ _MAX_HISTORY_ROWS, _MAX_HISTORY_BYTES = 10**7, 1024 * MiB
 
 def read_history(folder: RunFolder, upto: int) -> list[dict[str, Any]]:
     """The rows of ``history.jsonl`` up to update ``upto`` (those after the last checkpoint are dropped). Every row
-    is checked: a JSON object whose ``update`` is a whole number from 0 to ``upto``'s bound; anything else, or a
-    path that is not a regular file, is an :class:`InputError` naming the file and the line."""
+    is checked: a JSON object whose ``update`` is a whole number from 0 to ``upto``'s bound and whose other fields
+    are numbers or null; anything else, or a path that is not a regular file, is an :class:`InputError` naming the
+    file and the line."""
     path = folder / HISTORY_FILE
     if not path.exists() and not path.is_symlink():
         return []
@@ -159,6 +160,9 @@ def read_history(folder: RunFolder, upto: int) -> list[dict[str, Any]]:
                 f"{path}, line {number}: field 'update' is {update!r}; expected a whole number from 0 to "
                 f"{_MAX_HISTORY_ROWS} in a JSON object"
             )
+        for key, value in row.items():  # a row holds numbers, and null where an update measured nothing
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
+                raise InputError(f"{path}, line {number}: field {key!r} is {value!r}; expected a number or null")
         if update <= upto:
             rows.append(row)
     return rows

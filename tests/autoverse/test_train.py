@@ -165,6 +165,21 @@ def _tampered_cases(folder: Path) -> dict:
     empty_pool = {k: v[:0] for k, v in saved["pool"].items()}
     return {
         "no_update": ("checkpoint.pt", {k: v for k, v in saved.items() if k != "update"}, "'update'"),
+        "map_cells_7": (
+            "checkpoint.pt",
+            {**saved, "pool": {**saved["pool"], "map": torch.full_like(saved["pool"]["map"], 7)}},
+            "map: values must be in",
+        ),
+        "rule_entries_9": (
+            "checkpoint.pt",
+            {**saved, "pool": {**saved["pool"], "rules": torch.full_like(saved["pool"]["rules"], 9)}},
+            "rules: values must be in",
+        ),
+        "maps_cut_to_8x8": (
+            "checkpoint.pt",
+            {**saved, "pool": {**saved["pool"], "map": saved["pool"]["map"][..., :8, :8]}},
+            "pool maps have shape",
+        ),
         "no_pool": ("checkpoint.pt", {k: v for k, v in saved.items() if k != "pool"}, "pool"),
         "empty_pool": ("checkpoint.pt", {**saved, "pool": empty_pool}, "pool"),
         "nan_policy": ("checkpoint.pt", {**saved, "policy": nan}, "NaN"),
@@ -176,8 +191,9 @@ def _tampered_cases(folder: Path) -> dict:
 
 @pytest.mark.parametrize(
     "case",
-    ["no_update", "no_pool", "empty_pool", "nan_policy", "a_maze_checkpoint", "cloned_without_policy", "cloned_of_another_shape"],
-)
+    ["no_update", "no_pool", "empty_pool", "nan_policy", "a_maze_checkpoint", "cloned_without_policy", "cloned_of_another_shape",
+     "map_cells_7", "rule_entries_9", "maps_cut_to_8x8"],
+)  # fmt: skip
 def test_a_tampered_training_folder_is_refused_naming_the_field_and_left_as_it_was(evolved, tmp_path_factory, tmp_path, case):
     import shutil
 

@@ -44,7 +44,7 @@ from structgen.domains.autoverse.clone import (
     transitions,
 )
 from structgen.domains.autoverse.engine import EPISODE_STEPS, FLAT_SIZE, VIEW, Engine, Mechanics, Observation, stack_games
-from structgen.domains.autoverse.game import mutate_game
+from structgen.domains.autoverse.game import check_game, mutate_game
 from structgen.domains.autoverse.ppo import GamePool
 from structgen.domains.autoverse.train_settings import TrainSettings
 from structgen.errors import InputError
@@ -210,6 +210,11 @@ def _checked_checkpoint(
     count = len(games["rewards"])
     if count == 0 or any(len(value) != count for value in games.values()):
         raise InputError(f"{path}: pool holds {count} games (its arrays must be non-empty and of one length)")
+    if games["map"].shape[1:] != reference["map"].shape[1:]:
+        raise InputError(f"{path}: pool maps have shape {tuple(games['map'].shape[1:])}; this training's games "
+                         f"{tuple(reference['map'].shape[1:])}")  # fmt: skip
+    for number, game in enumerate(_pool_from(games)):  # each game as a game file's would be: tiles, rules, one player
+        check_game(game, f"{path}: pool game {number}")
     state = checked_like(env.state_dict(), saved.get("env"), path, "env")
     if int(state["game"].min()) < 0 or int(state["game"].max()) >= count:
         raise InputError(f"{path}: env.game names games the pool does not hold")
