@@ -8,6 +8,7 @@ gives the same results; they differ only in where the work happens.
 from __future__ import annotations
 
 import logging
+from concurrent.futures import CancelledError
 from typing import Any
 
 import numpy as np
@@ -185,25 +186,48 @@ class DaskEvaluator(Evaluator):
             raise UnreachableClusterError(f"cannot reach the Dask scheduler at {address}: {err}") from None
         except (ValueError, TypeError) as err:  # not an address at all
             raise UnreachableClusterError(f"{address!r} is not a Dask scheduler's address (tcp://host:port): {err}") from None
-        self.slices = slices
+        self.address, self.slices = address, slices
         self._problem: Problem | None = None
         self._problem_future: Any = None
+        self._lost = False
 
     def evaluate(self, problem: Problem, genomes: Any, seeds: np.ndarray) -> Evaluation:
+        seeds = np.asarray(seeds)
+        for attempt in (1, 2):
+            try:
+                return self._evaluate(problem, genomes, seeds)
+            except (OSError, TimeoutError, CancelledError) as err:
+                reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+                if attempt == 1 and self.client.status == "running":
+                    # The scheduler is there but lost part of the batch: a worker died holding the problem's only
+                    # copy the scheduler trusts (Dask cannot remake scattered data, dask/distributed#3149). The
+                    # batch is a pure function of its genomes and seeds: sent again, it gives the same results.
+                    log.warning("the Dask cluster lost part of a batch (%s); evaluating it again", reason)
+                    self._problem = None
+                    continue
+                # The scheduler gone, or the connection to it: the run stops here, its last checkpoint intact.
+                self._lost = True
+                raise EvaluationError(
+                    f"lost the Dask scheduler at {self.address} during evaluation ({reason}); the run keeps its last "
+                    "checkpoint: start the scheduler again and `structgen resume RUN_DIR --cluster ADDRESS` goes on "
+                    "from there"
+                ) from None
+        raise AssertionError("unreachable")
+
+    def _evaluate(self, problem: Problem, genomes: Any, seeds: np.ndarray) -> Evaluation:
         if problem is not self._problem:
             self._problem, self._problem_future = problem, self.client.scatter(problem, broadcast=True)
-        seeds = np.asarray(seeds)
         workers = max(1, sum(info.get("nthreads", 1) for info in self.client.scheduler_info()["workers"].values()))
         parts = _slices(len(seeds), self.slices or 4 * workers)
         futures = [
             self.client.submit(_evaluate_slice, self._problem_future, _take(genomes, p), seeds[p], pure=False) for p in parts
         ]
-        try:
-            return Evaluation.concatenate(self.client.gather(futures))
-        except (OSError, TimeoutError) as err:
-            raise EvaluationError(f"the Dask cluster failed during evaluation: {err}") from None
+        return Evaluation.concatenate(self.client.gather(futures))
 
     def close(self) -> None:
+        if self._lost:  # the client's attempts to reconnect end in tracebacks on closing that tell nothing more
+            for name in [n for n in logging.root.manager.loggerDict if n == "distributed" or n.startswith("distributed.")]:
+                logging.getLogger(name).setLevel(logging.CRITICAL)
         self.client.close()
 
 
