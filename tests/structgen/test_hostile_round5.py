@@ -482,3 +482,36 @@ def test_a_table_of_a_damaged_run_is_refused_naming_the_file(experiment, tmp_pat
 def test_the_figure_of_the_undamaged_experiment_is_drawn(experiment, tmp_path, capsys):
     code, _, err = cli(capsys, "structures", "figure", experiment, "-o", tmp_path / "f.png")
     assert code == 0 and (tmp_path / "f.png").read_bytes().startswith(b"\x89PNG"), err
+
+
+@pytest.fixture(scope="module")
+def fortress_run(tmp_path_factory) -> Path:
+    from structgen.cli import main
+    from tests.fortress.test_evolution import TINY as FORTRESS_TINY
+
+    folder = tmp_path_factory.mktemp("fortress")
+    (folder / "fortress.toml").write_text(FORTRESS_TINY)
+    assert main(["evolve", str(folder / "fortress.toml"), "--run-dir", str(folder / "run")]) == 0
+    return folder / "run"
+
+
+@pytest.mark.parametrize("damage", ["an array missing", "counts that disagree", "a FIFO", "not a zip"])
+def test_a_damaged_file_of_a_fortress_runs_world_store_is_refused_naming_it(fortress_run, tmp_path, capsys, damage):
+    import numpy as np
+
+    run = _copy_run(fortress_run, tmp_path / "run")
+    segment = sorted((run / "genomes").glob("segment-*.npz"))[0]
+    with np.load(segment) as data:
+        arrays = {name: data[name] for name in data.files}
+    segment.unlink()
+    if damage == "an array missing":
+        np.savez(segment, **{k: v for k, v in arrays.items() if k != "class_nodes"})
+    elif damage == "counts that disagree":
+        np.savez(segment, **{**arrays, "class_nodes": arrays["class_nodes"] + 1})
+    elif damage == "a FIFO":
+        os.mkfifo(segment)
+    else:
+        segment.write_bytes(b"garbage")
+    index = (run / "archive.csv").read_text().splitlines()[1].split(",")[0]
+    refused(capsys, "export", run, "--elite", f"index:{index}", "-o", tmp_path / "e.txt", fragments=(segment.name,))
+    assert not (tmp_path / "e.txt").exists()

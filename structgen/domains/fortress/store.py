@@ -7,10 +7,11 @@ so a mutant that changed one class costs one class. At each checkpoint the world
 into one new compressed file, ``genomes/segment-NNNNNN.npz``, and are known by key from then on; nothing written is
 ever rewritten. Keys are handed out in order, so each file holds a contiguous range of class keys and of world keys.
 
-A file's arrays (``np.load`` reads them, no pickles): ``class_first`` and ``world_first`` (the first key of each
-kind), ``class_char`` (character numbers), ``class_nodes`` and ``class_edges`` (each class's counts), ``nodes``
-(node types, concatenated), ``edges`` (``(5, E)``: src, dst, condition, class argument, number), ``world_classes``
-(``(worlds, classes)``: class keys), ``world_initial`` (entity counts) and ``initial`` (``(3, N)``: class, x, y).
+A file's arrays (read through the file gate, ``evolution.files.read_npz``: no pickles): ``class_first`` and
+``world_first`` (the first key of each kind), ``class_char`` (character numbers), ``class_nodes`` and
+``class_edges`` (each class's counts), ``nodes`` (node types, concatenated), ``edges`` (``(5, E)``: src, dst,
+condition, class argument, number), ``world_classes`` (``(worlds, classes)``: class keys), ``world_initial``
+(entity counts) and ``initial`` (``(3, N)``: class, x, y).
 """
 
 from __future__ import annotations
@@ -52,6 +53,41 @@ def _small(values: np.ndarray) -> np.ndarray:
     return values.astype(np.int8) if values.size == 0 or np.abs(values).max() < 128 else values.astype(np.int16)
 
 
+#: A segment file may hold this much on disk and unpacked (a paper run's checkpoints write a few MB each).
+_SEGMENT_BYTES, _SEGMENT_UNPACKED = 1 << 30, 2 << 30
+#: Each array of a segment file: its number of dimensions (the first of ``edges`` and ``initial`` is fixed).
+_SEGMENT_ARRAYS = {
+    "class_first": 0, "world_first": 0, "class_char": 1, "class_nodes": 1, "class_edges": 1, "nodes": 1, "edges": 2,
+    "world_classes": 2, "world_initial": 1, "initial": 2,
+}  # fmt: skip
+
+
+def _segment_arrays(path: Path) -> dict[str, np.ndarray]:
+    """A segment file's arrays, through the file gate and checked against each other (whole numbers, of the shapes
+    and counts the module's description gives), so that a damaged or foreign file is refused naming it."""
+    from evolution.files import read_npz
+
+    arrays = read_npz(path, _SEGMENT_BYTES, _SEGMENT_UNPACKED)
+    for name, ndim in _SEGMENT_ARRAYS.items():
+        if name not in arrays or arrays[name].dtype.kind not in "iub" or arrays[name].ndim != ndim:
+            found = f"{arrays[name].dtype} of shape {arrays[name].shape}" if name in arrays else "missing"
+            raise InputFileError(f"{path}: not a genome store file ({name}: {found})")
+    sizes, counts, initial = arrays["class_nodes"], arrays["class_edges"], arrays["world_initial"]
+    consistent = (
+        len(sizes) == len(counts) == len(arrays["class_char"])
+        and (sizes >= 0).all() and (counts >= 0).all() and (initial >= 0).all()
+        and int(sizes.sum()) == len(arrays["nodes"])
+        and arrays["edges"].shape == (5, int(counts.sum()))
+        and arrays["initial"].shape == (3, int(initial.sum()))
+        and len(arrays["world_classes"]) == len(initial)
+        and int(arrays["class_first"]) >= 0 and int(arrays["world_first"]) >= 0
+        and (arrays["world_classes"] >= 0).all()
+    )  # fmt: skip
+    if not consistent:
+        raise InputFileError(f"{path}: not a genome store file (its arrays' counts and shapes disagree)")
+    return arrays
+
+
 class FortressStore(GenomeStore):
     genome_type = Genome
 
@@ -69,9 +105,9 @@ class FortressStore(GenomeStore):
         self._loaded: set[Path] = set()
         for path in sorted(self.path.glob("segment-*.npz")) if self.path.is_dir() else []:
             if _SEGMENT.match(path.name):
-                with np.load(path, allow_pickle=False) as data:
-                    first_class, first_world = int(data["class_first"]), int(data["world_first"])
-                    self._segments.append((first_class, len(data["class_char"]), first_world, len(data["world_initial"]), path))
+                data = _segment_arrays(path)
+                first_class, first_world = int(data["class_first"]), int(data["world_first"])
+                self._segments.append((first_class, len(data["class_char"]), first_world, len(data["world_initial"]), path))
         self._next_class = max((a + n for a, n, *_ in self._segments), default=0)
         self._next_world = max((w + n for _, _, w, n, _ in self._segments), default=0)
 
@@ -144,11 +180,7 @@ class FortressStore(GenomeStore):
 
     # -- reading -----------------------------------------------------------------------------------------------------
     def _read(self, path: Path) -> None:
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {name: data[name] for name in data.files}
-        except (OSError, ValueError, KeyError) as err:
-            raise InputFileError(f"{path}: not a genome store file ({err})") from None
+        arrays = _segment_arrays(path)
         sizes, counts = arrays["class_nodes"].astype(np.int64), arrays["class_edges"].astype(np.int64)
         node_at = np.concatenate([[0], np.cumsum(sizes)])
         edge_at = np.concatenate([[0], np.cumsum(counts)])
