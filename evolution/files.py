@@ -363,7 +363,10 @@ def check_not_an_input(
         if _same_file(target, source) or resolved == source_resolved:
             raise InputFileError(f"{target}: is also an input of this command ({source}); writing it would replace it")
         if source.is_dir() and resolved.is_relative_to(source_resolved) and os.path.lexists(target):
-            raise InputFileError(f"{target}: lies in {source}, which this command reads; writing it would replace a file there")
+            raise InputFileError(
+                f"{target}: lies in {source}, which this command reads; writing it would replace a file there (write "
+                "elsewhere, or remove it first)"
+            )
         if folder and replaced and source_resolved.is_relative_to(resolved):
             raise InputFileError(f"{target}: holds {source}, an input of this command; writing there could replace it")
 

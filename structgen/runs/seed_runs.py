@@ -140,10 +140,20 @@ def run_all(jobs: Sequence[tuple], parallel: int, cluster: str, report: Callable
             client = Client(cluster, timeout="10s")
         except OSError as err:
             raise InputError(f"--cluster {cluster}: cannot reach a Dask scheduler there ({err})") from None
+        from concurrent.futures import CancelledError
+
         with client:
             futures = [client.submit(run_seed, *job, pure=False) for job in jobs]
-            for future in as_completed(futures):
-                report(future.result())
+            try:
+                for future in as_completed(futures):
+                    report(future.result())
+            except (OSError, TimeoutError, CancelledError) as err:
+                # Each seed's run keeps its own checkpoints: what finished stays finished, the rest resumes.
+                reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+                raise RuntimeError(
+                    f"lost the Dask scheduler at {cluster} ({reason}); each seed's run keeps its last checkpoint: the "
+                    "same command, with the scheduler running again, goes on from there"
+                ) from None
         return
     from concurrent.futures import ThreadPoolExecutor, as_completed
 
