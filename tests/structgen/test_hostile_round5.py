@@ -515,3 +515,35 @@ def test_a_damaged_file_of_a_fortress_runs_world_store_is_refused_naming_it(fort
     index = (run / "archive.csv").read_text().splitlines()[1].split(",")[0]
     refused(capsys, "export", run, "--elite", f"index:{index}", "-o", tmp_path / "e.txt", fragments=(segment.name,))
     assert not (tmp_path / "e.txt").exists()
+
+
+@pytest.fixture(scope="module")
+def tall_run(tmp_path_factory) -> Path:
+    from structgen.cli import main
+
+    run = tmp_path_factory.mktemp("tall") / "run"
+    options = ["--levels", "3", "--beam", "3", "--candidates", "2", "--max-vertices", "100", "--workers", "0"]
+    assert main(["tall", "--run-dir", str(run), *options]) == 0
+    return run
+
+
+@pytest.mark.parametrize("case", ["settings a list", "settings a string", "rules no search writes", "a design of 300 levels"])
+def test_info_refuses_a_damaged_tall_search_of_structgen_0_2(tall_run, tmp_path, capsys, case):
+    state = json.loads((tall_run / "checkpoint.json").read_text())
+    settings: object = {"levels": 3, "beam": 3, "candidates": 2, "max_vertices": 100, "refine": True}
+    if case == "settings a list":
+        settings, fragment = [1, 2], "expected an object of settings, got list"
+    elif case == "settings a string":
+        settings, fragment = "levels", "expected an object of settings, got str"
+    elif case == "rules no search writes":
+        first = next(iter(state["designs"]))
+        state["designs"][first]["rules"] = ["XYZ"] * len(state["designs"][first]["rules"])
+        fragment = "is not a design's rules"
+    else:
+        state["designs"]["300"] = {"rules": ["VSC"] * 299, "tied": 0, "static_load": 1.0, "peak": 1.0}
+        fragment = "height is 300"
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "settings.json").write_text(json.dumps(settings))
+    (old / "search.json").write_text(json.dumps({**state, "complete": False}))
+    refused(capsys, "info", old, fragments=(fragment,))
