@@ -209,8 +209,8 @@ class DaskEvaluator(Evaluator):
                 self._lost = True
                 raise EvaluationError(
                     f"lost the Dask scheduler at {self.address} during evaluation ({reason}); the run keeps its last "
-                    "checkpoint: start the scheduler again and `structgen resume RUN_DIR --cluster ADDRESS` goes on "
-                    "from there"
+                    "checkpoint: start the scheduler again and resume the run (resume RUN_DIR --cluster ADDRESS) to go "
+                    "on from there"
                 ) from None
         raise AssertionError("unreachable")
 

@@ -319,7 +319,7 @@ def check_output(path: str | os.PathLike) -> Path:
             raise InputFileError(f"{path}: permission denied (cannot write in {folder})")
         # The access check answers yes to the superuser and knows nothing of special file systems (/proc, a read-only
         # mount): a file made and removed again is the one sure test.
-        probe = folder / f".structgen-probe-{uuid.uuid4().hex[:12]}"
+        probe = folder / f".write-probe-{uuid.uuid4().hex[:12]}"
         try:
             os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         except OSError as err:

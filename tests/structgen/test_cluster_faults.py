@@ -99,7 +99,7 @@ def test_a_scheduler_that_goes_away_stops_the_run_and_resume_finishes_it(undistu
         _, err = process.communicate(timeout=240)
     assert process.returncode == 1 and time.monotonic() - started < 120
     last = err.strip().splitlines()[-1]
-    assert last.startswith("structgen: error: EvaluationError: lost the Dask scheduler at") and "structgen resume" in last
+    assert last.startswith("structgen: error: EvaluationError: lost the Dask scheduler at") and "resume RUN_DIR --cluster" in last
     assert "Traceback" not in err
     done = len((run / "metrics.jsonl").read_text().splitlines())
     assert 2 <= done < GENERATIONS
