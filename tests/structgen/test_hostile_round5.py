@@ -317,25 +317,28 @@ LIBRARY_CASES = [
 ]  # fmt: skip
 
 
-def test_the_undamaged_small_library_is_read_back_and_designs(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def library_cases(tmp_path_factory) -> dict[str, tuple[Path, str]]:
+    """Every damaged library, made once (the refusals read them and change nothing)."""
+    return _library_cases(tmp_path_factory.mktemp("libraries"))
+
+
+def test_the_undamaged_small_library_is_read_back_and_designs(library_cases, tmp_path, capsys):
     """The base every damaged case starts from is a sound library: each case below fails by its own damage."""
-    _library_cases(tmp_path)
+    whole = library_cases["empty"][0].with_name("whole.npz")
     width, depth, height = (int(v) for v in _small_library()["answers"][0, 1:4])
     out = tmp_path / "out.json"
-    footprint = f"{width}x{depth}"
-    code, _, err = cli(
-        capsys, "design", "--footprint", footprint, "--height", height, "--library", tmp_path / "whole.npz", "-o", out
-    )
+    spec = ("--footprint", f"{width}x{depth}", "--height", height)
+    code, _, err = cli(capsys, "design", *spec, "--library", whole, "-o", out)
     assert code == 0 and out.is_file(), err
 
 
 @pytest.mark.parametrize("case", LIBRARY_CASES)
-def test_a_damaged_design_library_is_refused_in_one_line(tmp_path, capsys, case):
-    path, fragment = _library_cases(tmp_path)[case]
+def test_a_damaged_design_library_is_refused_in_one_line(library_cases, tmp_path, capsys, case):
+    path, fragment = library_cases[case]
     out = tmp_path / "out.json"
-    refused(
-        capsys, "design", "--footprint", "3x3", "--height", "3", "--library", path, "-o", out, fragments=(str(path), fragment)
-    )
+    spec = ("--footprint", "3x3", "--height", "3")
+    refused(capsys, "design", *spec, "--library", path, "-o", out, fragments=(str(path), fragment))
     assert not out.exists()
 
 
