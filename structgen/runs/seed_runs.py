@@ -87,8 +87,11 @@ def run_seed(
     return run_dir
 
 
-def expected_run(config: str | Path, overrides: Sequence[str], seed: int, generations: int | None) -> Any:
-    """The configuration ``run_seed`` starts a seed's run with, checked (its errors name the file)."""
+def expected_run(
+    config: str | Path, overrides: Sequence[str], seed: int, generations: int | None, domain: str | None = None
+) -> Any:
+    """The configuration ``run_seed`` starts a seed's run with, checked (its errors name the file); with ``domain``,
+    it must be a configuration of that domain (an experiment's, before its own settings are applied to it)."""
     from structgen.config import ConfigError
     from structgen.runs.experiment import load_experiment
 
@@ -96,7 +99,7 @@ def expected_run(config: str | Path, overrides: Sequence[str], seed: int, genera
     if generations is not None:
         changes["generations"] = generations
     try:
-        return load_experiment(config, overrides=list(overrides), run_changes=changes)
+        return load_experiment(config, domain=domain, overrides=list(overrides), run_changes=changes)
     except ConfigError as err:
         raise InputError(str(err)) from None
 

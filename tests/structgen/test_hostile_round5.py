@@ -230,7 +230,10 @@ def test_an_experiment_refuses_its_results_file_before_any_run(tmp_path, capsys,
 def test_an_experiment_refuses_another_domains_configuration_and_duplicate_seeds_before_any_run(tmp_path, capsys):
     out = tmp_path / "out"
     config = Path(__file__).resolve().parents[2] / "configs" / "fortress_paper.toml"
-    refused(capsys, *EXPERIMENT, out, "--seeds", "0", "--config", config, fragments=("fortress", "structures-v0"))
+    refused(capsys, *EXPERIMENT, out, "--seeds", "0", "--config", config, fragments=("fortress-v0 domain, not of structures-v0",))
+    paper = config.with_name("paper_cutoff.toml")
+    refused(capsys, "fortress", "experiment", "entities_nodes", out, "--seeds", "0", "--config", paper,
+            fragments=("structures-v0 domain, not of fortress-v0",))  # fmt: skip
     refused(capsys, *EXPERIMENT, out, "--seeds", "0", "0", "--parallel", "2", fragments=("seed 0 given twice",))
     refused(capsys, "fortress", "experiment", "entities_nodes", out, "--seeds", "1", "1", fragments=("given twice",))
     assert not out.exists()

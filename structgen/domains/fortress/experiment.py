@@ -63,7 +63,7 @@ def run_experiment(
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
     # Every seed's folder is checked before any run starts, so that nothing runs for a table that would be refused.
     for seed in seeds:
-        check_seed_folder(out / f"seed-{seed}", expected_run(config, overrides, seed, generations))
+        check_seed_folder(out / f"seed-{seed}", expected_run(config, overrides, seed, generations, "fortress-v0"))
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
