@@ -105,6 +105,8 @@ CLASSES = frozenset(
         ("evolution.optimizers", "GASettings"),
         ("evolution.optimizers", "GeneticAlgorithm"),
         ("evolution.optimizers", "_Normal"),
+        ("evolution.optimizers", "RandomSearch"),
+        ("evolution.optimizers", "RandomSettings"),
         ("evolution.qd", "FieldRankedArchive"),
         ("evolution.qd", "ProblemMutationEmitter"),
         ("evolution.qd", "RibsOptimizer"),

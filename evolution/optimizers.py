@@ -1,4 +1,4 @@
-"""The optimiser interface, the paper's GA and CMA-ES (pycma), and the settings of every optimiser.
+"""The optimiser interface, the paper's GA, CMA-ES (pycma) and random search, and the settings of every optimiser.
 
 Every optimiser has the shape of a pyribs scheduler: :meth:`Optimizer.ask` returns a batch of genomes and
 :meth:`Optimizer.tell` takes their ``objective`` (higher is better), ``measures`` and extra ``fields``. All state,
@@ -28,6 +28,8 @@ __all__ = [
     "GeneticAlgorithm",
     "MapElitesSettings",
     "Optimizer",
+    "RandomSearch",
+    "RandomSettings",
 ]
 
 
@@ -167,6 +169,42 @@ class GeneticAlgorithm(Optimizer):
         chosen = [pool[i] for i in keep]
         self.parents = np.array(chosen) if self.problem.flat else chosen
         self.parent_objective = scores[keep]
+        self._asked = None
+
+
+# -- random search: the baseline every learning result is held against ----------------------------------------------
+@dataclass(frozen=True)
+class RandomSettings:
+    """Random search: every generation ``population`` new genomes from the problem's own initial distribution (the
+    one every other optimiser starts from), nothing learned from the scores. At the same number of evaluations and the
+    same judge, the best of these is what a method must beat to be said to learn.
+
+    Attributes:
+        population: genomes per generation (evaluations count as for any optimiser: one per genome).
+    """
+
+    population: int = 100
+
+    def __post_init__(self) -> None:
+        _positive_int(self, "population")
+
+
+class RandomSearch(Optimizer):
+    """Draws ``population`` genomes with ``problem.initial_genomes`` each generation; ``tell`` keeps nothing but
+    what the run itself records (the best seen, the archive of a quality-diversity run's measures)."""
+
+    def __init__(self, problem: Problem, settings: RandomSettings, seed: int) -> None:
+        self.problem, self.settings = problem, settings
+        self.rng = np.random.default_rng(seed)
+        self._asked: Any = None
+
+    def ask(self) -> Any:
+        self._asked = self.problem.initial_genomes(self.settings.population, self.rng)
+        return self._asked
+
+    def tell(self, objective: np.ndarray, measures: np.ndarray, **fields: np.ndarray) -> None:
+        if self._asked is None:
+            raise RuntimeError("tell() before ask()")
         self._asked = None
 
 

@@ -18,6 +18,8 @@ from evolution.optimizers import (
     GeneticAlgorithm,
     MapElitesSettings,
     Optimizer,
+    RandomSearch,
+    RandomSettings,
 )
 from evolution.problem import Problem
 
@@ -50,6 +52,7 @@ OPTIMIZERS: dict[str, OptimizerSpec] = {
     "cma_es": OptimizerSpec(CMAESSettings, CMAES, "CMA-ES from pycma, diagonal by default (vector genomes)"),
     "map_elites": OptimizerSpec(MapElitesSettings, _map_elites, "MAP-Elites on a pyribs grid archive (any genome)"),
     "cma_mae": OptimizerSpec(CMAMAESettings, _cma_mae, "CMA-MAE from pyribs with a separate result archive (vector genomes)"),
+    "random": OptimizerSpec(RandomSettings, RandomSearch, "random search from the problem's initial distribution: the baseline"),
 }
 #: What a configuration that names no optimiser gets.
 DEFAULT_OPTIMIZER = "ga"

@@ -314,7 +314,7 @@ def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[doma
              "the main job)"),
              *[] if domain else [option("--domain", metavar="ID", help="the domain to evolve (sets problem.name; "
                                         "`structgen list domains` lists them); without CONFIG, its main job")],
-             option("--optimizer", metavar="NAME", help="ga, cma_es, map_elites or cma_mae (sets optimizer.name)"),
+             option("--optimizer", metavar="NAME", help="ga, cma_es, map_elites, cma_mae or random (sets optimizer.name)"),
              number("--generations", 1, MAX_GENERATIONS, help="generations in total (sets run.generations)"),
              seed("the run's seed (sets run.seed)", default=None),
              number("--workers", 0, MAX_WORKERS, help="local evaluation processes, 0 for none (run.workers)"),

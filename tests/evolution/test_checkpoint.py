@@ -26,7 +26,7 @@ from evolution import (
     checkpoint,
     make_optimizer,
 )
-from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
+from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings, RandomSettings
 from evolution.toys import Ones, Sphere, SphereSettings
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "runs_0.1.0"
@@ -164,6 +164,8 @@ OPTIMIZERS = {
     "map_elites": ("map_elites", Ones, MapElitesSettings(cells=(4, 4), batch_size=6)),
     "cma_mae": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3)),
     "cma_mae_iso_line": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, emitter="iso_line")),
+    "random": ("random", Sphere, RandomSettings(population=6)),
+    "random_objects": ("random", Ones, RandomSettings(population=6)),
 }
 
 

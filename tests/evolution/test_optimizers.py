@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from evolution import OPTIMIZERS, Evaluation, make_optimizer
-from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings
+from evolution.optimizers import CMAESSettings, CMAMAESettings, GASettings, MapElitesSettings, RandomSettings
 from evolution.toys import Ones, Sphere
 
 SMALL = {
@@ -17,7 +17,10 @@ SMALL = {
     "cma_es": CMAESSettings(population=8),
     "map_elites": MapElitesSettings(cells=(6, 6), batch_size=10, sigma=0.2),
     "cma_mae": CMAMAESettings(cells=(6, 6), emitters=2, batch_size=5),
+    "random": RandomSettings(population=10),
 }
+#: The optimisers that learn from the scores (random search is the baseline they are held against).
+LEARNING = [name for name in OPTIMIZERS if name != "random"]
 
 
 def step(optimizer, problem, generation: int = 0):
@@ -33,17 +36,17 @@ def best_after(name: str, problem, generations: int, seed: int = 0) -> float:
 
 
 # -- the registry -----------------------------------------------------------------------------------------------------
-def test_registry_names_the_four_optimizers():
-    assert list(OPTIMIZERS) == ["ga", "cma_es", "map_elites", "cma_mae"]
+def test_registry_names_the_optimizers():
+    assert list(OPTIMIZERS) == ["ga", "cma_es", "map_elites", "cma_mae", "random"]
 
 
 def test_unknown_optimizer_lists_the_known_ones():
-    with pytest.raises(ValueError, match="unknown optimizer 'de'; choose one of ga, cma_es, map_elites, cma_mae"):
+    with pytest.raises(ValueError, match="unknown optimizer 'de'; choose one of ga, cma_es, map_elites, cma_mae, random"):
         make_optimizer("de", Sphere())
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", list(OPTIMIZERS))
+@pytest.mark.parametrize("name", LEARNING)
 def test_every_optimizer_improves_the_sphere(name):
     problem = Sphere()
     first = make_optimizer(name, problem, SMALL[name], seed=1)
@@ -332,3 +335,20 @@ def test_pyribs_kernels_are_compiled_once_per_machine_not_once_per_process():
 
     kernels = [getattr(SeparableCMAEvolutionStrategy, name) for name in ("_calc_mean", "_calc_cov_update")]
     assert all(not isinstance(kernel._cache, NullCache) for kernel in kernels)
+
+
+# -- random search --------------------------------------------------------------------------------------------------------
+def test_random_search_draws_every_generation_from_the_initial_distribution():
+    """The baseline learns nothing: each generation is what ``initial_genomes`` gives for the next draws of its
+    generator, whatever the scores told it, on vector and object genomes alike."""
+    for problem in (Sphere(), Ones()):
+        search = make_optimizer("random", problem, RandomSettings(population=5), seed=4)
+        rng = np.random.default_rng(4)
+        for generation in range(3):
+            asked = search.ask()
+            expected = problem.initial_genomes(5, rng)
+            assert all(np.array_equal(np.asarray(a), np.asarray(b)) for a, b in zip(asked, expected))
+            result = problem.evaluate(asked, np.arange(5) + 10 * generation)
+            search.tell(result.objective, result.measures, **result.fields)
+    with pytest.raises(ValueError, match="optimizer population must be a positive integer"):
+        RandomSettings(population=0)

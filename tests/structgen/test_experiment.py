@@ -110,7 +110,11 @@ def test_combinations_that_cannot_work_fail_when_the_optimizer_is_built(tmp_path
         ("[run]\ngenerations = 'ten'\n", [], r"run.generations = 'ten': expected an integer"),
         ("[run]\ngenerations = 3\nspeed = 1\n", [], r"unknown setting 'run.speed'"),
         ("[runs]\n", [], r"c.toml: unknown table \[runs\]"),
-        ("[optimizer]\nname = 'de'\n", [], r"c.toml: unknown optimizer.name 'de'; choose one of ga, cma_es, map_elites, cma_mae"),
+        (
+            "[optimizer]\nname = 'de'\n",
+            [],
+            r"c.toml: unknown optimizer.name .de.; choose one of ga, cma_es, map_elites, cma_mae, random",
+        ),
         (
             "[optimizer]\nname = 'ga'\nsigma0 = 0.1\n",
             [],
