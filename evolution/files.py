@@ -8,12 +8,15 @@ Reads:
   permission) become one-line :class:`InputFileError` messages that name the file.
 - :func:`read_text`, :func:`read_json` (UTF-8, no NaN or Infinity, nesting limited), :func:`parse_json` (the same
   for text already read, such as one line of a JSON-lines file) and :func:`read_npy` (the header checked against
-  the data before anything is allocated; numbers only, never pickles), and :func:`read_weights` (a flat vector of
-  a known length, such as an NCA's weights, from ``.npy`` or ``.json``).
+  the data before anything is allocated; numbers only, never pickles), :func:`read_npz` (each member so checked,
+  and the whole bounded unpacked as well as on disk), :func:`read_png` (its pixel count read from the header before
+  anything is decoded), and :func:`read_weights` (a flat vector of a known length, such as an NCA's weights, from
+  ``.npy`` or ``.json``).
 
 Writes: :func:`atomic_write` writes a temporary file beside the target and renames it into place, so readers see the
 old file or the complete new one; path problems are :class:`InputFileError` as for reads. :func:`check_output` runs
-the same checks before any work, so a command fails fast on a bad output path.
+the same checks before any work, so a command fails fast on a bad output path, and :func:`check_not_an_input` that
+writing an output cannot replace one of the command's inputs.
 
 Limits are generous (far above anything structgen writes) and exist to turn absurd inputs into clear errors.
 """
