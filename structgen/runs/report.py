@@ -240,9 +240,8 @@ def _heatmap(archive: Any, shown: np.ndarray, shape: Sequence[int] | None, sourc
     import plotly.graph_objects as go
 
     cells = archive.cells
-    names = [
-        escaped(name, quotes=False).replace("%", "&#37;") for name in archive.measure_names
-    ]  # % would start a template field
+    # Measure names stand in the hover template too, where a % would start a field.
+    names = [escaped(name, quotes=False).replace("%", "&#37;") for name in archive.measure_names]
     if cells.shape[1] == 1:
         cells, names = np.concatenate([cells, np.zeros_like(cells)], axis=1), [names[0], ""]
     size = cells[:, :2].max(axis=0) + 1 if len(cells) else np.array([1, 1])
@@ -410,7 +409,6 @@ def content_security_policy(*scripts: str) -> str:
     into the page from a file, and no inline event handler, can), nothing is fetched from anywhere (pictures only as
     data the page holds), no form is sent and no base address set. Plotly needs inline styles (it styles what it
     draws), which let no markup from a file run."""
-
     import base64
     import hashlib
 
