@@ -169,7 +169,9 @@ def check_outputs(args: argparse.Namespace) -> None:
     values = [value for name, value in vars(args).items() if name not in ("set", "handler")]
     flat = [item for value in values for item in (value if isinstance(value, (list, tuple)) else [value])]
     outputs = [item for item in flat if isinstance(item, (OutputFile, OutputFolder))]
-    inputs = [item for item in flat if isinstance(item, (str, Path)) and item not in outputs and _names_a_path(item)]
+    # By type, not by equality: an input given as a Path equals an output of the same name, and must stay an input.
+    inputs = [item for item in flat if isinstance(item, (str, Path)) and not isinstance(item, (OutputFile, OutputFolder))]
+    inputs = [item for item in inputs if _names_a_path(item)]
     replaced = bool(getattr(args, "overwrite", False))
     for number, target in enumerate(outputs):
         folder = isinstance(target, OutputFolder)

@@ -141,7 +141,10 @@ def _files(tmp_path: Path) -> dict[str, Path]:
     weights.write_text("[0.5]")
     generator.write_text("[0.25]")
     shutil.copy(structure, tmp_path / "tower.html")  # a structure file under another suffix
-    return {"structure": structure, "weights": weights, "generator": generator, "html": tmp_path / "tower.html"}
+    library = tmp_path / "library.npz"  # any file will do: it is never read
+    library.write_bytes(b"a library")
+    files = {"structure": structure, "weights": weights, "generator": generator, "html": tmp_path / "tower.html"}
+    return {**files, "library": library}
 
 
 SAME_FILE = [
@@ -150,6 +153,12 @@ SAME_FILE = [
     pytest.param(["regrow", "{structure}", "--weights", "{weights}", "-o", "{weights}"], "weights", id="regrow onto its weights"),
     pytest.param(["regrow", "{structure}", "--weights", "{weights}", "-o", "{structure}"], "structure", id="regrow onto input"),
     pytest.param(["export", "{structure}", "{structure}"], "structure", id="export onto its source"),
+    # An input option typed as a path (Path("x") == an output's Path("x")) is still told from the output.
+    pytest.param(
+        ["design", "--footprint", "3x3", "--height", "3", "--library", "{library}", "-o", "{library}"],
+        "library",
+        id="design onto its library",
+    ),
 ]
 
 
