@@ -356,9 +356,11 @@ def check_not_an_input(
     allowed (it replaces nothing)."""
     target = Path(output)
     resolved = _resolved(target)
+    if resolved is None:  # a link loop names nothing an input could be
+        return
     for given in inputs:
         source = Path(given)
-        if not os.path.lexists(source) or resolved is None:
+        if not os.path.lexists(source):
             continue
         source_resolved = _resolved(source)
         if source_resolved is None:

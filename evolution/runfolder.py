@@ -152,6 +152,20 @@ class Archive:
 _MAX_INDEX = 2**31 - 1
 
 
+def _cell_number(text: Any) -> int | None:
+    """An archive index or cell as archive.csv writes it (None if it is not one): read only when short, as Python
+    itself refuses to read 5,000 digits as a number."""
+    if not isinstance(text, str) or len(text) > 12 or not text.strip().isdigit():
+        return None
+    value = int(text)
+    return value if value <= _MAX_INDEX else None
+
+
+def _not_a_cell(path: Any, line: int, name: str, text: Any) -> InputFileError:
+    shown = text if not isinstance(text, str) or len(text) <= 40 else f"{text[:20]}... ({len(text):,} characters)"
+    return InputFileError(f"{path}, line {line}: {name} = {shown!r} is not a whole number from 0 to {_MAX_INDEX:,}")
+
+
 def load_archive(run_dir: str | os.PathLike, problem: Problem | None = None) -> Archive:
     """The archive of the run in ``run_dir`` (a quality-diversity run); with ``problem``, each elite's genome too."""
     return RunFolder.open(run_dir).load_archive(problem)
@@ -576,10 +590,8 @@ class RunFolder:
         except csv.Error as err:  # Python 3.10's reader refuses NUL bytes, which later versions read as text
             raise InputFileError(f"{not_an_archive}: {err}") from None
         for number, row in enumerate(rows, start=2):
-            text = row.get("index")
-            if not isinstance(text, str) or not text.strip().isdigit() or len(text) > 12 or int(text) > _MAX_INDEX:
-                shown = text if not isinstance(text, str) or len(text) <= 40 else f"{text[:20]}... ({len(text):,} characters)"
-                raise InputFileError(f"{path}, line {number}: index = {shown!r} is not a whole number from 0 to {_MAX_INDEX:,}")
+            if _cell_number(row.get("index")) is None:
+                raise _not_a_cell(path, number, "index", row.get("index"))
         return rows
 
     def _genome_store(self, rows: list[dict[str, str]], problem: Problem) -> tuple[Path, Any] | None:
@@ -644,18 +656,16 @@ class RunFolder:
             if name == "genome":  # an archive of structgen 0.1 kept object genomes in a column
                 continue
             whole = name == "index" or name.startswith("cell_")
-            try:
-                # int() of more than a few digits is refused as Python refuses 5,000: an index is never that long.
-                values = [int(row[name]) if whole and len(row[name] or "") <= 12 else float(row[name]) for row in rows]
-            except (TypeError, ValueError):
-                raise InputFileError(f"{path}: column {name!r} holds a value that is not a number") from None
             if whole:
-                wrong = [n for n, value in enumerate(values) if not isinstance(value, int) or not 0 <= value <= _MAX_INDEX]
-                if wrong:
-                    raise InputFileError(
-                        f"{path}, line {wrong[0] + 2}: {name} = {rows[wrong[0]][name]!r} is not a whole number from 0 "
-                        f"to {_MAX_INDEX:,}"
-                    )
+                values: list[Any] = [_cell_number(row[name]) for row in rows]
+                if None in values:
+                    at = values.index(None)
+                    raise _not_a_cell(path, at + 2, name, rows[at][name])
+            else:
+                try:
+                    values = [float(row[name]) for row in rows]
+                except (TypeError, ValueError):
+                    raise InputFileError(f"{path}: column {name!r} holds a value that is not a number") from None
             columns[name] = np.array(values, dtype=np.int64 if whole else np.float64)
         genomes = None
         if problem is not None:

@@ -397,16 +397,6 @@ def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_sett
     return settings if args.generations is None else dataclasses.replace(settings, updates=args.generations)
 
 
-class _DistinctSeeds(argparse.Action):
-    """``--seeds`` with each seed once: two runs of one seed would share a folder (and race, run side by side)."""
-
-    def __call__(self, parser: Any, namespace: argparse.Namespace, values: Any, option_string: str | None = None) -> None:
-        repeated = sorted({seed for seed in values if values.count(seed) > 1})
-        if repeated:
-            parser.error(f"argument --seeds: seed {', '.join(map(str, repeated))} given twice; each seed runs once")
-        setattr(namespace, self.dest, values)
-
-
 def seed_run_options(*, config_help: str, config_default: str | None, seeds: list[int], seeds_help: str) -> Adder:
     """The options every ``experiment`` verb shares (one run per seed, several at a time, then a table):
     ``OUT_DIR``, ``--config``, ``--seeds``, ``--parallel`` and ``--json``. The experiment itself and how each run
@@ -414,7 +404,7 @@ def seed_run_options(*, config_help: str, config_default: str | None, seeds: lis
     return _together(lambda parser: parser, [
         option("out_dir", type=output_folder, metavar="OUT_DIR", help="folder for the runs and the table (made if missing)"),
         option("--config", default=config_default, metavar="TOML", help=f"each run's configuration ({config_help})"),
-        option("--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S", action=_DistinctSeeds,
+        option("--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S",
                help=f"run seeds, each once ({seeds_help})"),
         number("--parallel", 1, 1024, 2, "runs at once"),
         json_flag("print the whole table as one JSON object, no progress bars"),

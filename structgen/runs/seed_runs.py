@@ -19,7 +19,16 @@ from typing import Any
 from structgen.errors import InputError
 from structgen.registry.commands import EXIT_BAD_INPUT, EXIT_INTERRUPTED
 
-__all__ = ["ADDRESS", "RunStopped", "check_seed_folder", "expected_run", "finished", "run_all", "run_seed"]
+__all__ = [
+    "ADDRESS",
+    "RunStopped",
+    "check_distinct_seeds",
+    "check_seed_folder",
+    "expected_run",
+    "finished",
+    "run_all",
+    "run_seed",
+]
 
 
 class RunStopped(KeyboardInterrupt):
@@ -85,6 +94,13 @@ def run_seed(
         kind = InputError if done.returncode == EXIT_BAD_INPUT else RuntimeError
         raise kind(f"seed {seed} ({run_dir}): {last}")
     return run_dir
+
+
+def check_distinct_seeds(seeds: Sequence[int]) -> None:
+    """Each seed once: two runs of one seed would share its folder (and race in it, run side by side)."""
+    repeated = sorted({seed for seed in seeds if list(seeds).count(seed) > 1})
+    if repeated:
+        raise InputError(f"--seeds: seed {', '.join(map(str, repeated))} given twice; each seed runs once")
 
 
 def expected_run(

@@ -21,7 +21,7 @@ from typing import Any
 
 from evolution.files import atomic_write
 from structgen.errors import InputError
-from structgen.runs.seed_runs import ADDRESS, check_seed_folder, expected_run, run_all
+from structgen.runs.seed_runs import ADDRESS, check_distinct_seeds, check_seed_folder, expected_run, run_all
 
 __all__ = ["PAPER_TABLE", "run_experiment", "table_markdown"]
 
@@ -53,6 +53,7 @@ def run_experiment(
 
     if measures not in MEASURES:
         raise InputError(f"measures must be one of {', '.join(MEASURES)}, got {measures!r}")
+    check_distinct_seeds(seeds)
     if not Path(config).is_file():
         raise InputError(f"{config}: no such configuration file")
     if cluster and not ADDRESS.fullmatch(cluster):

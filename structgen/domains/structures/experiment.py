@@ -30,7 +30,7 @@ from typing import Any
 from evolution.files import atomic_write, read_png
 from structgen.errors import InputError
 from structgen.runs import read_best
-from structgen.runs.seed_runs import check_seed_folder, expected_run, run_seed
+from structgen.runs.seed_runs import check_distinct_seeds, check_seed_folder, expected_run, run_seed
 
 __all__ = [
     "EXPERIMENTS",
@@ -265,8 +265,7 @@ def run_experiment(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
-    if len(set(seeds)) != len(seeds):
-        raise InputError(f"seeds {list(seeds)}: a seed given twice would run twice into one folder; give each once")
+    check_distinct_seeds(seeds)
     # Everything that can be refused is refused before the first run starts: the configuration's domain, every
     # seed's folder, and where the results go.
     for seed in seeds:
