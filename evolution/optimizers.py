@@ -118,6 +118,11 @@ class GASettings:
         _in_range(self, "crossover_rate", 0.0, 1.0)
         _whole_numbers(self, "initial", low=0)  # 0: population
 
+    def random_counterpart(self) -> RandomSettings:
+        """Random search evaluating as many genomes as this GA, generation by generation (parents are not
+        re-evaluated, so a later generation evaluates ``population - parents``)."""
+        return RandomSettings(population=self.population - self.parents, initial=self.initial or self.population)
+
 
 class GeneticAlgorithm(Optimizer):
     """Elitist GA: the first generation is ``initial`` (default ``population``) random genomes; every later one is
@@ -181,31 +186,59 @@ class RandomSettings:
 
     Attributes:
         population: genomes per generation (evaluations count as for any optimiser: one per genome).
+        initial: genomes in the first generation; 0 for ``population`` (so that random search can match a GA, whose
+            first generation is larger than the later ones, evaluation for evaluation).
+        cells: archive cells along each of the problem's measures, to keep what random search finds in the same grid
+            archive a quality-diversity run keeps (its QD score and coverage are then the baseline's); empty for no
+            archive.
     """
 
     population: int = 100
+    initial: int = 0
+    cells: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         _positive_int(self, "population")
+        _whole_numbers(self, "initial", low=0)  # 0: population
+        if any(not isinstance(c, int) or isinstance(c, bool) or c < 1 for c in self.cells):
+            raise ValueError(f"optimizer cells must be positive integers, got {list(self.cells)}")
+
+    def random_counterpart(self) -> RandomSettings:
+        return self
 
 
 class RandomSearch(Optimizer):
-    """Draws ``population`` genomes with ``problem.initial_genomes`` each generation; ``tell`` keeps nothing but
-    what the run itself records (the best seen, the archive of a quality-diversity run's measures)."""
+    """Draws ``population`` genomes with ``problem.initial_genomes`` each generation and learns nothing from their
+    scores; with ``cells``, every genome told is offered to a grid archive (:func:`evolution.qd.random_archive`), as
+    a quality-diversity optimiser's results are."""
 
-    def __init__(self, problem: Problem, settings: RandomSettings, seed: int) -> None:
+    def __init__(self, problem: Problem, settings: RandomSettings, seed: int, archive: Any = None) -> None:
         self.problem, self.settings = problem, settings
         self.rng = np.random.default_rng(seed)
+        self.archive = archive
+        self.asked_generations = 0
         self._asked: Any = None
 
     def ask(self) -> Any:
-        self._asked = self.problem.initial_genomes(self.settings.population, self.rng)
+        first = self.asked_generations == 0 and self.settings.initial
+        self._asked = self.problem.initial_genomes(self.settings.initial if first else self.settings.population, self.rng)
+        self.asked_generations += 1
         return self._asked
 
     def tell(self, objective: np.ndarray, measures: np.ndarray, **fields: np.ndarray) -> None:
         if self._asked is None:
             raise RuntimeError("tell() before ask()")
+        if self.archive is not None:
+            solutions = np.asarray(self._asked) if self.problem.flat else _object_array(self._asked)
+            self.archive.add(solutions, objective, measures, **fields)
         self._asked = None
+
+
+def _object_array(genomes: Any) -> np.ndarray:
+    """Genomes that are not vectors as a one-dimensional object array (numpy would otherwise try to stack them)."""
+    out = np.empty(len(genomes), dtype=object)
+    out[:] = list(genomes)
+    return out
 
 
 # -- where a search starts ---------------------------------------------------------------------------------------------
@@ -258,6 +291,10 @@ class CMAESSettings:
             raise ValueError("optimizer population must be at least 2 for CMA-ES")
         _in_range(self, "sigma0", 0.0, math.inf, low_open=True)
         _start_setting(self)
+
+    def random_counterpart(self) -> RandomSettings:
+        """Random search evaluating as many genomes a generation as this CMA-ES."""
+        return RandomSettings(population=self.population)
 
 
 class _Normal:
@@ -335,6 +372,10 @@ class MapElitesSettings:
         if self.variation not in ("gaussian", "problem"):
             raise ValueError(f"optimizer variation must be 'gaussian' or 'problem', got {self.variation!r}")
 
+    def random_counterpart(self) -> RandomSettings:
+        """Random search evaluating as many genomes a generation, into an archive of the same cells."""
+        return RandomSettings(population=self.emitters * self.batch_size, cells=tuple(self.cells))
+
 
 @dataclass(frozen=True)
 class CMAMAESettings:
@@ -404,3 +445,7 @@ class CMAMAESettings:
         _start_setting(self)
         if not isinstance(self.result_archive, bool):
             raise ValueError(f"optimizer result_archive must be true or false, got {self.result_archive!r}")
+
+    def random_counterpart(self) -> RandomSettings:
+        """Random search evaluating as many genomes a generation, into an archive of the same cells."""
+        return RandomSettings(population=self.emitters * self.batch_size, cells=tuple(self.cells))

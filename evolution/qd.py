@@ -13,7 +13,7 @@ from ribs.archives import GridArchive
 from ribs.emitters import EmitterBase, EvolutionStrategyEmitter, GaussianEmitter, IsoLineEmitter
 from ribs.schedulers import Scheduler
 
-from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, start_genome
+from evolution.optimizers import CMAMAESettings, MapElitesSettings, Optimizer, RandomSettings, start_genome
 from evolution.problem import Problem
 
 __all__ = [
@@ -24,6 +24,7 @@ __all__ = [
     "cma_mae",
     "compile_kernels",
     "map_elites",
+    "random_archive",
 ]
 
 
@@ -182,6 +183,13 @@ def map_elites(problem: Problem, settings: MapElitesSettings, seed: int) -> Opti
         else:
             emitters.append(ProblemMutationEmitter(archive, problem, settings.batch_size, own, settings.immigrants))
     return RibsOptimizer(Scheduler(archive, emitters), problem)
+
+
+def random_archive(problem: Problem, settings: RandomSettings, seed: int) -> GridArchive:
+    """The archive random search keeps: the grid a quality-diversity run over the same cells keeps, its elites
+    ranked as a CMA-MAE result archive ranks them (by the problem's result objective where it names one), so that
+    the baseline's QD score and coverage compare cell for cell."""
+    return _grid_archive(problem, _cells(settings, problem), seed, ranked_by=problem.result_objective)
 
 
 def cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer:

@@ -47,12 +47,20 @@ def _cma_mae(problem: Problem, settings: CMAMAESettings, seed: int) -> Optimizer
     return cma_mae(problem, settings, seed)
 
 
+def _random(problem: Problem, settings: RandomSettings, seed: int) -> Optimizer:
+    if not settings.cells:
+        return RandomSearch(problem, settings, seed)
+    from evolution.qd import random_archive
+
+    return RandomSearch(problem, settings, seed, archive=random_archive(problem, settings, seed))
+
+
 OPTIMIZERS: dict[str, OptimizerSpec] = {
     "ga": OptimizerSpec(GASettings, GeneticAlgorithm, "the paper's elitist genetic algorithm (any genome)"),
     "cma_es": OptimizerSpec(CMAESSettings, CMAES, "CMA-ES from pycma, diagonal by default (vector genomes)"),
     "map_elites": OptimizerSpec(MapElitesSettings, _map_elites, "MAP-Elites on a pyribs grid archive (any genome)"),
     "cma_mae": OptimizerSpec(CMAMAESettings, _cma_mae, "CMA-MAE from pyribs with a separate result archive (vector genomes)"),
-    "random": OptimizerSpec(RandomSettings, RandomSearch, "random search from the problem's initial distribution: the baseline"),
+    "random": OptimizerSpec(RandomSettings, _random, "random search from the problem's initial distribution: the baseline"),
 }
 #: What a configuration that names no optimiser gets.
 DEFAULT_OPTIMIZER = "ga"

@@ -14,6 +14,9 @@
   genomes of ``n_params``;
 - ``pickling``: a pickled and unpickled problem evaluates the same (worker processes receive it that way);
 - ``genome round trip``: genomes through JSON and through a run folder's ``best/`` evaluate the same;
+- ``random search``: the baseline every domain's results are held against runs on it: ``--optimizer random``
+  in place of the main job's optimiser asks a batch, takes its scores and, where the main job keeps an archive,
+  fills one of the same cells;
 - ``resume``: a run of 2 generations stopped after 1 and resumed ends exactly as one run straight (``ga``, 4
   candidates).
 
@@ -40,7 +43,7 @@ from structgen import registry
 __all__ = ["CHECKS", "DomainCheck", "DomainContractError", "check_domain"]
 
 #: The checks, in the order they run.
-CHECKS = ("spec", "determinism", "batch independence", "declared measures", "pickling", "genome round trip", "resume")
+CHECKS = ("spec", "determinism", "batch independence", "declared measures", "pickling", "genome round trip", "random search", "resume")
 
 
 class DomainContractError(AssertionError):
@@ -112,6 +115,7 @@ def check_domain(
             "declared measures": lambda: _check_declared(problem, genomes, result, batch),
             "pickling": lambda: _same(pickle.loads(pickle.dumps(problem)).evaluate(genomes, seeds), result, "unpickled"),
             "genome round trip": lambda: _check_round_trip(problem, genomes, seeds, result, where / "round_trip"),
+            "random search": lambda: _check_random_search(spec, problem, batch),
             "resume": lambda: _check_resume(spec, where),
         }
         for name in CHECKS:
@@ -171,6 +175,22 @@ def _check_spec(spec: registry.DomainSpec, problem: Any) -> None:
     load_experiment(domain=spec.id).make_optimizer(problem)
     if spec.kernels:
         _require(callable(registry.load_reference(spec.kernels)), f"kernels {spec.kernels!r} is not a function")
+
+
+def _check_random_search(spec: registry.DomainSpec, problem: Any, batch: int) -> None:
+    from dataclasses import replace
+
+    from evolution import make_optimizer
+    from structgen.runs.experiment import load_experiment
+
+    settings = load_experiment(domain=spec.id, optimizer="random").optimizer_settings
+    search = make_optimizer("random", problem, replace(settings, population=batch, initial=0), seed=0)
+    genomes = search.ask()
+    _require(len(genomes) == batch, f"random search asked {len(genomes)} genomes for a population of {batch}")
+    scores = problem.evaluate(genomes, np.random.SeedSequence(1).generate_state(batch))
+    search.tell(scores.objective, scores.measures, **scores.fields)
+    if settings.cells:
+        _require(search.archive.stats.num_elites >= 1, f"random search's archive of cells {list(settings.cells)} is empty")
 
 
 def _check_determinism(spec, problem, genomes, seeds, result, batch: int) -> None:

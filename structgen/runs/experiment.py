@@ -175,6 +175,7 @@ def load_experiment(
     tables = _source_tables(path, domain or dict(assignments).get("problem.name"), source)
     if path is not None and domain is not None:
         _check_domain(tables, domain, source)
+    written_for = _name(_table(tables, "optimizer", source), DEFAULT_OPTIMIZER, "optimizer") if path else None
     names = [(name, value) for name, value in zip(NAMES, (domain, optimizer)) if value is not None]
     spec, optimizer_name = _choose(tables, [*names, *((k, v) for k, v in assignments if k in NAMES)], source)
     settings_type, optimizer_type = spec.settings_type(), OPTIMIZERS[optimizer_name].settings
@@ -190,10 +191,14 @@ def load_experiment(
         set_path(tables, key, value)
     tables = {name: _table(tables, name, source) for name in TABLES}  # a --set may have put a value there
     if path is None:  # the main job's size for the chosen optimiser, under whatever was set explicitly
-        sizes = spec.main_job.optimizers.get(optimizer_name, {})
+        written_for = spec.main_job.optimizer
+        sizes = spec.main_job.optimizers.get(optimizer_name if optimizer_name != "random" else written_for, {})
         tables["optimizer"] = {**copy.deepcopy(dict(sizes)), **tables["optimizer"]}
     for name in ("problem", "optimizer"):
         tables[name].pop("name", None)
+    if optimizer_name == "random" and written_for in OPTIMIZERS and written_for != "random":
+        set_here = {key.removeprefix("optimizer.") for key, _ in given if key.startswith("optimizer.")}
+        tables["optimizer"] = _random_counterpart(tables["optimizer"], written_for, set_here, path)
     try:
         run = build(RunSettings, tables["run"], "run")
         problem_settings = build(settings_type, tables["problem"], "problem")
@@ -201,6 +206,19 @@ def load_experiment(
     except ConfigError as err:
         raise _attributed(err, path, [key for key, _ in given]) from None
     return Experiment(run, spec.id, problem_settings, optimizer_name, optimizer_settings)
+
+
+def _random_counterpart(table: dict[str, Any], written_for: str, set_here: set[str], path: Any) -> dict[str, Any]:
+    """The ``[optimizer]`` table of random search at the budget of the optimiser the configuration was written for:
+    as many evaluations each generation and the same archive cells (``RandomSettings`` via the settings'
+    ``random_counterpart``); settings given with ``--set`` for random search itself are kept."""
+    theirs = {key: value for key, value in table.items() if key not in set_here}
+    try:
+        counterpart = build(OPTIMIZERS[written_for].settings, theirs, "optimizer").random_counterpart()
+    except ConfigError as err:
+        raise _attributed(err, path, []) from None
+    ours = {key: list(value) if isinstance(value, tuple) else value for key, value in asdict(counterpart).items()}
+    return {**ours, **{key: table[key] for key in set_here if key in table}}
 
 
 def _source_tables(path: str | os.PathLike | None, domain: str | None, source: str) -> dict[str, Any]:

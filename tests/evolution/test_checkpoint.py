@@ -166,6 +166,8 @@ OPTIMIZERS = {
     "cma_mae_iso_line": ("cma_mae", Sphere, CMAMAESettings(cells=(4, 4), emitters=2, batch_size=3, emitter="iso_line")),
     "random": ("random", Sphere, RandomSettings(population=6)),
     "random_objects": ("random", Ones, RandomSettings(population=6)),
+    "random_archive": ("random", Sphere, RandomSettings(population=6, cells=(4, 4))),
+    "random_archive_objects": ("random", Ones, RandomSettings(population=6, cells=(4, 4))),
 }
 
 

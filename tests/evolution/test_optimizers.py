@@ -352,3 +352,28 @@ def test_random_search_draws_every_generation_from_the_initial_distribution():
             search.tell(result.objective, result.measures, **result.fields)
     with pytest.raises(ValueError, match="optimizer population must be a positive integer"):
         RandomSettings(population=0)
+    with pytest.raises(ValueError, match=r"optimizer cells must be positive integers, got \[4, 0\]"):
+        RandomSettings(cells=(4, 0))
+
+
+def test_random_search_with_cells_keeps_every_genome_in_a_grid_archive_as_map_elites_would():
+    """With ``cells`` the baseline's archive holds, in each cell, the best genome random search drew there: the same
+    archive a quality-diversity run over those cells keeps, so QD score and coverage compare. The genomes asked do
+    not change with the archive."""
+    for problem in (Sphere(), Ones()):
+        plain = make_optimizer("random", problem, RandomSettings(population=8), seed=2)
+        kept = make_optimizer("random", problem, RandomSettings(population=8, cells=(4, 4)), seed=2)
+        assert plain.archive is None
+        best: dict[tuple[int, ...], float] = {}
+        for generation in range(3):
+            asked = kept.ask()
+            assert all(np.array_equal(np.asarray(a), np.asarray(b)) for a, b in zip(asked, plain.ask()))
+            result = problem.evaluate(asked, np.arange(8) + 10 * generation)
+            kept.tell(result.objective, result.measures, **result.fields)
+            cells = kept.archive.index_of(np.asarray(result.measures))
+            for cell, value in zip(cells, result.objective):
+                best[int(cell)] = max(best.get(int(cell), -np.inf), float(value))
+        data = kept.archive.data()
+        assert dict(zip(data["index"].tolist(), data["objective"].tolist())) == pytest.approx(best)
+    with pytest.raises(ValueError, match="optimizer cells has 1 entries but"):
+        make_optimizer("random", Sphere(), RandomSettings(cells=(4,)), seed=0)

@@ -51,6 +51,25 @@ def test_switching_optimizer_in_the_main_job_keeps_a_comparable_size(name):
         assert getattr(experiment.optimizer_settings, key) == (tuple(value) if isinstance(value, list) else value)
 
 
+def test_random_search_in_place_of_the_optimiser_of_a_configuration_runs_at_its_budget(tmp_path):
+    """``--optimizer random`` is the baseline of the configuration it is given: as many evaluations each
+    generation (a GA's larger first generation too, since its parents are not evaluated again) and, for quality
+    diversity, an archive of the same cells; what is set for random search itself is kept."""
+    main = load_experiment(optimizer="random").optimizer_settings
+    assert (main.initial, main.population, main.cells) == (40, 32, ())  # the main job's GA: 40, then 32 a generation
+    path = tmp_path / "qd.toml"
+    path.write_text('[problem]\nname = "sphere"\n[optimizer]\nname = "cma_mae"\nemitters = 3\nbatch_size = 7\ncells = [5, 6]\n')
+    qd = load_experiment(path, optimizer="random")
+    assert qd.optimizer_name == "random"
+    assert (qd.optimizer_settings.population, qd.optimizer_settings.initial, qd.optimizer_settings.cells) == (21, 0, (5, 6))
+    mine = load_experiment(path, optimizer="random", overrides=["optimizer.population=4"]).optimizer_settings
+    assert (mine.population, mine.cells) == (4, (5, 6))
+    assert load_experiment(path).optimizer_name == "cma_mae"  # the file alone still runs what it names
+    path.write_text('[problem]\nname = "sphere"\n[optimizer]\nname = "cma_mae"\nemitters = 0\n')
+    with pytest.raises(ConfigError, match="optimizer.emitters"):
+        load_experiment(path, optimizer="random")
+
+
 def test_every_domain_has_a_main_job_that_loads():
     for spec in domains.specs():
         experiment = load_experiment(domain=spec.id)
