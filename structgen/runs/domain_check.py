@@ -43,7 +43,16 @@ from structgen import registry
 __all__ = ["CHECKS", "DomainCheck", "DomainContractError", "check_domain"]
 
 #: The checks, in the order they run.
-CHECKS = ("spec", "determinism", "batch independence", "declared measures", "pickling", "genome round trip", "random search", "resume")
+CHECKS = (
+    "spec",
+    "determinism",
+    "batch independence",
+    "declared measures",
+    "pickling",
+    "genome round trip",
+    "random search",
+    "resume",
+)
 
 
 class DomainContractError(AssertionError):
