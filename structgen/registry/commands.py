@@ -399,14 +399,20 @@ def resumed_training_settings(run_dir: Path, args: argparse.Namespace, read_sett
 
 def seed_run_options(*, config_help: str, config_default: str | None, seeds: list[int], seeds_help: str) -> Adder:
     """The options every ``experiment`` verb shares (one run per seed, several at a time, then a table):
-    ``OUT_DIR``, ``--config``, ``--seeds``, ``--parallel`` and ``--json``. The experiment itself and how each run
-    uses its processes are the verb's own."""
+    ``OUT_DIR``, ``--config``, ``--seeds``, ``--parallel``, ``--optimizer`` and ``--json``. The experiment itself
+    and how each run uses its processes are the verb's own."""
+    from evolution.registry import OPTIMIZERS
+
     return _together(lambda parser: parser, [
         option("out_dir", type=output_folder, metavar="OUT_DIR", help="folder for the runs and the table (made if missing)"),
         option("--config", default=config_default, metavar="TOML", help=f"each run's configuration ({config_help})"),
         option("--seeds", type=whole_number(0, 2**31), nargs="+", default=seeds, metavar="S",
                help=f"run seeds, each once ({seeds_help})"),
         number("--parallel", 1, 1024, 2, "runs at once"),
+        option("--optimizer", choices=list(OPTIMIZERS), default=None,
+               help="run every seed with this optimiser instead of the configuration's; 'random' is random search at "
+                    "the configuration's budget (as many evaluations a generation, the same archive cells): the "
+                    "baseline the experiment's results are held against. Use another OUT_DIR for it"),
         json_flag("print the whole table as one JSON object, no progress bars"),
     ])  # fmt: skip
 

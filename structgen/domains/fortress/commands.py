@@ -217,6 +217,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     report = run_experiment(
         args.measures, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, threads=args.threads,
         cluster=args.cluster or "", generations=args.generations, longer=args.longer, progress=not args.json,
+        optimizer=args.optimizer,
     )  # fmt: skip
     return print_table(report, args, table_markdown)
 

@@ -46,8 +46,10 @@ def run_experiment(
     generations: int | None = None,
     longer: int = 5,
     progress: bool = True,
+    optimizer: str | None = None,
 ) -> dict[str, Any]:
-    """Run (or finish) every seed's run, then write and return the table (see the module's description)."""
+    """Run (or finish) every seed's run, then write and return the table (see the module's description). With
+    ``optimizer``, every run uses it instead of the configuration's (``"random"``: random search at its budget)."""
     from structgen.domains.fortress.problem import MEASURES
     from structgen.domains.fortress.robustness import open_runs, reevaluate
 
@@ -58,7 +60,7 @@ def run_experiment(
         raise InputError(f"{config}: no such configuration file")
     if cluster and not ADDRESS.fullmatch(cluster):
         raise InputError(f"--cluster {cluster[:60]!r}: not a Dask scheduler's address (tcp://host:port or host:port)")
-    overrides = (f"problem.measures={measures}",)
+    overrides = (f"problem.measures={measures}",) + ((f"optimizer.name={optimizer}",) if optimizer else ())
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
@@ -83,6 +85,7 @@ def run_experiment(
     folders, experiment = open_runs([job[3] for job in jobs])
     report = reevaluate(folders, experiment, longer=longer, progress=progress)
     report.update({"measures": measures, "run_seeds": list(seeds), "longer": longer, "paper": PAPER_TABLE[measures]})
+    report["optimizer"] = experiment.optimizer_name
     atomic_write(out / "table.json", json.dumps(report, indent=1) + "\n")
     atomic_write(out / "table.md", table_markdown(report))
     return report
@@ -94,7 +97,8 @@ def table_markdown(report: dict[str, Any]) -> str:
     merged = [row for row in rows if row["name"].startswith("merged")]
     runs = len(report["run_seeds"])
     singles = [[row for row in rows if row["name"].startswith("run ") and _pass_of(row["name"]) == p] for p in range(len(PASSES))]
-    header = f"| {report['measures']} ({runs} runs) | ticks | best | QD score | cells | QD score of one run (min-max) |"
+    searched = " of random search" if report.get("optimizer") == "random" else ""
+    header = f"| {report['measures']} ({runs} runs{searched}) | ticks | best | QD score | cells | QD score of one run (min-max) |"
     lines = [header + " paper: best / QD score / cells |", "|---|---:|---:|---:|---:|---:|---:|"]
     ticks = [report["steps"], report["steps"], report["steps"] * report["longer"]]
     for p, name in enumerate(PASSES):
