@@ -125,6 +125,43 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     assert code == 2 and "no pictures" in err
 
 
+def test_random_search_runs_an_experiment_at_the_gas_spawns_and_its_table_says_whether_the_ga_learns(tmp_path, capsys):
+    """``--optimizer random`` runs the experiment's seeds as random search (100 genomes, then 80 a generation: the
+    GA's spawns), its table kept beside the GA's in the results, with the three-standard-error verdict between them."""
+    results = tmp_path / "results" / "table"
+    common = ("--seeds", "0", "1", "--workers", "0", "--spawns", "180", "--results", results, "--json")
+    assert cli(capsys, "structures", "experiment", "cutoff", tmp_path / "ga", *common)[0] == 0
+    code, printed, _ = cli(capsys, "structures", "experiment", "cutoff", tmp_path / "random", *common, "--optimizer", "random")
+    assert code == 0
+    report = json.loads(printed)
+    assert report["optimizer"] == "random" and [r["spawns"] for r in report["runs"]] == [180, 180]
+    assert 'name = "random"' in (tmp_path / "random" / "seed-0" / "config.toml").read_text()
+    assert not (tmp_path / "random" / "seed-0-spawns" / "spawn-381").exists()  # 180 spawns: before the first kept
+    tables = json.loads(results.with_suffix(".json").read_text())
+    assert list(tables) == ["cutoff", "cutoff --optimizer random"]
+    text = results.with_suffix(".md").read_text()
+    assert "### cutoff --optimizer random: 2 runs of configs/paper_cutoff.toml with --optimizer random" in text
+    assert "#### cutoff: does the GA learn? Against random search at the same spawns and judge" in text
+    assert "- best Q: the GA" in text and "three-standard-error rule" in text
+    # The GA's folder is not random search's: running the baseline into it is refused before anything runs.
+    code, _, err = cli(capsys, "structures", "experiment", "cutoff", tmp_path / "ga", *common, "--optimizer", "random")
+    assert code == 2 and "other settings than this experiment's" in err
+
+
+def test_the_learning_rule_is_three_standard_errors_of_the_difference():
+    from evolution.stats import compare
+
+    ahead = compare([10.0, 11.0, 12.0], [5.0, 6.0, 7.0])  # 5 apart, standard error of the difference 0.82
+    assert ahead.standard_errors == pytest.approx(5 / np.hypot(1 / np.sqrt(3), 1 / np.sqrt(3)))
+    assert ahead.learns and "the GA learns by the three-standard-error rule" in ahead.sentence("the GA", "random search")
+    close = compare([10.0, 12.0, 14.0], [9.0, 10.0, 11.0])  # 2 apart, 1.29 standard errors
+    assert not close.learns and "is not shown to learn" in close.sentence("the GA", "random search")
+    assert not compare([0.0, 0.0], [0.0, 0.0]).learns  # both crushed to nothing: nothing learned
+    assert compare([1.0, 1.0], [0.0, 0.0]).learns  # no spread either side, yet always ahead
+    one_seed = compare([10.0], [1.0, 2.0])
+    assert not one_seed.learns and "cannot be told" in one_seed.sentence("the GA", "random search")
+
+
 def test_a_seed_run_keeps_its_worker_count_when_it_is_resumed(tmp_path, monkeypatch):
     # A resumed run reads only its own config.toml: the experiment's --workers must reach it as an option, or a
     # resumed seed silently runs on the one process it was started with.

@@ -647,6 +647,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     report = run_experiment(
         args.name, args.out_dir, config=args.config, seeds=args.seeds, parallel=args.parallel, workers=args.workers,
         spawns=args.spawns, progress=not args.json, results=args.results, table_only=args.table_only,
+        optimizer=args.optimizer,
     )  # fmt: skip
     return print_table(report, args, table_markdown)
 

@@ -180,12 +180,21 @@ def _snapshot(run_dir: Path, spawn: int) -> None:
     staging = target.with_name(target.name + ".partial")
     shutil.rmtree(staging, ignore_errors=True)
     shutil.copytree(run_dir / "best", staging)
-    parents = open_run(run_dir)[0].load_checkpoint().optimizer.parents
-    np.save(staging / "parents.npy", np.asarray(parents, dtype=np.float64))
+    parents = getattr(open_run(run_dir)[0].load_checkpoint().optimizer, "parents", None)
+    if parents is not None:  # random search keeps no population to judge
+        np.save(staging / "parents.npy", np.asarray(parents, dtype=np.float64))
     staging.rename(target)
 
 
-def _run_one_seed(config: str, seed: int, run_dir: str, workers: int, generations: int, milestones: Sequence[int]) -> str:
+def _run_one_seed(
+    config: str,
+    overrides: Sequence[str],
+    seed: int,
+    run_dir: str,
+    workers: int,
+    generations: int,
+    milestones: Sequence[int],
+) -> str:
     """Run a seed to each milestone generation in turn (keeping its best there), then to ``generations``."""
     from structgen.runs import open_run
 
@@ -200,15 +209,16 @@ def _run_one_seed(config: str, seed: int, run_dir: str, workers: int, generation
             reached = rows[-1]["generation"] if rows else 0
         if reached > stop:
             continue  # gone past it already (an older run); its best there is not known any more
-        run_seed(config, (), seed, run_dir, 1, stop, workers)
+        run_seed(config, overrides, seed, run_dir, 1, stop, workers)
         _snapshot(path, spawn)
-    run_seed(config, (), seed, run_dir, 1, generations, workers)
+    run_seed(config, overrides, seed, run_dir, 1, generations, workers)
     return run_dir
 
 
 def _run_seeds(
     name: str,
     config: str,
+    overrides: Sequence[str],
     seeds: Sequence[int],
     out: Path,
     parallel: int,
@@ -226,7 +236,7 @@ def _run_seeds(
     try:
         with ThreadPoolExecutor(max_workers=parallel) as pool:  # threads only wait on the run processes
             jobs = [
-                pool.submit(_run_one_seed, config, seed, str(out / f"seed-{seed}"), workers, generations, milestones)
+                pool.submit(_run_one_seed, config, overrides, seed, str(out / f"seed-{seed}"), workers, generations, milestones)
                 for seed in seeds
             ]
             for job in as_completed(jobs):
@@ -250,10 +260,13 @@ def run_experiment(
     progress: bool = True,
     results: str | Path | None = None,
     table_only: bool = False,
+    optimizer: str | None = None,
 ) -> dict[str, Any]:
     """Run (or finish) every seed's run, then write and return the table (see the module's description); with
     ``results``, also put it into the tables of all four experiments (:func:`merge_results`). With ``table_only``
-    nothing runs: the table is written from the runs as they stand, an unfinished one with the spawns it reached."""
+    nothing runs: the table is written from the runs as they stand, an unfinished one with the spawns it reached.
+    With ``optimizer``, every run uses it instead of the configuration's GA (``"random"``: random search at the
+    GA's budget, 100 genomes and then 80 a generation, the baseline); its table is kept beside the GA's."""
     if name not in EXPERIMENTS:
         raise InputError(f"experiment must be one of {', '.join(EXPERIMENTS)}, got {name!r}")
     paper = EXPERIMENTS[name]
@@ -266,13 +279,15 @@ def run_experiment(
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: is not a folder; OUT_DIR holds the runs and the table")
     check_distinct_seeds(seeds)
+    overrides = (f"optimizer.name={optimizer}",) if optimizer else ()
     # Everything that can be refused is refused before the first run starts: the configuration's domain, every
     # seed's folder, and where the results go.
     for seed in seeds:
         run_dir = out / f"seed-{seed}"
         if table_only and not (run_dir / "metrics.jsonl").is_file():
             raise InputError(f"{run_dir}: no run here to put in the table (run it without --table-only)")
-        check_seed_folder(run_dir, expected_run(config, (), seed, generations, _DOMAIN_ID), any_length=True)
+        expected = expected_run(config, overrides, seed, generations, _DOMAIN_ID)
+        check_seed_folder(run_dir, expected, any_length=True)
     if out.is_dir():
         from evolution.files import check_output
 
@@ -286,10 +301,11 @@ def run_experiment(
         raise InputError(f"{out}: cannot make this folder ({err.strerror})") from None
     if not table_only:
         milestones = sorted(set(paper.milestones) | set(SAMPLE_SPAWNS))
-        _run_seeds(name, config, seeds, out, parallel, workers, generations, milestones, progress)
+        _run_seeds(name, config, overrides, seeds, out, parallel, workers, generations, milestones, progress)
     report = {
         "experiment": name,
         "config": config,
+        "optimizer": optimizer,
         "seeds": list(seeds),
         "spawn_budget": budget,
         "paper_spawn_budget": paper.spawns,
@@ -311,13 +327,55 @@ def merge_results(report: dict[str, Any], stem: str | Path) -> None:
     every experiment's table in the paper's order), replacing that experiment's earlier one."""
     stem = Path(stem)
     path, tables = _results_tables(stem)
-    tables[report["experiment"]] = report
-    ordered = {name: tables[name] for name in EXPERIMENTS if name in tables}
+    tables[table_key(report["experiment"], report.get("optimizer"))] = report
+    ordered = {key: tables[key] for name in EXPERIMENTS for key in _keys_of(name) if key in tables}
     stem.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(path, json.dumps(ordered, indent=1) + "\n")
     command = f"structgen structures experiment NAME OUT_DIR --results {stem}"
     text = f"# The stable-structures paper's experiments, run here\n\nWritten by `{command}`.\n\n"
-    atomic_write(stem.with_name(stem.name + ".md"), text + "\n".join(table_markdown(t) for t in ordered.values()))
+    parts = []
+    for name in EXPERIMENTS:
+        parts += [table_markdown(tables[key]) for key in _keys_of(name) if key in tables]
+        if name in tables and (baseline := tables.get(table_key(name, "random"))) is not None:
+            parts.append(baseline_markdown(tables[name], baseline))
+    atomic_write(stem.with_name(stem.name + ".md"), text + "\n".join(parts))
+
+
+def table_key(experiment: str, optimizer: str | None) -> str:
+    """Where an experiment's table is kept among all four's: its name, or its name and the optimiser its runs used
+    in place of the configuration's (``"cutoff --optimizer random"``)."""
+    return experiment if not optimizer else f"{experiment} --optimizer {optimizer}"
+
+
+def _keys_of(experiment: str) -> list[str]:
+    from evolution.registry import OPTIMIZERS
+
+    return [experiment, *(table_key(experiment, name) for name in OPTIMIZERS)]
+
+
+def baseline_markdown(report: dict[str, Any], baseline: dict[str, Any]) -> str:
+    """The GA's runs against random search's at the same spawns, seed for seed: the best score Q and the tallest
+    structure standing by the end, each with the three-standard-error verdict (:mod:`evolution.stats`)."""
+    from evolution.stats import compare
+
+    name = report["experiment"]
+    lines = [f"#### {name}: does the GA learn? Against random search at the same spawns and judge", ""]
+    if report["spawn_budget"] != baseline["spawn_budget"]:
+        return "\n".join(lines + [f"Not compared: the GA ran {report['spawn_budget']:,} spawns, random search "
+                                  f"{baseline['spawn_budget']:,}.", ""])  # fmt: skip
+    within = [spawn for spawn in TABLE_SPAWNS if spawn <= report["spawn_budget"]]
+    measures: list[tuple[str, Any]] = [("best Q", lambda run: run["best_objective"])]
+    if within:  # the tallest standing by the last of the paper's spawn numbers the runs reached
+
+        def tallest(run: dict[str, Any]) -> float:
+            found = run["tallest_standing"].get(str(within[-1]))
+            return found["height"] if found else 0.0
+
+        measures.append((f"tallest H standing by spawn {within[-1]:,}", tallest))
+    for what, value in measures:
+        compared = compare([value(r) for r in report["runs"]], [value(r) for r in baseline["runs"]])
+        lines.append(f"- {what}: " + compared.sentence("the GA", "random search") + ".")
+    return "\n".join(lines) + "\n"
 
 
 def _results_tables(stem: str | Path) -> tuple[Path, dict[str, Any]]:
@@ -335,7 +393,8 @@ def _results_tables(stem: str | Path) -> tuple[Path, dict[str, Any]]:
     if not path.exists():
         return path, {}
     tables = read_json(path, 64 * MiB)
-    if not isinstance(tables, dict) or not all(name in EXPERIMENTS and isinstance(table, dict) for name, table in tables.items()):
+    known = {key for name in EXPERIMENTS for key in _keys_of(name)}
+    if not isinstance(tables, dict) or not all(name in known and isinstance(table, dict) for name, table in tables.items()):
         raise InputError(
             f"{path}: not the JSON these tables are kept in (an object keyed by experiment: {', '.join(EXPERIMENTS)})"
         )
@@ -355,8 +414,11 @@ def table_markdown(report: dict[str, Any]) -> str:
     """The experiment's table: per run and over runs, beside the paper's numbers."""
     runs = report["runs"]
     spawns = [s for s in TABLE_SPAWNS if s <= report["spawn_budget"]]
+    optimizer = report.get("optimizer")
+    searched = f" with --optimizer {optimizer}" if optimizer else ""
     lines = [
-        f"### {report['experiment']}: {len(runs)} run{'s' if len(runs) != 1 else ''} of {report['config']}, "
+        f"### {table_key(report['experiment'], optimizer)}: {len(runs)} run{'s' if len(runs) != 1 else ''} of "
+        f"{report['config']}{searched}, "
         f"{report['spawn_budget']:,} spawns each "
         f"(the paper: {report['paper_spawn_budget']:,}, one run)",
         "",
