@@ -9,7 +9,7 @@ BIN := $(VENV)/bin
 # Extra options for the main job, e.g. make run ARGS="--generations 10 --seed 3"
 ARGS ?=
 
-.PHONY: run test test-fast test-all lint docs format install clean
+.PHONY: run test test-fast test-all lint docs format install clean results-check
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -44,6 +44,11 @@ test-all: lint
 
 test-fast: install
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup -m "not slow"
+
+# The indexed results (docs/results/README.md) re-derived from the committed files at a reduced scale; CHEAP=1 runs
+# the checks that take seconds (CI does).
+results-check: install
+	$(BIN)/python benchmarks/results_check.py $(if $(CHEAP),--cheap,)
 
 format: install
 	$(BIN)/ruff check --fix .

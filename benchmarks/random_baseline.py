@@ -3,8 +3,8 @@
     python benchmarks/random_baseline.py [--seeds 0 1 2 3 4] [--out DIR] [--parallel 2]
 
 For each seed, the main job (``structgen evolve``: the paper's GA, 40 genomes, 8 parents, 200 generations, the
-static judge) and random search (``--optimizer random``) drawing from the same initial distribution, 36 genomes a
-generation for 178 generations: 6,408 evaluations each (the GA evaluates 40, then 32 a generation). Each run in a
+static judge) and random search (``--optimizer random``) drawing from the same initial distribution at the GA's
+budget: 40 genomes, then 32 a generation (the GA does not evaluate its parents again), 6,408 evaluations each. Each run in a
 process of its own with no worker processes, ``--parallel`` at a time. Prints a markdown table of each seed's best
 objective and the mean and standard error of each method over the seeds, and whether the GA is ahead by more than
 three standard errors of the difference. The run folders go to ``--out`` (default: a temporary folder); a folder
@@ -30,7 +30,7 @@ sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).re
 #: The two methods at one budget: name -> the evolve options on top of the main job.
 METHODS = {
     "GA (the main job)": [],
-    "random search": ["--optimizer", "random", "--set", "optimizer.population=36", "--generations", "178"],
+    "random search": ["--optimizer", "random"],
 }
 
 

@@ -1,7 +1,7 @@
 """Which of a training run's generators grow large layouts that still carry the paper's robots: a screen of the
 archive's elites at 101x102 (the paper shows one generator; ours, the best by training's objective, jams there).
 
-    python benchmarks/scale_screen.py RUN_DIR [--candidates 40] [--size 101x102] [--robots 1400] [--steps 500]
+    python benchmarks/scale_screen.py RUN_DIR [--candidates 40] [--size 101x102] [--robots N (default: the paper's count, table2.py)] [--steps 500]
         [--planner pp] [--workers 2] [--repair-time-limit 120] [--json OUT.json] [--weights-out WINNER.npy]
 
 The archive's cells are grouped into blocks of 10x10; the elite of highest training objective (throughput plus

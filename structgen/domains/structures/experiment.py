@@ -147,7 +147,7 @@ def seed_row(run_dir: Path, workers: int) -> dict[str, Any]:
     best_file = folder.path / "best" / "best.json"
     best = read_best(best_file) if best_file.is_file() else {}
     return {
-        "run": str(run_dir),
+        "run": run_dir.name,  # the seed's folder inside OUT_DIR: a table names no machine's paths
         "generations": rows[-1]["generation"],
         "spawns": rows[-1]["evaluations"],
         "wall_s": rows[-1]["wall_s"],
