@@ -1,0 +1,63 @@
+"""The results index (docs/results/README.md) and the check that re-derives its numbers (benchmarks/results_check.py)."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+INDEX = ROOT / "docs" / "results" / "README.md"
+
+
+def _results_check():
+    spec = importlib.util.spec_from_file_location("results_check", ROOT / "benchmarks" / "results_check.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_check_stands_for_a_claim_of_the_index_and_the_index_names_it():
+    checks = _results_check().CHECKS
+    anchors = set(re.findall(r'<a id="([a-z0-9-]+)"></a>', INDEX.read_text()))
+    text = INDEX.read_text()
+    for check in checks:
+        # A check belongs to a claim: its anchor, or the claim's entry naming it as its check.
+        assert check.id in anchors or f"`{check.id}`" in text, f"{check.id} is not in docs/results/README.md"
+    named = set(re.findall(r"\*\*Check\*\* `([a-z0-9-]+)`", text))
+    assert named <= {c.id for c in checks}, f"the index names checks that do not exist: {named - {c.id for c in checks}}"
+    assert all(c.tolerance >= 0 and c.scale for c in checks)
+
+
+def test_a_number_moved_beyond_its_tolerance_fails_its_check():
+    module = _results_check()
+    check = module.Check("x", "a stated scale", lambda work: 0.0, expected=6.673, tolerance=0.05)
+    assert module.verdict(check, 6.70) and module.verdict(check, 6.623)
+    assert not module.verdict(check, 6.60) and not module.verdict(check, 6.75)
+    assert not module.verdict(check, math.nan)  # a claim that no longer comes out at all has moved too
+    exact = module.Check("y", "a stated scale", lambda work: 0.0, expected=100.0, tolerance=0.0)
+    assert module.verdict(exact, 100.0) and not module.verdict(exact, 180.0)
+
+
+def test_no_committed_file_names_a_machine_path():
+    try:
+        listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        pytest.skip("not a git checkout: the committed files cannot be listed")
+    machine = re.compile(rb"""(^|["'`( ])/(work|home|root|Users|mnt)/""", re.MULTILINE)
+    found = []
+    for name in listed.decode().split("\0"):
+        path = ROOT / name
+        if not name or not path.is_file() or path.stat().st_size > 4_000_000:
+            continue
+        data = path.read_bytes()
+        if b"\0" in data[:4096]:
+            continue  # a binary file (weights, pictures)
+        found += [f"{name}: {m.group(0).decode(errors='replace').strip()}" for m in machine.finditer(data)]
+    assert not found, "committed files name machine paths:\n" + "\n".join(found[:20])
