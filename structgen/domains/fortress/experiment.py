@@ -23,7 +23,7 @@ from evolution.files import atomic_write
 from structgen.errors import InputError
 from structgen.runs.seed_runs import ADDRESS, check_distinct_seeds, check_seed_folder, expected_run, run_all
 
-__all__ = ["PAPER_TABLE", "run_experiment", "table_markdown"]
+__all__ = ["PAPER_TABLE", "baseline_markdown", "run_experiment", "table_markdown"]
 
 # The QD paper's Table 3 (10 runs merged): best score, QD score and archive size, as evolved (100 ticks), on new
 # seeds (100 ticks) and on new seeds with 500-tick episodes.
@@ -113,6 +113,24 @@ def table_markdown(report: dict[str, Any]) -> str:
             f"| {name} | {steps} | {row['best']:.3f} | {row['qd_score']:,.0f} | {row['cells']:,} | {spread} | "
             f"{best:.3f} / {qd:,} / {cells:,} |"
         )
+    return "\n".join(lines) + "\n"
+
+
+def baseline_markdown(report: dict[str, Any], baseline: dict[str, Any]) -> str:
+    """MAP-Elites' runs against random search's at the same evaluations into the same cells: each pass's QD score
+    of one run (over the runs) and its best fitness, with the three-standard-error verdict (:mod:`evolution.stats`)."""
+    from evolution.stats import compare
+
+    lines = [f"#### {report['measures']}: does MAP-Elites learn? Against random search at the same evaluations", ""]
+    for p, name in enumerate(PASSES):
+        ours, theirs = (
+            [row for row in r["rows"] if row["name"].startswith("run ") and _pass_of(row["name"]) == p] for r in (report, baseline)
+        )
+        if not ours or not theirs:
+            continue
+        for what, key in (("QD score of one run", "qd_score"), ("best fitness of one run", "best")):
+            compared = compare([row[key] for row in ours], [row[key] for row in theirs])
+            lines.append(f"- {name}, {what}: " + compared.sentence("MAP-Elites", "random search") + ".")
     return "\n".join(lines) + "\n"
 
 
