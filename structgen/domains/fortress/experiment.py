@@ -124,7 +124,8 @@ def baseline_markdown(report: dict[str, Any], baseline: dict[str, Any]) -> str:
     lines = [f"#### {report['measures']}: does MAP-Elites learn? Against random search at the same evaluations", ""]
     for p, name in enumerate(PASSES):
         ours, theirs = (
-            [row for row in r["rows"] if row["name"].startswith("run ") and _pass_of(row["name"]) == p] for r in (report, baseline)
+            [row for row in r["rows"] if row["name"].startswith("run ") and _pass_of(row["name"]) == p]
+            for r in (report, baseline)
         )
         if not ours or not theirs:
             continue
