@@ -475,7 +475,7 @@ def test_list_domains_and_optimizers(capsys):
     rows = {row["name"]: row for row in json.loads(out)}
     assert list(rows) == ["ga", "cma_es", "map_elites", "cma_mae", "random"]
     assert rows["ga"]["settings"]["population"] == 100 and rows["cma_mae"]["settings"]["cells"] == [16, 16]
-    assert rows["random"]["settings"] == {"population": 100}
+    assert rows["random"]["settings"] == {"population": 100, "initial": 0, "cells": []}
 
 
 def test_grow_takes_settings_by_set_as_every_command_does(tmp_path, capsys):
