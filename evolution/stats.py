@@ -62,7 +62,12 @@ class Comparison:
             told = "no spread on one side (one seed), so learning cannot be told"
         else:
             gap = "infinitely many" if math.isinf(sigmas) else f"{sigmas:.1f}"
-            verdict = "learns" if self.learns else "is not shown to learn"
+            if self.learns:
+                verdict = "learns"
+            elif sigmas < -LEARNS_AT:
+                verdict = f"is not shown to learn: {baseline} is ahead of it by more than three"
+            else:
+                verdict = "is not shown to learn"
             told = f"{gap} standard errors of the difference: {method} {verdict} by the three-standard-error rule"
         return (
             f"{method} {self.mean:,.2f} ± {self.standard_error:,.2f}{unit} against {baseline} "

@@ -157,6 +157,8 @@ def test_the_learning_rule_is_three_standard_errors_of_the_difference():
     close = compare([10.0, 12.0, 14.0], [9.0, 10.0, 11.0])  # 2 apart, 1.29 standard errors
     assert not close.learns and "is not shown to learn" in close.sentence("the GA", "random search")
     assert not compare([0.0, 0.0], [0.0, 0.0]).learns  # both crushed to nothing: nothing learned
+    behind = compare([0.0, 0.0, 0.0], [0.8, 1.2, 1.7])  # random search ahead: said so
+    assert "random search is ahead of it by more than three" in behind.sentence("the GA", "random search")
     assert compare([1.0, 1.0], [0.0, 0.0]).learns  # no spread either side, yet always ahead
     one_seed = compare([10.0], [1.0, 2.0])
     assert not one_seed.learns and "cannot be told" in one_seed.sentence("the GA", "random search")
