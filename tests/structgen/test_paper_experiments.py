@@ -89,6 +89,7 @@ def test_an_experiment_keeps_its_spawns_writes_its_table_and_draws_its_figure(tm
     metrics = (out / "seed-3" / "metrics.jsonl").read_text()
     assert cli(capsys, *experiment, "--spawns", "400")[0] == 0
     assert (out / "seed-3" / "metrics.jsonl").read_text() == metrics
+    assert json.loads((out / "table.json").read_text())["experiment"] == "cutoff"  # a folder already there kept the name
     # Asked for more, the run resumes where it stopped and keeps its best at the next sample spawn, 500.
     assert cli(capsys, *experiment, "--spawns", "500")[0] == 0
     assert json.loads((out / "table.json").read_text())["runs"][0]["generations"] == 6

@@ -291,8 +291,8 @@ def run_experiment(
     if out.is_dir():
         from evolution.files import check_output
 
-        for name in ("table.json", "table.md"):
-            check_output(out / name)
+        for table in ("table.json", "table.md"):  # not ``name``: that is the experiment's
+            check_output(out / table)
     if results is not None:
         _results_tables(results)
     try:
