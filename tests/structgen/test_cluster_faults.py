@@ -100,7 +100,11 @@ def test_a_scheduler_that_goes_away_stops_the_run_and_resume_finishes_it(undistu
     assert process.returncode == 1 and time.monotonic() - started < 120
     last = err.strip().splitlines()[-1]
     assert last.startswith("structgen: error: EvaluationError: lost the Dask scheduler at") and "resume RUN_DIR --cluster" in last
-    assert "Traceback" not in err
+    # Our error is one line, not a traceback; distributed's own logger may still report its background sender
+    # failing as the scheduler dies (timing-dependent), which names only distributed's and tornado's frames.
+    ours = [line for line in err.splitlines() if line.strip().startswith('File "') and "distributed" not in line
+            and "tornado" not in line and "asyncio" not in line]  # fmt: skip
+    assert not ours, "\n".join(ours)
     done = len((run / "metrics.jsonl").read_text().splitlines())
     assert 2 <= done < GENERATIONS
     with cluster(tmp_path) as (address, _):
