@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import platform
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -26,6 +24,8 @@ from pathlib import Path
 
 # Run as a script, this file's folder comes first on sys.path, and benchmarks/physics.py would shadow the physics package.
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+
+from evolution.stats import Comparison, mean_and_standard_error  # noqa: E402
 
 #: The two methods at one budget: name -> the evolve options on top of the main job.
 METHODS = {
@@ -47,11 +47,6 @@ def _finished(folder: Path) -> bool:
     from structgen.runs.seed_runs import finished
 
     return finished(folder)
-
-
-def _mean_se(values: list[float]) -> tuple[float, float]:
-    mean = statistics.fmean(values)
-    return mean, (statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else math.nan)
 
 
 def main() -> None:
@@ -76,15 +71,15 @@ def main() -> None:
     summary = {}
     for name in METHODS:
         bests = [results[name, seed]["best"] for seed in args.seeds]
-        mean, error = _mean_se(bests)
+        mean, error = mean_and_standard_error(bests)
         summary[name] = (mean, error)
         evaluations = {results[name, seed]["evaluations"] for seed in args.seeds}
         cells = " | ".join(f"{b:.1f}" for b in bests)
         print(f"| {name} | {', '.join(f'{e:,}' for e in sorted(evaluations))} | {cells} | {mean:.1f} ± {error:.1f} |")
     (ga, ga_error), (random, random_error) = summary.values()
-    gap_error = math.hypot(ga_error, random_error)
-    verdict = "learns" if ga - random > 3 * gap_error else "is not shown to learn"
-    print(f"\nThe GA is ahead by {ga - random:.1f} ({(ga - random) / gap_error:.1f} standard errors of the difference): "
+    compared = Comparison(ga, ga_error, random, random_error)
+    verdict = "learns" if compared.learns else "is not shown to learn"
+    print(f"\nThe GA is ahead by {compared.difference:.1f} ({compared.standard_errors:.1f} standard errors of the difference): "
           f"it {verdict} by the 3-standard-error rule.")  # fmt: skip
     print(f"\nRun folders: {out}")
 
