@@ -6,8 +6,9 @@ Reads the tables the experiments wrote into ``docs/results`` (the stable-structu
 their ``--optimizer random`` runs in ``structures-paper-table.json``; each Amorphous Fortress experiment's table
 beside its random-search table, ``fortress-expN-table.json`` and ``fortress-expN-random-table.json``) and prints,
 for each pair, the comparison of :mod:`evolution.stats`: the method's mean and standard error over seeds against
-random search's, and whether it is ahead by more than three standard errors of the difference. Runs nothing; an
-experiment without its random-search table is listed as such.
+random search's, and whether it is ahead by more than three standard errors of the difference; and each table
+``benchmarks/random_baseline.py --results`` wrote there (a configuration's optimiser against random search over
+seeds). Runs nothing; an experiment without its random-search table is listed as such.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ FORTRESS = {"experiment 1 (entities x nodes)": "fortress-exp1", "experiment 2 (e
 def structures(results: Path) -> list[str]:
     from structgen.domains.structures.experiment import EXPERIMENTS, baseline_markdown, table_key
 
+    if not (results / "structures-paper-table.json").is_file():
+        return []
     tables = read_json(results / "structures-paper-table.json", 64 * MiB)
     lines = ["## The stable-structures paper's experiments: the GA against random search", ""]
     for name in EXPERIMENTS:
@@ -56,11 +59,29 @@ def fortress(results: Path) -> list[str]:
     return lines
 
 
+def against_random(results: Path) -> list[str]:
+    """The tables ``benchmarks/random_baseline.py --results`` wrote: a configuration's optimiser against random
+    search over seeds, each metric's verdict again from the seeds' values."""
+    from evolution.stats import compare
+
+    lines = ["## Runs against random search at the same budget (benchmarks/random_baseline.py)", ""]
+    for path in sorted(results.glob("*.json")):
+        table = read_json(path, 64 * MiB)
+        if not (isinstance(table, dict) and table.get("kind") == "optimiser-against-random-search"):
+            continue
+        lines.append(f"#### {path.stem}: `{table['command']}`, seeds {', '.join(map(str, table['seeds']))}")
+        for metric, row in table["metrics"].items():
+            (method, ours), (baseline, theirs) = row["methods"].items()
+            lines.append(f"- {metric}: " + compare(ours["values"], theirs["values"]).sentence(method, baseline))
+        lines.append("")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--results", type=Path, default=ROOT / "docs" / "results", help="the result tables' folder")
     args = parser.parse_args()
-    print("\n".join(structures(args.results) + fortress(args.results)))
+    print("\n".join(structures(args.results) + fortress(args.results) + against_random(args.results)))
 
 
 if __name__ == "__main__":

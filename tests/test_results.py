@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
 import re
 import subprocess
@@ -83,3 +84,24 @@ def test_the_learning_verdicts_come_from_the_committed_tables():
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "learning_verdicts.py")], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert "#### cutoff: does the GA learn? Against random search at the same spawns and judge" in done.stdout
+
+
+def test_random_baseline_compares_a_configuration_with_random_search_and_writes_a_table_the_verdicts_read(tmp_path):
+    results = tmp_path / "results"
+    results.mkdir()
+    command = [sys.executable, str(ROOT / "benchmarks" / "random_baseline.py"), str(ROOT / "configs" / "ones_map_elites.toml"),
+               "--generations", "3", "--seeds", "0", "1", "--metric", "qd_score", "best_objective",
+               "--out", str(tmp_path / "runs"), "--results", str(results / "ones")]  # fmt: skip
+    done = subprocess.run(command, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    table = json.loads((results / "ones.json").read_text())
+    assert table["kind"] == "optimiser-against-random-search" and table["seeds"] == [0, 1]
+    methods = table["metrics"]["qd_score"]["methods"]
+    assert list(methods) == ["ones_map_elites.toml's optimiser", "random search"]
+    assert all(m["evaluations"] == [60] and len(m["values"]) == 2 for m in methods.values())
+    assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == ["random-s0", "random-s1", "trained-s0", "trained-s1"]
+    assert "| random search | 60 |" in (results / "ones.md").read_text()
+    verdicts = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "learning_verdicts.py"), "--results", str(results)],
+                              capture_output=True, text=True)  # fmt: skip
+    assert verdicts.returncode == 0, verdicts.stderr
+    assert "- qd_score: ones_map_elites.toml's optimiser" in verdicts.stdout
