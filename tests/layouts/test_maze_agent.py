@@ -378,7 +378,24 @@ def test_the_experiment_grows_a_runs_elite_small_and_large(tmp_path, capsys):
         "--baseline-episodes",
         1,
         "--json",
+        "--keep",
+        tmp_path / "kept",
     )
     result = json.loads(out)
     assert code == 0 and "(elite index:" in result["source"] and "grown at 16x16 and 32x32" in result["source"]
     assert [row["size"] for row in result["rows"]] == ["18x18", "34x34", "34x34"]
+    kept = tmp_path / "kept"
+    assert json.loads((kept / "experiment.json").read_text()) == result
+    # The kept files alone repeat the experiment, and the kept generator regrows the large maze.
+    again = ["--episodes", 3, "--baselines", 2, "--baseline-episodes", 1, "--json"]
+    code, out, _ = cli(capsys, "maze", "experiment", "--small", kept / "small.json", "--large", kept / "large.json", *again)
+    assert code == 0 and json.loads(out)["rows"] == result["rows"]
+    code, _, _ = cli(
+        capsys, "maze", "grow", "--weights", kept / "generator.npy", "--size", "32x32", "-o", tmp_path / "regrown.json"
+    )
+    assert code == 0
+    assert (
+        json.loads((tmp_path / "regrown.json").read_text())["layout"] == json.loads((kept / "large.json").read_text())["layout"]
+    )
+    code, _, err = cli(capsys, "maze", "experiment", tmp_path / "run", "--keep", kept, *again)
+    assert code != 0 and "is not an empty folder" in err

@@ -538,8 +538,9 @@ def _size_option(kind: LayoutKind) -> Any:
     return parse
 
 
-def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray, np.ndarray, str]:
-    """The small and large mazes (without their outer walls) the experiment plays, and where they came from."""
+def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray, np.ndarray, str, np.ndarray | None]:
+    """The small and large mazes (without their outer walls) the experiment plays, where they came from, and the
+    generator that grew them (None for maze files)."""
     if args.run_dir is not None:
         if args.small or args.large:
             raise InputError("give a RUN_DIR or --small and --large maze files, not both")
@@ -554,13 +555,40 @@ def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray,
         genome, elite = _experiment_elite(run, args.elite, large_problem, args.seed)
         small = kind.storage(problem.grow(np.asarray(genome)[None])[0])
         large = kind.storage(large_problem.grow(np.asarray(genome)[None])[0])
-        return small, large, f"{args.run_dir} (elite {elite}), grown at {problem.settings.size} and {args.large_size}"
+        source = f"{args.run_dir} (elite {elite}), grown at {problem.settings.size} and {args.large_size}"
+        return small, large, source, np.asarray(genome, dtype=np.float64)
     if not (args.small and args.large):
         raise InputError("give a maze RUN_DIR, or --small FILE and --large FILE (e.g. the paper's grown mazes)")
     pair = []
     for path in (args.small, args.large):
         pair.append(_grown_maze(_load(path, kind), kind))
-    return pair[0], pair[1], f"{args.small} and {args.large}"
+    return pair[0], pair[1], f"{args.small} and {args.large}", None
+
+
+#: What ``maze experiment --keep DIR`` writes, so that the experiment is repeated from committed files alone.
+_KEPT = ("small.json", "large.json", "generator.npy", "experiment.json")
+
+
+def _check_keep(folder: Path | None) -> None:
+    """Refuse a --keep folder that holds anything already: the experiment's files are never mixed with another's."""
+    if folder is None:
+        return
+    if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+        raise InputError(f"--keep {folder}: exists and is not an empty folder; give a new one")
+
+
+def _keep(folder: Path, kind: LayoutKind, small: np.ndarray, large: np.ndarray, genome: np.ndarray | None,
+          report: dict[str, Any]) -> None:  # fmt: skip
+    """The mazes played, their generator and the rows, each written whole (temporary file, then rename)."""
+    from evolution.files import atomic_write
+    from structgen.nca import save_weights
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, maze in (("small", small), ("large", large)):
+        kind.grid(kind.complete(maze), name=name, kind=kind.name, source=report["source"]).save(folder / f"{name}.json")
+    if genome is not None:
+        save_weights(folder / "generator.npy", genome)
+    atomic_write(folder / "experiment.json", json.dumps(report, indent=1) + "\n")
 
 
 #: How many elites ``--elite longest`` tries, and how many random baselines it draws for each, before giving up.
@@ -613,7 +641,9 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     from structgen.domains.layouts.maze.training import agent_policy
 
     kind = _kind(args)
-    small, large, source = _grown_pair(args, kind)
+    keep = Path(args.keep) if args.keep else None
+    _check_keep(keep)
+    small, large, source, genome = _grown_pair(args, kind)
     policy = agent_policy(args.weights)
     try:
         rows, _ = maze_experiment(
@@ -629,8 +659,11 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         )
     except ValueError as err:
         raise InputError(f"{source}: {err}") from None
+    report = {"source": source, "rows": [dataclasses.asdict(r) for r in rows]}
+    if keep is not None:
+        _keep(keep, kind, small, large, genome, report)
     if args.json:
-        print(json.dumps({"source": source, "rows": [dataclasses.asdict(r) for r in rows]}))
+        print(json.dumps(report))
         return EXIT_OK
     print(f"mazes: {source}")
     print(f"{'maze':<12} {'size':>6} {'mazes':>5} {'runs':>5} {'walls':>6} {'path':>6} {'success':>8} {'s.e.':>6} {'paper':>12}")
@@ -754,7 +787,12 @@ def _verbs(kind: LayoutKind) -> dict[str, Verb]:
              number("--baselines", 1, 10_000, 100, "baseline mazes"),
              number("--baseline-episodes", 1, 10_000, 10, "runs on each baseline"),
              seed("seed of the baselines and the runs", **_MAZE_SEED), device("cpu"), json_flag(),
-             examples=[f"{me} experiment runs/maze", f"{me} experiment --small small.json --large large.json --json"]),
+             option("--keep", metavar="DIR", help="also write into DIR (new or empty) the two mazes played (small.json, "
+                    "large.json), the generator that grew them (generator.npy, from a RUN_DIR) and the rows "
+                    "(experiment.json): --small DIR/small.json --large DIR/large.json repeats the experiment"),
+             examples=[f"{me} experiment runs/maze", f"{me} experiment --small small.json --large large.json --json",
+                       f"{me} experiment runs/maze --keep kept && {me} experiment --small kept/small.json "
+                       "--large kept/large.json"]),
         kind=kind.name,
     )  # fmt: skip
 
