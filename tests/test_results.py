@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -105,3 +106,20 @@ def test_random_baseline_compares_a_configuration_with_random_search_and_writes_
                               capture_output=True, text=True)  # fmt: skip
     assert verdicts.returncode == 0, verdicts.stderr
     assert "- qd_score: ones_map_elites.toml's optimiser" in verdicts.stdout
+
+
+def test_table2_seeds_judges_each_runs_best_generator_and_keeps_them(tmp_path):
+    shipped = np.load(ROOT / "docs" / "layout_runs" / "even_generator.npy")
+    for k, name in enumerate(["trained-s0", "trained-s1", "random-s0", "random-s1"]):
+        (tmp_path / "runs" / name / "best").mkdir(parents=True)
+        np.save(tmp_path / "runs" / name / "best" / "genome.npy", shipped if name.startswith("trained") else shipped * 0.1 * k)
+    options = ["--simulations", "1", "--steps", "30", "--workers", "1", "--results", tmp_path / "t2", "--keep", tmp_path / "kept"]
+    command = [sys.executable, ROOT / "benchmarks" / "table2_seeds.py", tmp_path / "runs", *options]
+    done = subprocess.run(command, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    table = json.loads((tmp_path / "t2.json").read_text())["sizes"]["33x36"]
+    trained, random = table["methods"].values()
+    assert trained["values"][0] == trained["values"][1] > 0  # the same generator judged alike in both seeds
+    assert len(random["values"]) == 2 and isinstance(table["learns"], bool)
+    assert np.array_equal(np.load(tmp_path / "kept" / "trained-s1.npy"), shipped)
+    assert "| trained (the archive's best) |" in (tmp_path / "t2.md").read_text()
