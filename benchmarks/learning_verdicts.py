@@ -62,7 +62,7 @@ def fortress(results: Path) -> list[str]:
 def against_random(results: Path) -> list[str]:
     """The tables ``benchmarks/random_baseline.py --results`` wrote: a configuration's optimiser against random
     search over seeds, each metric's verdict again from the seeds' values."""
-    from evolution.stats import compare
+    from evolution.stats import compare, decimals_for
 
     lines = ["## Runs against random search at the same budget (benchmarks/random_baseline.py)", ""]
     for path in sorted(results.glob("*.json")):
@@ -72,7 +72,10 @@ def against_random(results: Path) -> list[str]:
         lines.append(f"#### {path.stem}: `{table['command']}`, seeds {', '.join(map(str, table['seeds']))}")
         for metric, row in table["metrics"].items():
             (method, ours), (baseline, theirs) = row["methods"].items()
-            lines.append(f"- {metric}: " + compare(ours["values"], theirs["values"]).sentence(method, baseline))
+            decimals = decimals_for(ours["mean"], theirs["mean"])
+            lines.append(
+                f"- {metric}: " + compare(ours["values"], theirs["values"]).sentence(method, baseline, decimals=decimals)
+            )
         lines.append("")
     return lines
 

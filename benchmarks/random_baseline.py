@@ -34,7 +34,7 @@ from pathlib import Path
 # Run as a script, this file's folder comes first on sys.path, and benchmarks/physics.py would shadow the physics package.
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
-from evolution.stats import compare, mean_and_standard_error  # noqa: E402
+from evolution.stats import compare, decimals_for, mean_and_standard_error  # noqa: E402
 
 #: What the JSON results call themselves, so that ``benchmarks/learning_verdicts.py`` finds them.
 KIND = "optimiser-against-random-search"
@@ -116,7 +116,8 @@ def main() -> None:
             lines.append(f"| {name} | {', '.join(f'{e:,}' for e in evaluations)} | {cells} | {mean:.4g} ± {error:.2g} |")
         (first, second) = summary.values()
         compared = compare(first["values"], second["values"])
-        lines += ["", f"{metric}: " + compared.sentence(trained, "random search") + ".", ""]
+        decimals = decimals_for(first["mean"], second["mean"])
+        lines += ["", f"{metric}: " + compared.sentence(trained, "random search", decimals=decimals) + ".", ""]
         report["metrics"][metric] = {"methods": summary, "difference": compared.difference,
                                      "standard_errors": compared.standard_errors, "learns": compared.learns}  # fmt: skip
     text = "\n".join(lines)

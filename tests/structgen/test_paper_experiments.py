@@ -165,6 +165,14 @@ def test_the_learning_rule_is_three_standard_errors_of_the_difference():
     assert not one_seed.learns and "cannot be told" in one_seed.sentence("the GA", "random search")
 
 
+def test_a_comparisons_sentence_shows_small_measures_with_their_digits():
+    from evolution.stats import compare, decimals_for
+
+    assert decimals_for(429.3, 124.7) == 2 and decimals_for(0.0106, 0.0031) == 4 and decimals_for(0.0, 0.0) == 2
+    coverage = compare([0.0084, 0.0111, 0.0122], [0.0030, 0.0029, 0.0033])
+    assert "0.0106 ± 0.0011 against random search 0.0031 ± 0.0001" in coverage.sentence("CMA-MAE", "random search", decimals=4)
+
+
 def test_a_seed_run_keeps_its_worker_count_when_it_is_resumed(tmp_path, monkeypatch):
     # A resumed run reads only its own config.toml: the experiment's --workers must reach it as an option, or a
     # resumed seed silently runs on the one process it was started with.
