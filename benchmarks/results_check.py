@@ -93,6 +93,13 @@ def cutoff_first_standing(work: Path) -> float:
     return math.nan if first is None else float(first)
 
 
+def maze_generator_qd(work: Path) -> float:
+    run = work / "maze"
+    structgen("evolve", ROOT / "configs/maze_cma_mae.toml", "--seed", 0, "--generations", 3, "--workers", 0, "--run-dir", run,
+              cwd=work)  # fmt: skip
+    return float(_info(run, work)["archive"]["qd_score"])
+
+
 def maze_agent_rooms(work: Path) -> float:
     tested = structgen("maze", "test-agent", "--kind", "rooms", "--count", 20, "--json", cwd=work)
     return float(json.loads(tested)["success_rate"])
@@ -156,6 +163,14 @@ CHECKS = (
         cutoff_first_standing,
         100.0,
         0.0,
+    ),
+    Check(
+        "maze-generator",
+        "configs/maze_cma_mae.toml, seed 0, 3 of 667 generations (450 evaluations): QD score",
+        maze_generator_qd,
+        56.0,
+        0.0,
+        cheap=False,
     ),
     Check("maze-agent", "the shipped maze agent on 20 rooms mazes of 16x16: success rate", maze_agent_rooms, 1.0, 0.05),
     Check("tall-nine", "docs/tall_grown_9.npy grown 8 steps at extent 8: vertices", nine_levels, 353.0, 0.0),
