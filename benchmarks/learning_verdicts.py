@@ -72,7 +72,7 @@ def against_random(results: Path) -> list[str]:
         lines.append(f"#### {path.stem}: `{table['command']}`, seeds {', '.join(map(str, table['seeds']))}")
         for metric, row in table["metrics"].items():
             (method, ours), (baseline, theirs) = row["methods"].items()
-            decimals = decimals_for(ours["mean"], theirs["mean"])
+            decimals = decimals_for([ours["mean"], theirs["mean"]], [ours["standard_error"], theirs["standard_error"]])
             lines.append(
                 f"- {metric}: " + compare(ours["values"], theirs["values"]).sentence(method, baseline, decimals=decimals)
             )

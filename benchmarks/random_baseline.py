@@ -116,7 +116,7 @@ def main() -> None:
             lines.append(f"| {name} | {', '.join(f'{e:,}' for e in evaluations)} | {cells} | {mean:.4g} ± {error:.2g} |")
         (first, second) = summary.values()
         compared = compare(first["values"], second["values"])
-        decimals = decimals_for(first["mean"], second["mean"])
+        decimals = decimals_for([first["mean"], second["mean"]], [first["standard_error"], second["standard_error"]])
         lines += ["", f"{metric}: " + compared.sentence(trained, "random search", decimals=decimals) + ".", ""]
         report["metrics"][metric] = {"methods": summary, "difference": compared.difference,
                                      "standard_errors": compared.standard_errors, "learns": compared.learns}  # fmt: skip

@@ -31,7 +31,7 @@ HERE = Path(__file__).resolve().parent
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != HERE]
 
 from evolution.files import atomic_write  # noqa: E402
-from evolution.stats import compare, mean_and_standard_error  # noqa: E402
+from evolution.stats import compare, decimals_for, mean_and_standard_error  # noqa: E402
 
 
 def _table2():
@@ -96,7 +96,8 @@ def main() -> None:
             lines.append(f"| {name} | {text} | {mean:.3f} ± {error:.3f} |")
         (ours, theirs) = sides.values()
         compared = compare(ours["values"], theirs["values"])
-        lines += ["", f"{size}: " + compared.sentence("training", "random search", " tasks a step") + ".", ""]
+        decimals = decimals_for([ours["mean"], theirs["mean"]], [ours["standard_error"], theirs["standard_error"]])
+        lines += ["", f"{size}: " + compared.sentence("training", "random search", " tasks a step", decimals) + ".", ""]
         report["sizes"][size] = {"methods": sides, "standard_errors": compared.standard_errors, "learns": compared.learns}
     text = "\n".join(lines)
     print(text)

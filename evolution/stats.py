@@ -26,11 +26,16 @@ def mean_and_standard_error(values: Sequence[float]) -> tuple[float, float]:
     return mean, (statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else math.nan)
 
 
-def decimals_for(*values: float) -> int:
-    """Decimal places that show three significant digits of the largest of ``values`` (at least two): a coverage of
-    0.0106 gets four, a QD score of 429 two."""
-    scale = max((abs(v) for v in values if math.isfinite(v)), default=1.0) or 1.0
-    return max(2, 2 - math.floor(math.log10(scale)))
+def decimals_for(means: Sequence[float], errors: Sequence[float] = ()) -> int:
+    """Decimal places that show three significant digits of the largest mean and one of the smallest non-zero
+    standard error (at least two, at most six): a coverage of 0.0106 gets four, a QD score of 429 two, a mean of
+    9.75 with a standard error of 0.0045 three."""
+    scale = max((abs(v) for v in means if math.isfinite(v)), default=1.0) or 1.0
+    places = 2 - math.floor(math.log10(scale))
+    spread = [e for e in errors if math.isfinite(e) and e > 0]
+    if spread:
+        places = max(places, -math.floor(math.log10(min(spread))))
+    return min(6, max(2, places))
 
 
 @dataclass(frozen=True)

@@ -168,7 +168,8 @@ def test_the_learning_rule_is_three_standard_errors_of_the_difference():
 def test_a_comparisons_sentence_shows_small_measures_with_their_digits():
     from evolution.stats import compare, decimals_for
 
-    assert decimals_for(429.3, 124.7) == 2 and decimals_for(0.0106, 0.0031) == 4 and decimals_for(0.0, 0.0) == 2
+    assert decimals_for([429.3, 124.7], [45.9, 3.8]) == 2 and decimals_for([0.0106, 0.0031]) == 4
+    assert decimals_for([9.75, 9.77], [0.0045, 0.0037]) == 3 and decimals_for([0.0, 0.0], [0.0, 0.0]) == 2
     coverage = compare([0.0084, 0.0111, 0.0122], [0.0030, 0.0029, 0.0033])
     assert "0.0106 ± 0.0011 against random search 0.0031 ± 0.0001" in coverage.sentence("CMA-MAE", "random search", decimals=4)
 
