@@ -170,7 +170,6 @@ CHECKS = (
         maze_generator_qd,
         56.0,
         0.0,
-        cheap=False,
     ),
     Check("maze-agent", "the shipped maze agent on 20 rooms mazes of 16x16: success rate", maze_agent_rooms, 1.0, 0.05),
     Check("tall-nine", "docs/tall_grown_9.npy grown 8 steps at extent 8: vertices", nine_levels, 353.0, 0.0),
