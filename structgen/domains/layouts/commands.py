@@ -791,8 +791,8 @@ def _verbs(kind: LayoutKind) -> dict[str, Verb]:
                     "large.json), the generator that grew them (generator.npy, from a RUN_DIR) and the rows "
                     "(experiment.json): --small DIR/small.json --large DIR/large.json repeats the experiment"),
              examples=[f"{me} experiment runs/maze", f"{me} experiment --small small.json --large large.json --json",
-                       f"{me} experiment runs/maze --keep kept && {me} experiment --small kept/small.json "
-                       "--large kept/large.json"]),
+                       f"{me} experiment runs/maze --keep kept",
+                       f"{me} experiment --small kept/small.json --large kept/large.json"]),
         kind=kind.name,
     )  # fmt: skip
 
