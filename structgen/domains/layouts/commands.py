@@ -565,10 +565,6 @@ def _grown_pair(args: argparse.Namespace, kind: LayoutKind) -> tuple[np.ndarray,
     return pair[0], pair[1], f"{args.small} and {args.large}", None
 
 
-#: What ``maze experiment --keep DIR`` writes, so that the experiment is repeated from committed files alone.
-_KEPT = ("small.json", "large.json", "generator.npy", "experiment.json")
-
-
 def _check_keep(folder: Path | None) -> None:
     """Refuse a --keep folder that holds anything already: the experiment's files are never mixed with another's."""
     if folder is None:
