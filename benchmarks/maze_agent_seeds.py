@@ -23,7 +23,7 @@ from pathlib import Path
 # Run as a script, this file's folder comes first on sys.path, and benchmarks/physics.py would shadow the physics package.
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
-from evolution.files import atomic_write  # noqa: E402
+from evolution.files import write_table  # noqa: E402
 from evolution.stats import mean_and_standard_error  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -63,8 +63,7 @@ def main() -> None:
     text = "\n".join(lines)
     print(text)
     if args.results is not None:
-        atomic_write(args.results.with_suffix(".json"), json.dumps(report, indent=1) + "\n")
-        atomic_write(args.results.with_suffix(".md"), text + "\n")
+        write_table(args.results, report, text + "\n")
 
 
 if __name__ == "__main__":

@@ -34,6 +34,7 @@ from pathlib import Path
 # Run as a script, this file's folder comes first on sys.path, and benchmarks/physics.py would shadow the physics package.
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
+from evolution.files import write_table  # noqa: E402
 from evolution.stats import compare, decimals_for, mean_and_standard_error  # noqa: E402
 
 #: What the JSON results call themselves, so that ``benchmarks/learning_verdicts.py`` finds them.
@@ -60,12 +61,6 @@ def _finished(folder: Path) -> bool:
     from structgen.runs.seed_runs import finished
 
     return finished(folder)
-
-
-def _write(path: Path, text: str) -> None:
-    from evolution.files import atomic_write
-
-    atomic_write(path, text)
 
 
 def main() -> None:
@@ -124,8 +119,7 @@ def main() -> None:
     print(text)
     print(f"Run folders: {out}")
     if args.results is not None:
-        _write(args.results.with_suffix(".json"), json.dumps(report, indent=1) + "\n")
-        _write(args.results.with_suffix(".md"), text)
+        write_table(args.results, report, text)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,6 @@ and the three-standard-error verdict (``evolution.stats``). ``--results PREFIX``
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import re
 import sys
@@ -30,7 +29,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != HERE]
 
-from evolution.files import atomic_write  # noqa: E402
+from evolution.files import write_table  # noqa: E402
 from evolution.stats import compare, decimals_for, mean_and_standard_error  # noqa: E402
 
 
@@ -102,8 +101,7 @@ def main() -> None:
     text = "\n".join(lines)
     print(text)
     if args.results is not None:
-        atomic_write(args.results.with_suffix(".json"), json.dumps(report, indent=1) + "\n")
-        atomic_write(args.results.with_suffix(".md"), text + "\n")
+        write_table(args.results, report, text + "\n")
 
 
 if __name__ == "__main__":

@@ -40,6 +40,7 @@ __all__ = [
     "MiB",
     "InputFileError",
     "atomic_write",
+    "write_table",
     "check_output",
     "check_not_an_input",
     "parse_json",
@@ -407,6 +408,17 @@ def atomic_write(path: str | os.PathLike, data: bytes | str) -> Path:
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def write_table(stem: str | os.PathLike, report: Any, markdown: str) -> tuple[Path, Path]:
+    """A result table in its two forms, ``STEM.json`` (``report``, indented) and ``STEM.md`` (``markdown`` as
+    given), each written whole by :func:`atomic_write`. The suffixes are added to the stem's name, never put in
+    place of a part after a dot (``results/v1.2`` gives ``v1.2.json``)."""
+    stem = Path(stem)
+    return (
+        atomic_write(stem.with_name(stem.name + ".json"), json.dumps(report, indent=1) + "\n"),
+        atomic_write(stem.with_name(stem.name + ".md"), markdown),
+    )
 
 
 #: The largest weight a network takes (the largest 32-bit float).

@@ -123,3 +123,12 @@ def test_table2_seeds_judges_each_runs_best_generator_and_keeps_them(tmp_path):
     assert len(random["values"]) == 2 and isinstance(table["learns"], bool)
     assert np.array_equal(np.load(tmp_path / "kept" / "trained-s1.npy"), shipped)
     assert "| trained (the archive's best) |" in (tmp_path / "t2.md").read_text()
+
+
+def test_a_result_table_is_written_in_both_forms_beside_a_stem_with_a_dot_in_its_name(tmp_path):
+    from evolution.files import write_table
+
+    paths = write_table(tmp_path / "tables" / "v1.2", {"learns": True}, "| a |\n")
+    assert [p.name for p in paths] == ["v1.2.json", "v1.2.md"]
+    assert json.loads(paths[0].read_text()) == {"learns": True} and paths[1].read_text() == "| a |\n"
+    assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == ["v1.2.json", "v1.2.md"]  # no temporary left

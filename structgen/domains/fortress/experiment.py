@@ -13,13 +13,12 @@ disk, a killed experiment resumes run by run, and a Dask worker needs only the p
 
 from __future__ import annotations
 
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from evolution.files import atomic_write
+from evolution.files import write_table
 from structgen.errors import InputError
 from structgen.runs.seed_runs import ADDRESS, check_distinct_seeds, check_seed_folder, expected_run, run_all
 
@@ -86,8 +85,7 @@ def run_experiment(
     report = reevaluate(folders, experiment, longer=longer, progress=progress)
     report.update({"measures": measures, "run_seeds": list(seeds), "longer": longer, "paper": PAPER_TABLE[measures]})
     report["optimizer"] = experiment.optimizer_name
-    atomic_write(out / "table.json", json.dumps(report, indent=1) + "\n")
-    atomic_write(out / "table.md", table_markdown(report))
+    write_table(out / "table", report, table_markdown(report))
     return report
 
 

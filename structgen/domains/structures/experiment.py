@@ -15,7 +15,6 @@ evolution iteration" is generation 94 here (its iterations count after the first
 from __future__ import annotations
 
 import io
-import json
 import math
 import re
 import shutil
@@ -27,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from evolution.files import atomic_write, read_png
+from evolution.files import atomic_write, read_png, write_table
 from structgen.errors import InputError
 from structgen.runs import read_best
 from structgen.runs.seed_runs import check_distinct_seeds, check_seed_folder, expected_run, run_seed
@@ -315,8 +314,7 @@ def run_experiment(
         "paper_table_1": {k: {"seconds_per_generation": v[0], "seconds_per_structure": v[1]} for k, v in PAPER_TABLE_1.items()},
         "runs": [seed_row(out / f"seed-{seed}", workers) for seed in seeds],
     }
-    atomic_write(out / "table.json", json.dumps(report, indent=1) + "\n")
-    atomic_write(out / "table.md", table_markdown(report))
+    write_table(out / "table", report, table_markdown(report))
     if results is not None:
         merge_results(report, results)
     return report
@@ -326,11 +324,9 @@ def merge_results(report: dict[str, Any], stem: str | Path) -> None:
     """Put one experiment's table into the tables of all four (``STEM.json``, keyed by experiment, and ``STEM.md``,
     every experiment's table in the paper's order), replacing that experiment's earlier one."""
     stem = Path(stem)
-    path, tables = _results_tables(stem)
+    _, tables = _results_tables(stem)
     tables[table_key(report["experiment"], report.get("optimizer"))] = report
     ordered = {key: tables[key] for name in EXPERIMENTS for key in _keys_of(name) if key in tables}
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(path, json.dumps(ordered, indent=1) + "\n")
     command = f"structgen structures experiment NAME OUT_DIR --results {stem}"
     text = f"# The stable-structures paper's experiments, run here\n\nWritten by `{command}`.\n\n"
     parts = []
@@ -338,7 +334,7 @@ def merge_results(report: dict[str, Any], stem: str | Path) -> None:
         parts += [table_markdown(tables[key]) for key in _keys_of(name) if key in tables]
         if name in tables and (baseline := tables.get(table_key(name, "random"))) is not None:
             parts.append(baseline_markdown(tables[name], baseline))
-    atomic_write(stem.with_name(stem.name + ".md"), text + "\n".join(parts))
+    write_table(stem, ordered, text + "\n".join(parts))
 
 
 def table_key(experiment: str, optimizer: str | None) -> str:
