@@ -5,7 +5,8 @@
 
 RUNS_DIR is the ``--out`` folder of ``benchmarks/random_baseline.py`` run on a warehouse or manufacturing
 configuration: ``trained-sS`` (the configuration's optimiser) and ``random-sS`` (random search at the same
-evaluations) for each seed S. Each run's best generator by the training objective (its ``best/genome.npy``; for a
+evaluations) for each seed S; or a folder that ``--keep`` filled (``trained-sS.npy``, ``random-sS.npy``), so that
+the committed generators give the table again without the runs. Each run's best generator by the training objective (its ``best/genome.npy``; for a
 CMA-MAE run the result archive's best, the paper's selection) is grown, repaired and simulated with `pbs` at each
 size as ``benchmarks/table2.py`` does (200 robots at 33x36, the paper's configuration's 1,000 at 101x102). Prints
 the throughput of each (a run that jams counts 0, the paper's N/A), each side's mean and standard error over seeds,
@@ -44,9 +45,21 @@ def _table2():
     return module
 
 
+def generators(folder: Path) -> dict[str, np.ndarray]:
+    """Each run's best genome by name (``trained-s0``, ``random-s0``, ...): from the run folders where there are
+    any, else from the generators a ``--keep`` wrote."""
+    pattern = r"(trained|random)-s\d+"
+    runs = sorted(p for p in folder.iterdir() if p.is_dir() and re.fullmatch(pattern, p.name))
+    if runs:
+        return {run.name: np.load(run / "best" / "genome.npy", allow_pickle=False) for run in runs}
+    kept = sorted(p for p in folder.glob("*.npy") if re.fullmatch(pattern, p.stem))
+    return {path.stem: np.load(path, allow_pickle=False) for path in kept}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("runs", type=Path, metavar="RUNS_DIR", help="random_baseline.py's --out folder")
+    parser.add_argument("runs", type=Path, metavar="RUNS_DIR",
+                        help="random_baseline.py's --out folder, or a folder --keep filled")  # fmt: skip
     parser.add_argument("--kind", choices=("even", "uneven", "manufacturing"), default="even", help="Table 2's row")
     parser.add_argument("--sizes", default="33x36", help="33x36, 101x102 or both, comma-separated (default 33x36)")
     parser.add_argument("--simulations", type=int, default=5, help="pbs runs per layout (default 5; the paper ran 50)")
@@ -58,26 +71,28 @@ def main() -> None:
     args = parser.parse_args()
     table2 = _table2()
     row = table2.ROWS[args.kind]
-    folders = sorted(p for p in args.runs.iterdir() if re.fullmatch(r"(trained|random)-s\d+", p.name))
-    if not folders:
-        parser.error(f"{args.runs}: no trained-sS or random-sS run folders (random_baseline.py's --out)")
+    if not args.runs.is_dir():
+        parser.error(f"{args.runs}: not a folder")
+    genomes = generators(args.runs)
+    if not genomes:
+        parser.error(f"{args.runs}: no trained-sS or random-sS run folders (random_baseline.py's --out) and no "
+                     "trained-sS.npy or random-sS.npy (a --keep folder)")  # fmt: skip
     sizes = [size for size in args.sizes.split(",") if size]
     if unknown := [size for size in sizes if size not in ("33x36", "101x102")]:
         parser.error(f"--sizes: {', '.join(unknown)}: Table 2 has 33x36 and 101x102")
     judged: dict[str, dict[str, dict]] = {}
-    for folder in folders:
-        genome = np.load(folder / "best" / "genome.npy", allow_pickle=False)
+    for name, genome in genomes.items():
         if args.keep is not None:
             from structgen.nca import save_weights
 
-            save_weights(args.keep / f"{folder.name}.npy", genome)
+            save_weights(args.keep / f"{name}.npy", genome)
         for size in sizes:
             robots = 200 if size == "33x36" else row.large_robots
             ours = table2.grow_and_repair(genome, row, size, robots, args.repair_time_limit)
-            judged.setdefault(size, {})[folder.name] = table2.judge(ours["tiles"], ours["kind"], robots, row, args)
-            print(f"{folder.name} at {size}: {table2.cell(judged[size][folder.name])}", flush=True)
+            judged.setdefault(size, {})[name] = table2.judge(ours["tiles"], ours["kind"], robots, row, args)
+            print(f"{name} at {size}: {table2.cell(judged[size][name])}", flush=True)
 
-    seeds = sorted({int(name.split("-s")[1]) for name in (f.name for f in folders)})
+    seeds = sorted({int(name.split("-s")[1]) for name in genomes})
     lines = [f"Table 2 ({args.kind}) from each run's best generator, `pbs`, {args.simulations} runs of {args.steps} "
              f"steps (the paper: 50); a run that jams counts 0. {platform.processor() or platform.machine()}, "
              f"{time.strftime('%Y-%m-%d')}.", ""]  # fmt: skip

@@ -123,6 +123,13 @@ def test_table2_seeds_judges_each_runs_best_generator_and_keeps_them(tmp_path):
     assert len(random["values"]) == 2 and isinstance(table["learns"], bool)
     assert np.array_equal(np.load(tmp_path / "kept" / "trained-s1.npy"), shipped)
     assert "| trained (the archive's best) |" in (tmp_path / "t2.md").read_text()
+    # The kept generators alone, without the runs, give the same table: what makes a committed row re-derivable.
+    again = [sys.executable, ROOT / "benchmarks" / "table2_seeds.py", tmp_path / "kept", *options[:6], "--results", tmp_path / "k2"]
+    done = subprocess.run(again, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    values = [{name: m["values"] for name, m in json.loads((tmp_path / f"{stem}.json").read_text())["sizes"]["33x36"]["methods"].items()}
+              for stem in ("t2", "k2")]  # fmt: skip
+    assert values[0] == values[1]
 
 
 def test_a_result_table_is_written_in_both_forms_beside_a_stem_with_a_dot_in_its_name(tmp_path):
