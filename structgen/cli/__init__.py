@@ -344,6 +344,8 @@ def _generic_verbs(domain: domains.DomainSpec | None, exporters: list[tuple[doma
              examples=["structgen compare runs/ga runs/qd -o compare.png", "structgen compare runs/* --json"]),
         verb("export", cmd_export, option("source", metavar="SOURCE", help="run folder or file"),
              option("output", nargs="?", type=output_path, metavar="OUT", help="output file (or use -o)"),
+             # argparse fills both positionals at SOURCE, so an OUT typed after the options would be refused.
+             lambda parser: parser.set_defaults(late_positional=("output", output_path)),
              option("-o", dest="output_option", type=output_path, metavar="OUT", help="output file"),
              option("--elite", default="best", metavar="best|index:I", help="for a run folder: the best candidate "
                     "(default) or the archive elite in cell I (see archive.csv)"),
@@ -438,6 +440,19 @@ def _unknown_options(unknown: list[str], args: argparse.Namespace, argv: list[st
     return f"unrecognized arguments: {option} (settings go through --set: --set {name.replace('-', '_')}={value or 'VALUE'})"
 
 
+def _take_late_positional(args: argparse.Namespace, unknown: list[str]) -> list[str]:
+    """What is left of ``unknown`` once a verb's optional last positional takes the one word left over after its
+    options (``structgen export RUN --elite best OUT``), converted and checked by its type."""
+    late = getattr(args, "late_positional", None)
+    if late is None or len(unknown) != 1 or unknown[0].startswith("-"):
+        return unknown
+    dest, convert = late
+    if getattr(args, dest) is not None:
+        return unknown
+    setattr(args, dest, convert(unknown[0]))
+    return []
+
+
 def _verbose_first(argv: list[str]) -> list[str]:
     """``argv`` with -v/--verbose moved to the front: it belongs to the top-level parser, and users type it after the
     command too (``structgen evolve CONFIG -v``). Nothing after ``--`` is touched."""
@@ -460,6 +475,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     argv = _verbose_first(list(sys.argv[1:] if argv is None else argv))
     args, unknown = parser.parse_known_args(argv)
+    try:
+        unknown = _take_late_positional(args, unknown)
+    except argparse.ArgumentTypeError as err:
+        _report(str(err))
+        return EXIT_BAD_INPUT
     if unknown:
         _report(_unknown_options(unknown, args, argv))
         return EXIT_BAD_INPUT

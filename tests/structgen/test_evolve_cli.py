@@ -217,6 +217,17 @@ def test_export_the_best_and_an_archive_elite(tmp_path, capsys, qd_run):
     assert len(elite["vertices"]) == int(float(row["vertices"])) and elite["metadata"]["elite"] == f"index:{row['index']}"
 
 
+def test_export_takes_its_output_after_the_options_too(tmp_path, capsys, qd_run):
+    # argparse alone gives both positionals to the words before the first option and refuses an OUT after them.
+    code, _, err = cli(capsys, "export", qd_run, "--elite", "best", tmp_path / "best.obj")
+    assert code == 0, err
+    assert trimesh.load(tmp_path / "best.obj").vertices.shape[0] > 0
+    code, _, err = cli(capsys, "export", qd_run, "--elite", "best", tmp_path / "best.obj", tmp_path / "again.obj")
+    assert code == 2 and "unrecognized arguments" in err and not (tmp_path / "again.obj").exists()
+    code, _, err = cli(capsys, "export", qd_run, "--elite", "best", tmp_path / "no-folder" / "x" / "best.obj")
+    assert code == 2 and "no-folder" in err
+
+
 def test_a_run_loads_back_from_python_with_its_archive_and_best_nca(qd_run):
     from evolution import load_archive
     from structgen.nca import LocalNCA
