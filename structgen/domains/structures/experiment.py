@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from evolution.files import atomic_write, read_png, write_table
+from evolution.stats import mean_and_standard_error
 from structgen.errors import InputError
 from structgen.runs import read_best
 from structgen.runs.seed_runs import check_distinct_seeds, check_seed_folder, expected_run, run_seed
@@ -400,10 +401,8 @@ def _results_tables(stem: str | Path) -> tuple[Path, dict[str, Any]]:
 def _mean_se(values: Sequence[float]) -> str:
     if not values:
         return "not reached"
-    mean = statistics.fmean(values)
-    if len(values) < 2:
-        return f"{mean:,.0f}"
-    return f"{mean:,.0f} ± {statistics.stdev(values) / math.sqrt(len(values)):,.0f}"
+    mean, error = mean_and_standard_error(values)
+    return f"{mean:,.0f}" if math.isnan(error) else f"{mean:,.0f} ± {error:,.0f}"
 
 
 def table_markdown(report: dict[str, Any]) -> str:
