@@ -107,11 +107,14 @@ def main() -> None:
             mean, error = mean_and_standard_error(values)
             evaluations = sorted({results[name, seed]["evaluations"] for seed in args.seeds})
             summary[name] = {"values": values, "mean": mean, "standard_error": error, "evaluations": evaluations}
-            cells = " | ".join(f"{v:.4g}" for v in values)
-            lines.append(f"| {name} | {', '.join(f'{e:,}' for e in evaluations)} | {cells} | {mean:.4g} ± {error:.2g} |")
         (first, second) = summary.values()
-        compared = compare(first["values"], second["values"])
+        # One precision for the whole metric, so that the two rows' columns read against each other.
         decimals = decimals_for([first["mean"], second["mean"]], [first["standard_error"], second["standard_error"]])
+        for name, side in summary.items():
+            cells = " | ".join(f"{v:,.{decimals}f}" for v in side["values"])
+            spread = f"{side['mean']:,.{decimals}f} ± {side['standard_error']:,.{decimals}f}"
+            lines.append(f"| {name} | {', '.join(f'{e:,}' for e in side['evaluations'])} | {cells} | {spread} |")
+        compared = compare(first["values"], second["values"])
         lines += ["", f"{metric}: " + compared.sentence(trained, "random search", decimals=decimals) + ".", ""]
         report["metrics"][metric] = {"methods": summary, "difference": compared.difference,
                                      "standard_errors": compared.standard_errors, "learns": compared.learns}  # fmt: skip
