@@ -88,7 +88,7 @@ def main() -> None:
         results = {key: future.result() for key, future in futures.items()}
 
     lines = [f"Measured on {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
-             f"{args.parallel} runs at a time, each in one process; "
+             f"{args.parallel} run{'s' if args.parallel != 1 else ''} at a time, each in one process; "
              f"`{' '.join(['structgen evolve', *base[4:]])}`, seeds {', '.join(map(str, args.seeds))}.", ""]  # fmt: skip
     report: dict = {
         "kind": KIND,

@@ -139,3 +139,19 @@ def test_a_result_table_is_written_in_both_forms_beside_a_stem_with_a_dot_in_its
     assert [p.name for p in paths] == ["v1.2.json", "v1.2.md"]
     assert json.loads(paths[0].read_text()) == {"learns": True} and paths[1].read_text() == "| a |\n"
     assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == ["v1.2.json", "v1.2.md"]  # no temporary left
+
+
+def test_autoverse_reseed_searches_each_kept_game_under_new_child_orders(tmp_path):
+    script = ROOT / "benchmarks" / "autoverse_reseed.py"
+    command = [sys.executable, script, ROOT / "docs" / "results" / "autoverse-games", "--budget", "30", "--search-seeds", "1", "2"]
+    for stem in ("a", "b"):
+        done = subprocess.run([*command, "--results", tmp_path / stem], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+    first, again = (json.loads((tmp_path / f"{stem}.json").read_text()) for stem in ("a", "b"))
+    assert first["sides"] == again["sides"]  # the same child orders give the same fitness
+    ga = first["sides"]["the GA"]
+    assert first["run_seeds"] == [0, 1, 2] and all(len(f) == 2 and max(f) <= 30 for f in ga["fitness"].values())
+    assert ga["scores"] == [sum(f) / 2 for f in ga["fitness"].values()]
+    (tmp_path / "empty").mkdir()
+    refused = subprocess.run([sys.executable, script, tmp_path / "empty"], capture_output=True, text=True)
+    assert refused.returncode == 2 and "no trained-sS.json" in refused.stderr
