@@ -124,11 +124,12 @@ def test_table2_seeds_judges_each_runs_best_generator_and_keeps_them(tmp_path):
     assert np.array_equal(np.load(tmp_path / "kept" / "trained-s1.npy"), shipped)
     assert "| trained (the archive's best) |" in (tmp_path / "t2.md").read_text()
     # The kept generators alone, without the runs, give the same table: what makes a committed row re-derivable.
-    again = [sys.executable, ROOT / "benchmarks" / "table2_seeds.py", tmp_path / "kept", *options[:6], "--results", tmp_path / "k2"]
+    again = [sys.executable, ROOT / "benchmarks" / "table2_seeds.py", tmp_path / "kept", *options[:6],
+             "--results", tmp_path / "k2"]  # fmt: skip
     done = subprocess.run(again, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    values = [{name: m["values"] for name, m in json.loads((tmp_path / f"{stem}.json").read_text())["sizes"]["33x36"]["methods"].items()}
-              for stem in ("t2", "k2")]  # fmt: skip
+    tables = [json.loads((tmp_path / f"{stem}.json").read_text())["sizes"]["33x36"] for stem in ("t2", "k2")]
+    values = [{name: method["values"] for name, method in table["methods"].items()} for table in tables]
     assert values[0] == values[1]
 
 
@@ -143,7 +144,8 @@ def test_a_result_table_is_written_in_both_forms_beside_a_stem_with_a_dot_in_its
 
 def test_autoverse_reseed_searches_each_kept_game_under_new_child_orders(tmp_path):
     script = ROOT / "benchmarks" / "autoverse_reseed.py"
-    command = [sys.executable, script, ROOT / "docs" / "results" / "autoverse-games", "--budget", "30", "--search-seeds", "1", "2"]
+    games = ROOT / "docs" / "results" / "autoverse-games"
+    command = [sys.executable, script, games, "--budget", "30", "--search-seeds", "1", "2"]
     for stem in ("a", "b"):
         done = subprocess.run([*command, "--results", tmp_path / stem], capture_output=True, text=True)
         assert done.returncode == 0, done.stderr
