@@ -69,6 +69,8 @@ def main() -> None:
     per_seed = len(args.search_seeds)
     fitness = {name: [search_fitness(r) for r in results[k * per_seed : (k + 1) * per_seed]] for k, name in enumerate(names)}
     run_seeds = sorted({int(_NAME.fullmatch(name).group(2)) for name in names})
+    if missing := [f"{tag}-s{s}" for s in run_seeds for tag in ("trained", "random") if f"{tag}-s{s}" not in fitness]:
+        parser.error(f"{args.games}: each run seed needs both a trained and a random game; missing {', '.join(missing)}")
 
     lines = [f"Each run's best game searched again at budget {args.budget:,} under child orders "
              f"{', '.join(map(str, args.search_seeds))}; a game's score is its mean fitness over them. "
@@ -77,16 +79,13 @@ def main() -> None:
              "|---|" + "---:|" * (len(run_seeds) + 1)]  # fmt: skip
     sides = {}
     for tag, label in (("trained", "the GA"), ("random", "random search")):
-        scores = [statistics.fmean(fitness[f"{tag}-s{s}"]) if f"{tag}-s{s}" in fitness else None for s in run_seeds]
-        present = [s for s in scores if s is not None]
-        mean, error = mean_and_standard_error(present) if present else (float("nan"), float("nan"))
+        scores = [statistics.fmean(fitness[f"{tag}-s{s}"]) for s in run_seeds]
+        mean, error = mean_and_standard_error(scores)
         sides[label] = {"scores": scores, "mean": mean, "standard_error": error,
                         "fitness": {f"seed {s}": fitness.get(f"{tag}-s{s}") for s in run_seeds}}  # fmt: skip
-        cells = " | ".join("missing" if s is None else f"{s:,.0f}" for s in scores)
+        cells = " | ".join(f"{s:,.0f}" for s in scores)
         lines.append(f"| {label} | {cells} | {mean:,.0f} ± {error:,.0f} |")
     ours, theirs = (side["scores"] for side in sides.values())
-    if None in ours or None in theirs:
-        parser.error("each run seed needs both a trained and a random game")
     compared = compare(ours, theirs)
     lines += ["", "Searched again, the best games: " + compared.sentence("the GA", "random search", decimals=0) + "."]
     text = "\n".join(lines)
