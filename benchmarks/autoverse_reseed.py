@@ -63,14 +63,14 @@ def main() -> None:
     from structgen.domains.autoverse.search import search, search_fitness
 
     names = list(games)
+    run_seeds = sorted({int(_NAME.fullmatch(name).group(2)) for name in names})
+    if missing := [f"{tag}-s{s}" for s in run_seeds for tag in ("trained", "random") if f"{tag}-s{s}" not in games]:
+        parser.error(f"{args.games}: each run seed needs both a trained and a random game; missing {', '.join(missing)}")
     batch = [games[name] for name in names for _ in args.search_seeds]
     seeds = [seed for _ in names for seed in args.search_seeds]
     results = search(batch, args.budget, seeds)
     per_seed = len(args.search_seeds)
     fitness = {name: [search_fitness(r) for r in results[k * per_seed : (k + 1) * per_seed]] for k, name in enumerate(names)}
-    run_seeds = sorted({int(_NAME.fullmatch(name).group(2)) for name in names})
-    if missing := [f"{tag}-s{s}" for s in run_seeds for tag in ("trained", "random") if f"{tag}-s{s}" not in fitness]:
-        parser.error(f"{args.games}: each run seed needs both a trained and a random game; missing {', '.join(missing)}")
 
     lines = [f"Each run's best game searched again at budget {args.budget:,} under child orders "
              f"{', '.join(map(str, args.search_seeds))}; a game's score is its mean fitness over them. "
