@@ -9,7 +9,7 @@ evaluations) for each seed S; or a folder that ``--keep`` filled (``trained-sS.n
 the committed generators give the table again without the runs. Each run's best generator by the training objective (its ``best/genome.npy``; for a
 CMA-MAE run the result archive's best, the paper's selection) is grown, repaired and simulated with `pbs` at each
 size as ``benchmarks/table2.py`` does (200 robots at 33x36, the paper's configuration's 1,000 at 101x102). Prints
-the throughput of each (a run that jams counts 0, the paper's N/A), each side's mean and standard error over seeds,
+the throughput of each (of its runs that do not jam, as Table 2's; 0 when every run jams, the paper's N/A), each side's mean and standard error over seeds,
 and the three-standard-error verdict (``evolution.stats``). ``--results PREFIX`` writes PREFIX.json and PREFIX.md;
 ``--keep DIR`` copies the generators there (``trained-sS.npy``, ``random-sS.npy``: 16 KB each), so that
 ``benchmarks/table2.py DIR/trained-s0.npy`` repeats a row from committed files.
@@ -94,7 +94,7 @@ def main() -> None:
 
     seeds = sorted({int(name.split("-s")[1]) for name in genomes})
     lines = [f"Table 2 ({args.kind}) from each run's best generator, `pbs`, {args.simulations} runs of {args.steps} "
-             f"steps (the paper: 50); a run that jams counts 0. {platform.processor() or platform.machine()}, "
+             f"steps (the paper: 50); a generator counts the throughput of its runs that do not jam (Table 2's), 0 when every run jams. {platform.processor() or platform.machine()}, "
              f"{time.strftime('%Y-%m-%d')}.", ""]  # fmt: skip
     report: dict = {"kind": args.kind, "simulations": args.simulations, "steps": args.steps, "seeds": seeds, "sizes": {}}
     for size in sizes:
